@@ -1,0 +1,108 @@
+//! Backend selection and the operations every backend runs identically.
+
+use crate::cpu;
+use crate::gpu::{Gpu, GpuError};
+use anyhow::{Context, Result};
+use bytemuck::{Pod, Zeroable};
+use shared::probe::{self, DepthPair, MathValues, RngDraws, TransmittancePair};
+
+/// Which backend the user asked for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum BackendChoice {
+    /// The Vulkan GPU if a driver is present, else the CPU (with a warning).
+    Auto,
+    /// The Vulkan GPU; fail if there is none.
+    Gpu,
+    /// The CPU on all cores.
+    Cpu,
+}
+
+/// A backend ready to run kernels.
+pub enum Backend {
+    Cpu,
+    Gpu(Box<Gpu>),
+}
+
+impl Backend {
+    /// Opens the chosen backend. `Auto` falls back to the CPU with a one-line warning.
+    pub fn open(choice: BackendChoice) -> Result<Self> {
+        match choice {
+            BackendChoice::Cpu => Ok(Backend::Cpu),
+            BackendChoice::Gpu => Ok(Backend::Gpu(Box::new(
+                Gpu::new().context("--backend gpu: cannot use the Vulkan GPU backend")?,
+            ))),
+            BackendChoice::Auto => match Gpu::new() {
+                Ok(g) => Ok(Backend::Gpu(Box::new(g))),
+                Err(e) => {
+                    eprintln!("warning: no usable Vulkan device ({e}); falling back to the CPU backend");
+                    Ok(Backend::Cpu)
+                }
+            },
+        }
+    }
+
+    /// "cpu" or "gpu".
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Backend::Cpu => "cpu",
+            Backend::Gpu(_) => "gpu",
+        }
+    }
+
+    /// What runs the kernels, e.g. "llvmpipe (LLVM 15.0.6, 256 bits) [CPU (software), Vulkan 1.3.230]".
+    pub fn device(&self) -> String {
+        match self {
+            Backend::Cpu => format!("CPU, {} threads (rayon)", rayon::current_num_threads()),
+            Backend::Gpu(g) => g.description().to_string(),
+        }
+    }
+
+    /// Jackknife (Eq. 4) and naive transmittance for each (X0, X1) pair.
+    pub fn transmittance_pairs(&self, input: &[DepthPair]) -> Result<Vec<TransmittancePair>> {
+        match self {
+            Backend::Cpu => Ok(cpu::map(input, probe::transmittance_pair)),
+            Backend::Gpu(g) => map_on_gpu(g, "transmittance_pair_cs", input),
+        }
+    }
+
+    /// exp, ln, sin, cos of each input.
+    pub fn math_values(&self, input: &[f32]) -> Result<Vec<MathValues>> {
+        match self {
+            Backend::Cpu => Ok(cpu::map(input, probe::math_values)),
+            Backend::Gpu(g) => map_on_gpu(g, "math_values_cs", input),
+        }
+    }
+
+    /// Generator outputs for ids 0..count with a user seed.
+    pub fn rng_draws(&self, count: u32, seed: u32) -> Result<Vec<RngDraws>> {
+        match self {
+            Backend::Cpu => Ok(cpu::generate(count, |id| probe::rng_draws(id, seed))),
+            Backend::Gpu(g) => {
+                let mut out = vec![RngDraws::zeroed(); count as usize];
+                g.dispatch("rng_draws_cs", count, seed, &[], &[], &mut [bytemuck::cast_slice_mut(&mut out)])
+                    .map_err(gpu_err("rng_draws_cs"))?;
+                Ok(out)
+            }
+        }
+    }
+}
+
+/// One input buffer to one output buffer of the same length on the GPU.
+fn map_on_gpu<I: Pod, O: Pod>(g: &Gpu, entry: &str, input: &[I]) -> Result<Vec<O>> {
+    let count = u32::try_from(input.len()).context("more than 2^32 ids in one launch")?;
+    let mut out = vec![O::zeroed(); input.len()];
+    g.dispatch(
+        entry,
+        count,
+        0,
+        &[],
+        &[bytemuck::cast_slice(input)],
+        &mut [bytemuck::cast_slice_mut(&mut out)],
+    )
+    .map_err(gpu_err(entry))?;
+    Ok(out)
+}
+
+fn gpu_err(entry: &str) -> impl FnOnce(GpuError) -> anyhow::Error + '_ {
+    move |e| anyhow::Error::new(e).context(format!("GPU kernel {entry}"))
+}

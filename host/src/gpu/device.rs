@@ -1,0 +1,191 @@
+//! The Vulkan instance and device: one owner that the buffers and pipelines hold by `Arc`.
+
+use super::GpuError;
+use ash::vk;
+
+/// Owns the Vulkan entry, instance and logical device; destroyed last, after `device_wait_idle`.
+pub struct DeviceOwner {
+    _entry: ash::Entry,
+    pub(crate) instance: ash::Instance,
+    pub(crate) device: ash::Device,
+    pub(crate) physical: vk::PhysicalDevice,
+    pub(crate) queue: vk::Queue,
+    pub(crate) queue_family: u32,
+    pub(crate) memory: vk::PhysicalDeviceMemoryProperties,
+    pub(crate) limits: vk::PhysicalDeviceLimits,
+    /// Human-readable device name, driver and type, e.g. "llvmpipe (LLVM 15.0.6, 256 bits) [cpu]".
+    pub(crate) description: String,
+}
+
+/// Preference order of device types: a real GPU over a software rasterizer.
+fn type_rank(t: vk::PhysicalDeviceType) -> u32 {
+    match t {
+        vk::PhysicalDeviceType::DISCRETE_GPU => 0,
+        vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
+        vk::PhysicalDeviceType::VIRTUAL_GPU => 2,
+        vk::PhysicalDeviceType::CPU => 3,
+        _ => 4,
+    }
+}
+
+fn type_name(t: vk::PhysicalDeviceType) -> &'static str {
+    match t {
+        vk::PhysicalDeviceType::DISCRETE_GPU => "discrete GPU",
+        vk::PhysicalDeviceType::INTEGRATED_GPU => "integrated GPU",
+        vk::PhysicalDeviceType::VIRTUAL_GPU => "virtual GPU",
+        vk::PhysicalDeviceType::CPU => "CPU (software)",
+        _ => "other",
+    }
+}
+
+impl DeviceOwner {
+    /// Opens the Vulkan loader, picks a device (a GPU before a CPU implementation such as lavapipe,
+    /// or `JK_VULKAN_DEVICE=<index>`), and creates a device with one compute queue.
+    pub fn new() -> Result<Self, GpuError> {
+        // SAFETY: loading the system Vulkan loader; its symbols are trusted.
+        let entry = unsafe { ash::Entry::load() }.map_err(|e| GpuError::NoLoader(e.to_string()))?;
+        let app = vk::ApplicationInfo::default()
+            .application_name(c"jackknife")
+            .api_version(vk::API_VERSION_1_2);
+        let info = vk::InstanceCreateInfo::default().application_info(&app);
+        // SAFETY: valid create info; the instance is destroyed in Drop (or below on error).
+        let instance = unsafe { entry.create_instance(&info, None) }
+            .map_err(|e| GpuError::Vulkan("vkCreateInstance", e))?;
+        match Self::with_instance(entry, instance.clone()) {
+            Ok(owner) => Ok(owner),
+            Err(e) => {
+                // SAFETY: no child objects were created from this instance.
+                unsafe { instance.destroy_instance(None) };
+                Err(e)
+            }
+        }
+    }
+
+    fn with_instance(entry: ash::Entry, instance: ash::Instance) -> Result<Self, GpuError> {
+        // SAFETY: plain queries on a live instance.
+        let devices = unsafe { instance.enumerate_physical_devices() }
+            .map_err(|e| GpuError::Vulkan("vkEnumeratePhysicalDevices", e))?;
+        if devices.is_empty() {
+            return Err(GpuError::NoDevice);
+        }
+        let forced = std::env::var("JK_VULKAN_DEVICE").ok();
+        let physical = match forced {
+            Some(s) => {
+                let i: usize = s.parse().map_err(|_| GpuError::BadDeviceIndex(s.clone(), devices.len()))?;
+                *devices.get(i).ok_or(GpuError::BadDeviceIndex(s, devices.len()))?
+            }
+            None => *devices
+                .iter()
+                .min_by_key(|&&d| {
+                    // SAFETY: query on a device handle returned by the instance.
+                    type_rank(unsafe { instance.get_physical_device_properties(d) }.device_type)
+                })
+                .expect("non-empty"),
+        };
+        // SAFETY: queries on a valid physical device.
+        let (props, families, memory) = unsafe {
+            (
+                instance.get_physical_device_properties(physical),
+                instance.get_physical_device_queue_family_properties(physical),
+                instance.get_physical_device_memory_properties(physical),
+            )
+        };
+        let name = props
+            .device_name_as_c_str()
+            .unwrap_or(c"unknown")
+            .to_string_lossy()
+            .into_owned();
+        let description = format!(
+            "{name} [{}, Vulkan {}.{}.{}]",
+            type_name(props.device_type),
+            vk::api_version_major(props.api_version),
+            vk::api_version_minor(props.api_version),
+            vk::api_version_patch(props.api_version)
+        );
+        if props.api_version < vk::API_VERSION_1_2 {
+            return Err(GpuError::Unsupported(description, "Vulkan 1.2"));
+        }
+        let queue_family = families
+            .iter()
+            .position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE))
+            .ok_or_else(|| GpuError::Unsupported(description.clone(), "a compute queue"))?
+            as u32;
+
+        let mut have12 = vk::PhysicalDeviceVulkan12Features::default();
+        let mut have = vk::PhysicalDeviceFeatures2::default().push_next(&mut have12);
+        // SAFETY: query with a correctly chained output struct.
+        unsafe { instance.get_physical_device_features2(physical, &mut have) };
+        let int64 = have.features.shader_int64 == vk::TRUE;
+        let memory_model = have12.vulkan_memory_model == vk::TRUE;
+        if !int64 {
+            return Err(GpuError::Unsupported(description, "shaderInt64"));
+        }
+        if !memory_model {
+            return Err(GpuError::Unsupported(description, "vulkanMemoryModel"));
+        }
+
+        let priorities = [1.0f32];
+        let queue_info = [vk::DeviceQueueCreateInfo::default()
+            .queue_family_index(queue_family)
+            .queue_priorities(&priorities)];
+        let features = vk::PhysicalDeviceFeatures::default().shader_int64(true);
+        let mut features12 = vk::PhysicalDeviceVulkan12Features::default().vulkan_memory_model(true);
+        let device_info = vk::DeviceCreateInfo::default()
+            .queue_create_infos(&queue_info)
+            .enabled_features(&features)
+            .push_next(&mut features12);
+        // SAFETY: features were checked above; the device is destroyed in Drop.
+        let device = unsafe { instance.create_device(physical, &device_info, None) }
+            .map_err(|e| GpuError::Vulkan("vkCreateDevice", e))?;
+        // SAFETY: queue 0 of a family we requested.
+        let queue = unsafe { device.get_device_queue(queue_family, 0) };
+        Ok(DeviceOwner {
+            _entry: entry,
+            instance,
+            device,
+            physical,
+            queue,
+            queue_family,
+            memory,
+            limits: props.limits,
+            description,
+        })
+    }
+
+    /// Index of a memory type allowed by `type_bits` with all of `flags`.
+    pub(crate) fn memory_type(&self, type_bits: u32, flags: vk::MemoryPropertyFlags) -> Option<u32> {
+        (0..self.memory.memory_type_count).find(|&i| {
+            type_bits & (1 << i) != 0
+                && self.memory.memory_types[i as usize]
+                    .property_flags
+                    .contains(flags)
+        })
+    }
+
+    /// The device's name, type and Vulkan version.
+    pub fn description(&self) -> &str {
+        &self.description
+    }
+
+    /// Name of the selected device as a C string (for logs).
+    pub fn name(&self) -> &str {
+        self.description.split(" [").next().unwrap_or("")
+    }
+
+    /// The underlying physical device (for queries by later passes).
+    pub fn physical(&self) -> vk::PhysicalDevice {
+        self.physical
+    }
+}
+
+impl Drop for DeviceOwner {
+    fn drop(&mut self) {
+        // SAFETY: every child object holds an Arc to this owner, so none is alive any more.
+        unsafe {
+            let _ = self.device.device_wait_idle();
+            self.device.destroy_device(None);
+            self.instance.destroy_instance(None);
+        }
+    }
+}
+

@@ -1,0 +1,258 @@
+//! The ash (Vulkan) backend: one generic "dispatch kernel by entry-point name over N ids" path.
+//!
+//! Kernels follow one convention: push constants start with [`Launch`], then kernel-specific
+//! bytes; storage buffers are bound at set 0, inputs first (bindings 0..i), then outputs.
+
+mod device;
+mod resources;
+
+pub use device::DeviceOwner;
+use resources::{Buffer, Pipeline, Submitter, MAX_BINDINGS};
+
+use ash::vk;
+use shared::launch::{Launch, WORKGROUP_SIZE};
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+
+/// The SPIR-V module of the `kernels` crate, compiled by `build.rs` with rust-gpu.
+pub const KERNELS_SPV: &[u8] = include_bytes!(env!("kernels.spv"));
+
+/// What can go wrong on the GPU path; every variant says what to do about it.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    #[error("no Vulkan loader found ({0}); install one with `apt-get install libvulkan1 mesa-vulkan-drivers`")]
+    NoLoader(String),
+    #[error("no Vulkan device found; install a GPU driver or lavapipe (`apt-get install mesa-vulkan-drivers`)")]
+    NoDevice,
+    #[error("JK_VULKAN_DEVICE={0} is not a device index (this machine has {1} Vulkan devices: 0..{1})")]
+    BadDeviceIndex(String, usize),
+    #[error("Vulkan device {0} lacks {1}, which the kernels need")]
+    Unsupported(String, &'static str),
+    #[error("{0} failed: {1}")]
+    Vulkan(&'static str, vk::Result),
+    #[error("could not allocate {0} bytes of GPU memory ({1}); use a smaller image or volume, or --backend cpu")]
+    OutOfMemory(u64, vk::Result),
+    #[error("buffer of {size} bytes exceeds this device's maxStorageBufferRange of {limit} bytes")]
+    TooLarge { size: u64, limit: u64 },
+    #[error("kernel entry point {0:?} is not in the compiled module")]
+    BadEntryPoint(String),
+    #[error("the GPU was lost (VK_ERROR_DEVICE_LOST) while running {0}; a driver reset or watchdog ended it")]
+    DeviceLost(String),
+    #[error("internal: {0}")]
+    Internal(String),
+}
+
+/// A Vulkan device with the kernels module loaded and pipelines built on first use.
+pub struct Gpu {
+    owner: Arc<DeviceOwner>,
+    module: vk::ShaderModule,
+    pipelines: Mutex<HashMap<String, Arc<Pipeline>>>,
+    submitter: Mutex<Submitter>,
+}
+
+impl Gpu {
+    /// Opens the preferred Vulkan device and loads the kernels.
+    pub fn new() -> Result<Self, GpuError> {
+        let owner = Arc::new(DeviceOwner::new()?);
+        let words = ash::util::read_spv(&mut std::io::Cursor::new(KERNELS_SPV))
+            .map_err(|e| GpuError::Internal(format!("embedded SPIR-V is malformed: {e}")))?;
+        let info = vk::ShaderModuleCreateInfo::default().code(&words);
+        // SAFETY: valid SPIR-V produced by rust-gpu; destroyed in Drop.
+        let module = unsafe { owner.device.create_shader_module(&info, None) }
+            .map_err(|e| GpuError::Vulkan("vkCreateShaderModule", e))?;
+        let submitter = match Submitter::new(&owner) {
+            Ok(s) => s,
+            Err(e) => {
+                // SAFETY: the module is unused.
+                unsafe { owner.device.destroy_shader_module(module, None) };
+                return Err(e);
+            }
+        };
+        Ok(Gpu {
+            owner,
+            module,
+            pipelines: Mutex::new(HashMap::new()),
+            submitter: Mutex::new(submitter),
+        })
+    }
+
+    /// Device name, type and Vulkan version.
+    pub fn description(&self) -> &str {
+        self.owner.description()
+    }
+
+    fn pipeline(&self, entry: &str, bindings: u32, push_size: u32) -> Result<Arc<Pipeline>, GpuError> {
+        let mut cache = self.pipelines.lock().map_err(|_| GpuError::Internal("poisoned".into()))?;
+        if let Some(p) = cache.get(entry) {
+            if p.bindings != bindings || p.push_size != push_size {
+                return Err(GpuError::Internal(format!(
+                    "{entry} called with {bindings} buffers / {push_size} push bytes, first with {} / {}",
+                    p.bindings, p.push_size
+                )));
+            }
+            return Ok(p.clone());
+        }
+        if !kernel_names().any(|n| n == entry) {
+            return Err(GpuError::BadEntryPoint(entry.into()));
+        }
+        let p = Arc::new(Pipeline::new(&self.owner, self.module, entry, bindings, push_size)?);
+        cache.insert(entry.to_string(), p.clone());
+        Ok(p)
+    }
+
+    /// Runs kernel `entry` over ids 0..count: copies `inputs` to bindings 0..i, the `outputs` to
+    /// the next bindings, dispatches in chunks the device's workgroup-count limit allows, waits,
+    /// and copies the outputs back. `extra_push` follows the [`Launch`] header in push constants.
+    pub fn dispatch(
+        &self,
+        entry: &str,
+        count: u32,
+        seed: u32,
+        extra_push: &[u8],
+        inputs: &[&[u8]],
+        outputs: &mut [&mut [u8]],
+    ) -> Result<(), GpuError> {
+        if count == 0 {
+            return Ok(());
+        }
+        let bindings = (inputs.len() + outputs.len()) as u32;
+        if bindings > MAX_BINDINGS || extra_push.len() % 4 != 0 {
+            return Err(GpuError::Internal(format!("bad dispatch shape for {entry}")));
+        }
+        let push_size = (std::mem::size_of::<Launch>() + extra_push.len()) as u32;
+        let pipeline = self.pipeline(entry, bindings, push_size)?;
+        let limit = self.owner.limits.max_storage_buffer_range as u64;
+        let mut buffers = Vec::with_capacity(bindings as usize);
+        for data in inputs.iter().map(|d| &**d).chain(outputs.iter().map(|d| &**d)) {
+            if data.len() as u64 > limit {
+                return Err(GpuError::TooLarge { size: data.len() as u64, limit });
+            }
+            let mut b = Buffer::new(&self.owner, data.len() as u64)?;
+            b.write(data);
+            buffers.push(b);
+        }
+
+        let sub = self.submitter.lock().map_err(|_| GpuError::Internal("poisoned".into()))?;
+        let d = &self.owner.device;
+        // SAFETY: all handles are alive; the command buffer is re-recorded only after the
+        // previous submission's fence was waited for (the submitter lock serializes this).
+        unsafe {
+            d.reset_descriptor_pool(sub.descriptors, vk::DescriptorPoolResetFlags::empty())
+                .map_err(|e| GpuError::Vulkan("vkResetDescriptorPool", e))?;
+            let layouts = [pipeline.set_layout];
+            let alloc = vk::DescriptorSetAllocateInfo::default()
+                .descriptor_pool(sub.descriptors)
+                .set_layouts(&layouts);
+            let set = d
+                .allocate_descriptor_sets(&alloc)
+                .map_err(|e| GpuError::Vulkan("vkAllocateDescriptorSets", e))?[0];
+            let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
+                .iter()
+                .map(|b| [vk::DescriptorBufferInfo::default().buffer(b.buffer).offset(0).range(b.size)])
+                .collect();
+            let writes: Vec<_> = infos
+                .iter()
+                .enumerate()
+                .map(|(i, info)| {
+                    vk::WriteDescriptorSet::default()
+                        .dst_set(set)
+                        .dst_binding(i as u32)
+                        .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                        .buffer_info(info)
+                })
+                .collect();
+            d.update_descriptor_sets(&writes, &[]);
+
+            d.reset_command_buffer(sub.cmd, vk::CommandBufferResetFlags::empty())
+                .map_err(|e| GpuError::Vulkan("vkResetCommandBuffer", e))?;
+            let begin = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+            d.begin_command_buffer(sub.cmd, &begin)
+                .map_err(|e| GpuError::Vulkan("vkBeginCommandBuffer", e))?;
+            d.cmd_bind_pipeline(sub.cmd, vk::PipelineBindPoint::COMPUTE, pipeline.pipeline);
+            d.cmd_bind_descriptor_sets(sub.cmd, vk::PipelineBindPoint::COMPUTE, pipeline.layout, 0, &[set], &[]);
+            let max_groups = self.owner.limits.max_compute_work_group_count[0].min(65_535);
+            let chunk = max_groups * WORKGROUP_SIZE;
+            let mut offset = 0u32;
+            while offset < count {
+                let n = (count - offset).min(chunk);
+                let launch = Launch { offset, count, seed, _pad: 0 };
+                let mut push = bytemuck::bytes_of(&launch).to_vec();
+                push.extend_from_slice(extra_push);
+                d.cmd_push_constants(sub.cmd, pipeline.layout, vk::ShaderStageFlags::COMPUTE, 0, &push);
+                d.cmd_dispatch(sub.cmd, n.div_ceil(WORKGROUP_SIZE), 1, 1);
+                offset += n;
+            }
+            let barrier = [vk::MemoryBarrier::default()
+                .src_access_mask(vk::AccessFlags::SHADER_WRITE)
+                .dst_access_mask(vk::AccessFlags::HOST_READ)];
+            d.cmd_pipeline_barrier(
+                sub.cmd,
+                vk::PipelineStageFlags::COMPUTE_SHADER,
+                vk::PipelineStageFlags::HOST,
+                vk::DependencyFlags::empty(),
+                &barrier,
+                &[],
+                &[],
+            );
+            d.end_command_buffer(sub.cmd)
+                .map_err(|e| GpuError::Vulkan("vkEndCommandBuffer", e))?;
+            let cmds = [sub.cmd];
+            let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
+            d.reset_fences(&[sub.fence]).map_err(|e| GpuError::Vulkan("vkResetFences", e))?;
+            d.queue_submit(self.owner.queue, &submit, sub.fence)
+                .map_err(|e| lost_or(e, entry, "vkQueueSubmit"))?;
+            d.wait_for_fences(&[sub.fence], true, u64::MAX)
+                .map_err(|e| lost_or(e, entry, "vkWaitForFences"))?;
+        }
+        for (out, b) in outputs.iter_mut().zip(&buffers[inputs.len()..]) {
+            b.read(out);
+        }
+        Ok(())
+    }
+}
+
+fn lost_or(e: vk::Result, entry: &str, call: &'static str) -> GpuError {
+    if e == vk::Result::ERROR_DEVICE_LOST {
+        GpuError::DeviceLost(entry.to_string())
+    } else {
+        GpuError::Vulkan(call, e)
+    }
+}
+
+/// Entry-point names in the embedded module (from its OpEntryPoint instructions).
+pub fn kernel_names() -> impl Iterator<Item = String> {
+    let words: Vec<u32> = KERNELS_SPV
+        .chunks_exact(4)
+        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
+    let mut names = Vec::new();
+    let mut i = 5;
+    while i < words.len() {
+        let len = (words[i] >> 16) as usize;
+        let op = words[i] & 0xffff;
+        if len == 0 {
+            break;
+        }
+        // OpEntryPoint = 15: execution model, function id, then the name as a literal string.
+        if op == 15 && i + 3 < words.len() {
+            let bytes: Vec<u8> = words[i + 3..(i + len).min(words.len())]
+                .iter()
+                .flat_map(|w| w.to_le_bytes())
+                .take_while(|&b| b != 0)
+                .collect();
+            names.push(String::from_utf8_lossy(&bytes).into_owned());
+        }
+        i += len;
+    }
+    names.into_iter()
+}
+
+impl Drop for Gpu {
+    fn drop(&mut self) {
+        // SAFETY: dispatches wait for their fences, so the module is no longer in use.
+        unsafe {
+            let _ = self.owner.device.device_wait_idle();
+            self.owner.device.destroy_shader_module(self.module, None);
+        }
+    }
+}

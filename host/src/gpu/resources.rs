@@ -1,0 +1,262 @@
+//! RAII wrappers for the Vulkan objects a dispatch uses; each holds the device owner alive.
+
+use super::device::DeviceOwner;
+use super::GpuError;
+use ash::vk;
+use std::sync::Arc;
+
+/// A host-visible, coherent storage buffer, persistently mapped.
+pub struct Buffer {
+    owner: Arc<DeviceOwner>,
+    pub(crate) buffer: vk::Buffer,
+    memory: vk::DeviceMemory,
+    mapped: *mut u8,
+    pub(crate) size: u64,
+}
+
+// SAFETY: the mapped pointer is only dereferenced through &self/&mut self methods, and the GPU
+// only accesses the memory between a submit and its fence wait, which the dispatcher serializes.
+unsafe impl Send for Buffer {}
+// SAFETY: see Send; shared references only read.
+unsafe impl Sync for Buffer {}
+
+impl Buffer {
+    /// A storage buffer of `size` bytes (at least 4), mapped for host reads and writes.
+    pub fn new(owner: &Arc<DeviceOwner>, size: u64) -> Result<Self, GpuError> {
+        let size = size.max(4);
+        let device = &owner.device;
+        let info = vk::BufferCreateInfo::default()
+            .size(size)
+            .usage(vk::BufferUsageFlags::STORAGE_BUFFER)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE);
+        // SAFETY: valid create info; destroyed in Drop or on the error paths below.
+        let buffer = unsafe { device.create_buffer(&info, None) }
+            .map_err(|e| GpuError::Vulkan("vkCreateBuffer", e))?;
+        // SAFETY: query on the buffer just created.
+        let req = unsafe { device.get_buffer_memory_requirements(buffer) };
+        let flags = vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT;
+        let Some(type_index) = owner.memory_type(req.memory_type_bits, flags) else {
+            // SAFETY: the buffer is unused.
+            unsafe { device.destroy_buffer(buffer, None) };
+            return Err(GpuError::Unsupported(owner.description.clone(), "host-visible coherent memory"));
+        };
+        let alloc = vk::MemoryAllocateInfo::default()
+            .allocation_size(req.size)
+            .memory_type_index(type_index);
+        // SAFETY: valid allocation info; freed in Drop.
+        let memory = match unsafe { device.allocate_memory(&alloc, None) } {
+            Ok(m) => m,
+            Err(e) => {
+                // SAFETY: the buffer is unused.
+                unsafe { device.destroy_buffer(buffer, None) };
+                return Err(GpuError::OutOfMemory(size, e));
+            }
+        };
+        // SAFETY: memory of a compatible type, offset 0; mapping the whole allocation.
+        let mapped = unsafe {
+            device
+                .bind_buffer_memory(buffer, memory, 0)
+                .and_then(|_| device.map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty()))
+        };
+        let mapped = match mapped {
+            Ok(p) => p as *mut u8,
+            Err(e) => {
+                // SAFETY: neither object is in use.
+                unsafe {
+                    device.destroy_buffer(buffer, None);
+                    device.free_memory(memory, None);
+                }
+                return Err(GpuError::Vulkan("vkMapMemory", e));
+            }
+        };
+        Ok(Buffer {
+            owner: owner.clone(),
+            buffer,
+            memory,
+            mapped,
+            size,
+        })
+    }
+
+    /// Copies `data` to the start of the buffer.
+    pub fn write(&mut self, data: &[u8]) {
+        assert!(data.len() as u64 <= self.size, "write past the end of a GPU buffer");
+        // SAFETY: the mapping covers `size` bytes and the GPU is idle (dispatcher invariant).
+        unsafe { std::ptr::copy_nonoverlapping(data.as_ptr(), self.mapped, data.len()) };
+    }
+
+    /// Copies the start of the buffer into `out`.
+    pub fn read(&self, out: &mut [u8]) {
+        assert!(out.len() as u64 <= self.size, "read past the end of a GPU buffer");
+        // SAFETY: as in `write`.
+        unsafe { std::ptr::copy_nonoverlapping(self.mapped, out.as_mut_ptr(), out.len()) };
+    }
+}
+
+impl Drop for Buffer {
+    fn drop(&mut self) {
+        // SAFETY: the dispatcher waits for its fence before buffers can be dropped.
+        unsafe {
+            self.owner.device.unmap_memory(self.memory);
+            self.owner.device.destroy_buffer(self.buffer, None);
+            self.owner.device.free_memory(self.memory, None);
+        }
+    }
+}
+
+/// A compute pipeline for one entry point, with its layouts.
+pub struct Pipeline {
+    owner: Arc<DeviceOwner>,
+    pub(crate) pipeline: vk::Pipeline,
+    pub(crate) layout: vk::PipelineLayout,
+    pub(crate) set_layout: vk::DescriptorSetLayout,
+    pub(crate) bindings: u32,
+    pub(crate) push_size: u32,
+}
+
+impl Pipeline {
+    /// Builds the pipeline of `entry` in `module`, with `bindings` storage buffers at bindings
+    /// 0..bindings of set 0 and `push_size` bytes of push constants.
+    pub fn new(
+        owner: &Arc<DeviceOwner>,
+        module: vk::ShaderModule,
+        entry: &str,
+        bindings: u32,
+        push_size: u32,
+    ) -> Result<Self, GpuError> {
+        let device = &owner.device;
+        let binding_info: Vec<_> = (0..bindings)
+            .map(|b| {
+                vk::DescriptorSetLayoutBinding::default()
+                    .binding(b)
+                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .descriptor_count(1)
+                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            })
+            .collect();
+        let set_info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&binding_info);
+        // SAFETY: valid create infos; every object is destroyed in Drop (or below on error).
+        let set_layout = unsafe { device.create_descriptor_set_layout(&set_info, None) }
+            .map_err(|e| GpuError::Vulkan("vkCreateDescriptorSetLayout", e))?;
+        let ranges = [vk::PushConstantRange::default()
+            .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            .offset(0)
+            .size(push_size)];
+        let set_layouts = [set_layout];
+        let layout_info = vk::PipelineLayoutCreateInfo::default()
+            .set_layouts(&set_layouts)
+            .push_constant_ranges(&ranges);
+        // SAFETY: as above.
+        let layout = match unsafe { device.create_pipeline_layout(&layout_info, None) } {
+            Ok(l) => l,
+            Err(e) => {
+                // SAFETY: unused.
+                unsafe { device.destroy_descriptor_set_layout(set_layout, None) };
+                return Err(GpuError::Vulkan("vkCreatePipelineLayout", e));
+            }
+        };
+        let name = std::ffi::CString::new(entry).map_err(|_| GpuError::BadEntryPoint(entry.into()))?;
+        let stage = vk::PipelineShaderStageCreateInfo::default()
+            .stage(vk::ShaderStageFlags::COMPUTE)
+            .module(module)
+            .name(&name);
+        let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)];
+        // SAFETY: the module outlives this call; the entry name was checked by the caller.
+        let pipeline = match unsafe { device.create_compute_pipelines(vk::PipelineCache::null(), &info, None) } {
+            Ok(p) => p[0],
+            Err((_, e)) => {
+                // SAFETY: unused.
+                unsafe {
+                    device.destroy_pipeline_layout(layout, None);
+                    device.destroy_descriptor_set_layout(set_layout, None);
+                }
+                return Err(GpuError::Vulkan("vkCreateComputePipelines", e));
+            }
+        };
+        Ok(Pipeline {
+            owner: owner.clone(),
+            pipeline,
+            layout,
+            set_layout,
+            bindings,
+            push_size,
+        })
+    }
+}
+
+impl Drop for Pipeline {
+    fn drop(&mut self) {
+        // SAFETY: pipelines are dropped with the Gpu, after its last fence wait.
+        unsafe {
+            self.owner.device.destroy_pipeline(self.pipeline, None);
+            self.owner.device.destroy_pipeline_layout(self.layout, None);
+            self.owner.device.destroy_descriptor_set_layout(self.set_layout, None);
+        }
+    }
+}
+
+/// A command pool with one reusable command buffer, one descriptor pool and one fence.
+pub struct Submitter {
+    owner: Arc<DeviceOwner>,
+    pool: vk::CommandPool,
+    pub(crate) cmd: vk::CommandBuffer,
+    pub(crate) descriptors: vk::DescriptorPool,
+    pub(crate) fence: vk::Fence,
+}
+
+/// Most storage buffers one dispatch can bind.
+pub const MAX_BINDINGS: u32 = 8;
+
+impl Submitter {
+    pub fn new(owner: &Arc<DeviceOwner>) -> Result<Self, GpuError> {
+        let device = &owner.device;
+        let pool_info = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(owner.queue_family)
+            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        // SAFETY: valid create infos; destroyed in Drop. On error the partially built objects
+        // leak until the device is destroyed, which frees them.
+        unsafe {
+            let pool = device
+                .create_command_pool(&pool_info, None)
+                .map_err(|e| GpuError::Vulkan("vkCreateCommandPool", e))?;
+            let alloc = vk::CommandBufferAllocateInfo::default()
+                .command_pool(pool)
+                .level(vk::CommandBufferLevel::PRIMARY)
+                .command_buffer_count(1);
+            let cmd = device
+                .allocate_command_buffers(&alloc)
+                .map_err(|e| GpuError::Vulkan("vkAllocateCommandBuffers", e))?[0];
+            let sizes = [vk::DescriptorPoolSize::default()
+                .ty(vk::DescriptorType::STORAGE_BUFFER)
+                .descriptor_count(MAX_BINDINGS)];
+            let dp_info = vk::DescriptorPoolCreateInfo::default()
+                .max_sets(1)
+                .pool_sizes(&sizes);
+            let descriptors = device
+                .create_descriptor_pool(&dp_info, None)
+                .map_err(|e| GpuError::Vulkan("vkCreateDescriptorPool", e))?;
+            let fence = device
+                .create_fence(&vk::FenceCreateInfo::default(), None)
+                .map_err(|e| GpuError::Vulkan("vkCreateFence", e))?;
+            Ok(Submitter {
+                owner: owner.clone(),
+                pool,
+                cmd,
+                descriptors,
+                fence,
+            })
+        }
+    }
+}
+
+impl Drop for Submitter {
+    fn drop(&mut self) {
+        // SAFETY: the last submit was waited for; objects are not in use.
+        unsafe {
+            let d = &self.owner.device;
+            d.destroy_fence(self.fence, None);
+            d.destroy_descriptor_pool(self.descriptors, None);
+            d.destroy_command_pool(self.pool, None);
+        }
+    }
+}

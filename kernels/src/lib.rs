@@ -1,0 +1,46 @@
+//! rust-gpu compute entry points. Each unpacks its id and buffers and calls one `shared` function;
+//! the CPU backend calls the same functions over the same ids.
+#![cfg_attr(target_arch = "spirv", no_std)]
+
+use shared::launch::Launch;
+use shared::probe::{self, DepthPair, MathValues, RngDraws, TransmittancePair};
+use spirv_std::glam::UVec3;
+use spirv_std::spirv;
+
+/// Jackknife (Eq. 4) and naive transmittance of each (X0, X1) pair.
+#[spirv(compute(threads(64)))]
+pub fn transmittance_pair_cs(
+    #[spirv(global_invocation_id)] gid: UVec3,
+    #[spirv(push_constant)] launch: &Launch,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] input: &[DepthPair],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] output: &mut [TransmittancePair],
+) {
+    if let Some(i) = launch.id(gid.x) {
+        output[i] = probe::transmittance_pair(input[i]);
+    }
+}
+
+/// exp, ln, sin, cos of each input, to pin the deterministic math on the GPU.
+#[spirv(compute(threads(64)))]
+pub fn math_values_cs(
+    #[spirv(global_invocation_id)] gid: UVec3,
+    #[spirv(push_constant)] launch: &Launch,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] input: &[f32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] output: &mut [MathValues],
+) {
+    if let Some(i) = launch.id(gid.x) {
+        output[i] = probe::math_values(input[i]);
+    }
+}
+
+/// PCG32, PCG hash and PCG3D outputs for each id.
+#[spirv(compute(threads(64)))]
+pub fn rng_draws_cs(
+    #[spirv(global_invocation_id)] gid: UVec3,
+    #[spirv(push_constant)] launch: &Launch,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] output: &mut [RngDraws],
+) {
+    if let Some(i) = launch.id(gid.x) {
+        output[i] = probe::rng_draws(i as u32, launch.seed);
+    }
+}

@@ -1,0 +1,227 @@
+//! Deterministic elementary functions built from `+ - * /` and bit operations only.
+//!
+//! The GLSL.std.450 `exp`/`cos` that SPIR-V lowers to differ from native libm by up to 17 ulp, so
+//! every transcendental used by an estimator lives here, with one body for both targets. Each op
+//! is an IEEE-754 single operation; there is no `mul_add`, so native code and lavapipe round
+//! identically. NaN results are the canonical quiet NaN so output bytes compare exactly.
+
+/// Canonical quiet NaN returned by every function here (payloads would otherwise differ).
+pub const NAN: f32 = f32::from_bits(0x7fc0_0000);
+/// ln(2) split so that `n * LN2_HI` is exact for |n| < 2^8 (fdlibm's split).
+const LN2_HI: f32 = f32::from_bits(0x3f31_7200);
+/// ln(2) - LN2_HI.
+const LN2_LO: f32 = f32::from_bits(0x35bf_be8e);
+const LOG2_E: f32 = core::f32::consts::LOG2_E;
+/// ln(2) split for `ln` (musl logf's split; differs from the one `exp` uses).
+const LOG_LN2_HI: f32 = f32::from_bits(0x3f31_7180);
+/// ln(2) - LOG_LN2_HI.
+const LOG_LN2_LO: f32 = f32::from_bits(0x3717_f7d1);
+/// musl logf's minimax coefficients Lg1..Lg4.
+const LG: [f32; 4] = [
+    f32::from_bits(0x3f2a_aaaa),
+    f32::from_bits(0x3ecc_ce13),
+    f32::from_bits(0x3e91_e9ee),
+    f32::from_bits(0x3e78_9e26),
+];
+/// Above this, e^x overflows f32.
+const EXP_OVERFLOW: f32 = 88.722_83;
+/// Below this, e^x rounds to zero even as a subnormal.
+const EXP_UNDERFLOW: f32 = -103.972_08;
+/// 2/pi rounded to f32.
+const TWO_OVER_PI: f32 = f32::from_bits(0x3f22_f983);
+/// pi/2 as five parts; the first four have <= 12 significant bits, so `k * PIO2_i` is exact for
+/// |k| < 2^12 and the reduction error stays below 2^-72 * |k|.
+const PIO2: [f32; 5] = [
+    f32::from_bits(0x3fc9_0000),
+    f32::from_bits(0x39fd_a000),
+    f32::from_bits(0x33a2_2000),
+    f32::from_bits(0x2c34_6000),
+    f32::from_bits(0x248d_3132),
+];
+/// Largest |x| for which sin/cos reduce the argument accurately (k < 2^12).
+pub const TRIG_ACCURATE_RANGE: f32 = 6433.0;
+
+/// True when `x` is NaN (bit test; `x != x` can be folded away by optimizers).
+#[inline]
+pub fn is_nan(x: f32) -> bool {
+    (x.to_bits() & 0x7fff_ffff) > 0x7f80_0000
+}
+
+/// True when `x` is neither NaN nor infinite.
+#[inline]
+pub fn is_finite(x: f32) -> bool {
+    (x.to_bits() & 0x7f80_0000) != 0x7f80_0000
+}
+
+/// |x| by clearing the sign bit.
+#[inline]
+pub fn abs(x: f32) -> f32 {
+    f32::from_bits(x.to_bits() & 0x7fff_ffff)
+}
+
+/// Largest integer-valued float <= x (identical on both targets; no `as` overflow).
+#[inline]
+pub fn floor(x: f32) -> f32 {
+    if !(abs(x) < 8_388_608.0) {
+        // |x| >= 2^23 is already an integer (or NaN/inf).
+        return x;
+    }
+    let t = (x as i32) as f32;
+    if t > x {
+        t - 1.0
+    } else {
+        t
+    }
+}
+
+/// Nearest integer to x, halves away from zero, for |x| < 2^31.
+#[inline]
+fn round_to_i32(x: f32) -> i32 {
+    if x >= 0.0 {
+        (x + 0.5) as i32
+    } else {
+        (x - 0.5) as i32
+    }
+}
+
+/// 2^n as f32 for n in [-126, 127].
+#[inline]
+fn pow2i(n: i32) -> f32 {
+    f32::from_bits(((n + 127) as u32) << 23)
+}
+
+/// e^x with <= 1 ulp error (fdlibm's reduction x = n ln2 + r and rational approximation).
+pub fn exp(x: f32) -> f32 {
+    if is_nan(x) {
+        return NAN;
+    }
+    if x > EXP_OVERFLOW {
+        return f32::INFINITY;
+    }
+    if x < EXP_UNDERFLOW {
+        return 0.0;
+    }
+    if abs(x) < 7.450_580_6e-9 {
+        // 2^-27: e^x rounds to 1 + x.
+        return 1.0 + x;
+    }
+    let n = round_to_i32(x * LOG2_E);
+    let nf = n as f32;
+    let hi = x - nf * LN2_HI;
+    let lo = nf * LN2_LO;
+    let r = hi - lo;
+    let z = r * r;
+    // c = r - r^2 (P1 + r^2 P2): e^r = 1 + 2r / (2 - c) in Remez form (fdlibm expf).
+    let c = r - z * (1.666_662_5e-1 + z * -2.766_733_3e-3);
+    let y = 1.0 - ((lo - (r * c) / (2.0 - c)) - hi);
+    // Scale in two exact steps so 2^n never overflows and subnormals round once.
+    let n1 = n / 2;
+    y * pow2i(n1) * pow2i(n - n1)
+}
+
+/// Natural logarithm with <= 1 ulp error (musl/fdlibm logf's reduction to [sqrt(2)/2, sqrt(2))).
+pub fn ln(x: f32) -> f32 {
+    if is_nan(x) || x < 0.0 {
+        return NAN;
+    }
+    if x == 0.0 {
+        return f32::NEG_INFINITY;
+    }
+    if x == f32::INFINITY {
+        return x;
+    }
+    let mut ix = x.to_bits();
+    let mut k: i32 = 0;
+    if ix < 0x0080_0000 {
+        // Subnormal: scale by 2^25 to normalise.
+        k -= 25;
+        ix = (x * 33_554_432.0).to_bits();
+    }
+    // Put the mantissa m in [sqrt(2)/2, sqrt(2)) and adjust the exponent k accordingly.
+    ix += 0x3f80_0000 - 0x3f35_04f3;
+    k += (ix >> 23) as i32 - 0x7f;
+    ix = (ix & 0x007f_ffff) + 0x3f35_04f3;
+    let f = f32::from_bits(ix) - 1.0;
+    let s = f / (2.0 + f);
+    let z = s * s;
+    let w = z * z;
+    let t1 = w * (LG[1] + w * LG[3]);
+    let t2 = z * (LG[0] + w * LG[2]);
+    let r = t2 + t1;
+    let hfsq = 0.5 * f * f;
+    let dk = k as f32;
+    s * (hfsq + r) + dk * LOG_LN2_LO - hfsq + f + dk * LOG_LN2_HI
+}
+
+/// sin on [-pi/4, pi/4] (Taylor through r^9; truncation < 2^-31 relative).
+#[inline]
+fn sin_kernel(r: f32) -> f32 {
+    let z = r * r;
+    let p = -1.666_666_7e-1 + z * (8.333_333e-3 + z * (-1.984_127e-4 + z * 2.755_731_9e-6));
+    r + (r * z) * p
+}
+
+/// cos on [-pi/4, pi/4] (Taylor through r^10; 1 - z/2 split as in fdlibm for accuracy).
+#[inline]
+fn cos_kernel(r: f32) -> f32 {
+    let z = r * r;
+    let p = 4.166_666_8e-2 + z * (-1.388_888_9e-3 + z * (2.480_158_7e-5 + z * -2.755_731_9e-7));
+    let hz = 0.5 * z;
+    let w = 1.0 - hz;
+    w + (((1.0 - w) - hz) + (z * z) * p)
+}
+
+/// Reduces x to r in about [-pi/4, pi/4] and the quadrant k mod 4 (Cody-Waite, five parts).
+#[inline]
+fn reduce_pio2(x: f32) -> (f32, u32) {
+    let kf = floor(x * TWO_OVER_PI + 0.5);
+    let r = (((x - kf * PIO2[0]) - kf * PIO2[1]) - kf * PIO2[2]) - kf * PIO2[3];
+    let r = r - kf * PIO2[4];
+    // kf mod 4 without an integer conversion that could overflow for huge x.
+    let q = kf - 4.0 * floor(kf * 0.25);
+    (r, q as u32 & 3)
+}
+
+/// (sin x, cos x), <= 2 ulp for |x| <= TRIG_ACCURATE_RANGE; beyond it finite, in [-1, 1], but
+/// inaccurate (estimators never get there: exp(-X̄) underflows first). NaN/inf give NaN.
+pub fn sin_cos(x: f32) -> (f32, f32) {
+    if !is_finite(x) {
+        return (NAN, NAN);
+    }
+    if abs(x) < 2.441_406_3e-4 {
+        // 2^-12: sin x = x and cos x = 1 - x^2/2 to within rounding.
+        return (x, 1.0 - 0.5 * x * x);
+    }
+    let (r, q) = reduce_pio2(x);
+    let s = sin_kernel(r);
+    let c = cos_kernel(r);
+    let (sn, cs) = match q {
+        0 => (s, c),
+        1 => (c, -s),
+        2 => (-s, -c),
+        _ => (-c, s),
+    };
+    (clamp_unit(sn), clamp_unit(cs))
+}
+
+/// sin x; see [`sin_cos`].
+pub fn sin(x: f32) -> f32 {
+    sin_cos(x).0
+}
+
+/// cos x; see [`sin_cos`].
+pub fn cos(x: f32) -> f32 {
+    sin_cos(x).1
+}
+
+/// Clamps to [-1, 1]; only active for inaccurate reductions of huge arguments.
+#[inline]
+fn clamp_unit(v: f32) -> f32 {
+    if v > 1.0 {
+        1.0
+    } else if v < -1.0 {
+        -1.0
+    } else {
+        v
+    }
+}

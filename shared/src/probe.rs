@@ -1,0 +1,91 @@
+//! Bodies of the foundation kernels: transmittance of optical-depth pairs, the math functions and
+//! the RNG streams, one pure function per id, so the GPU and the CPU run exactly this code.
+
+use crate::{math, rng, transmittance};
+use bytemuck::{Pod, Zeroable};
+
+/// Two optical depth estimates (X0, X1) of one ray.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct DepthPair {
+    pub x0: f32,
+    pub x1: f32,
+}
+
+/// Jackknife K (Eq. 4) and naive exp(-X̄) for one pair.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct TransmittancePair {
+    pub jackknife: f32,
+    pub naive: f32,
+}
+
+/// Transmittance estimates of one (X0, X1) pair.
+#[inline]
+pub fn transmittance_pair(p: DepthPair) -> TransmittancePair {
+    TransmittancePair {
+        jackknife: transmittance::jackknife(p.x0, p.x1),
+        naive: transmittance::naive(p.x0, p.x1),
+    }
+}
+
+/// Every deterministic math function at one argument.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct MathValues {
+    pub exp: f32,
+    pub ln: f32,
+    pub sin: f32,
+    pub cos: f32,
+}
+
+/// exp, ln, sin and cos of x.
+#[inline]
+pub fn math_values(x: f32) -> MathValues {
+    let (sin, cos) = math::sin_cos(x);
+    MathValues {
+        exp: math::exp(x),
+        ln: math::ln(x),
+        sin,
+        cos,
+    }
+}
+
+/// Draws of every generator for one id.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct RngDraws {
+    /// First four outputs of `Pcg32::new(state, stream)` for this id.
+    pub pcg32: [u32; 4],
+    /// `pcg_hash(id ^ seed)`.
+    pub hash: u32,
+    /// `pcg3d([id, seed, hash])`.
+    pub pcg3d: [u32; 3],
+}
+
+/// The PCG32 seed used for one id: state from the hash of the id, stream from the user seed.
+#[inline]
+pub fn pcg32_for(id: u32, seed: u32) -> rng::Pcg32 {
+    let state = ((id as u64) << 32) | rng::pcg_hash(id) as u64;
+    rng::Pcg32::new(state, seed as u64)
+}
+
+/// All generator outputs for one id.
+#[inline]
+pub fn rng_draws(id: u32, seed: u32) -> RngDraws {
+    let mut g = pcg32_for(id, seed);
+    let mut pcg32 = [0u32; 4];
+    let mut i = 0;
+    while i < 4 {
+        let (v, next) = g.next_u32();
+        pcg32[i] = v;
+        g = next;
+        i += 1;
+    }
+    let hash = rng::pcg_hash(id ^ seed);
+    RngDraws {
+        pcg32,
+        hash,
+        pcg3d: rng::pcg3d([id, seed, hash]),
+    }
+}
