@@ -161,14 +161,14 @@ fn sin_kernel(r: f32) -> f32 {
     r + (r * z) * p
 }
 
-/// cos on [-pi/4, pi/4] (Taylor through r^10; 1 - z/2 split as in fdlibm for accuracy).
+/// cos on [-pi/4, pi/4] (Taylor through r^10).
 #[inline]
 fn cos_kernel(r: f32) -> f32 {
     let z = r * r;
     let p = 4.166_666_8e-2 + z * (-1.388_888_9e-3 + z * (2.480_158_7e-5 + z * -2.755_731_9e-7));
-    let hz = 0.5 * z;
-    let w = 1.0 - hz;
-    w + (((1.0 - w) - hz) + (z * z) * p)
+    // Not fdlibm's compensated `w + ((1 - w) - hz)`: Mesa's NIR folds `1 - (1 - hz)` to `hz` in
+    // shaders without NoContraction (which rust-gpu cannot emit), so the two targets would differ.
+    1.0 - (0.5 * z - (z * z) * p)
 }
 
 /// Reduces x to r in about [-pi/4, pi/4] and the quadrant k mod 4 (Cody-Waite, five parts).
@@ -214,10 +214,13 @@ pub fn cos(x: f32) -> f32 {
     sin_cos(x).1
 }
 
-/// Clamps to [-1, 1]; only active for inaccurate reductions of huge arguments.
+/// Clamps to [-1, 1] (NaN to 0); only active for inaccurate reductions of huge arguments, where
+/// `k * pi/2` itself can overflow.
 #[inline]
 fn clamp_unit(v: f32) -> f32 {
-    if v > 1.0 {
+    if is_nan(v) {
+        0.0
+    } else if v > 1.0 {
         1.0
     } else if v < -1.0 {
         -1.0

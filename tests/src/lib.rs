@@ -1,1 +1,43 @@
+//! Helpers for the integration tests: opening the lavapipe GPU and comparing buffers bit for bit.
 
+use bytemuck::Pod;
+use host::gpu::Gpu;
+use std::fmt::Debug;
+
+/// The Vulkan GPU, or a panic that says how to get one (these tests must run, not skip).
+pub fn gpu() -> Gpu {
+    match Gpu::new() {
+        Ok(g) => g,
+        Err(e) => panic!(
+            "GPU-vs-CPU tests need a Vulkan device: {e}. Install lavapipe with \
+             `sudo apt-get install -y mesa-vulkan-drivers libvulkan1` (./scripts/test.sh does this)."
+        ),
+    }
+}
+
+/// Asserts that two output buffers are byte-identical; on mismatch prints the first rows that
+/// differ with their input, both values and both values' bytes, and the mismatch count.
+pub fn assert_bytes_equal<I: Debug, O: Pod + Debug>(what: &str, inputs: &[I], gpu: &[O], cpu: &[O]) {
+    assert_eq!(gpu.len(), cpu.len(), "{what}: output lengths differ");
+    let size = std::mem::size_of::<O>();
+    let g: &[u8] = bytemuck::cast_slice(gpu);
+    let c: &[u8] = bytemuck::cast_slice(cpu);
+    if g == c {
+        return;
+    }
+    let bad: Vec<usize> = (0..gpu.len())
+        .filter(|&i| g[i * size..(i + 1) * size] != c[i * size..(i + 1) * size])
+        .collect();
+    let mut msg = format!("{what}: {} of {} outputs differ between GPU and CPU\n", bad.len(), gpu.len());
+    for &i in bad.iter().take(10) {
+        msg += &format!(
+            "  [{i}] input {:?}\n      gpu {:?} bytes {:02x?}\n      cpu {:?} bytes {:02x?}\n",
+            inputs.get(i),
+            gpu[i],
+            &g[i * size..(i + 1) * size],
+            cpu[i],
+            &c[i * size..(i + 1) * size]
+        );
+    }
+    panic!("{msg}");
+}
