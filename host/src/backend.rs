@@ -31,13 +31,15 @@ impl Backend {
             BackendChoice::Gpu => Ok(Backend::Gpu(Box::new(
                 Gpu::new().context("--backend gpu: cannot use the Vulkan GPU backend")?,
             ))),
-            BackendChoice::Auto => match Gpu::new() {
-                Ok(g) => Ok(Backend::Gpu(Box::new(g))),
-                Err(e) => {
-                    eprintln!("warning: no usable Vulkan device ({e}); falling back to the CPU backend");
-                    Ok(Backend::Cpu)
+            BackendChoice::Auto => {
+                match Gpu::new() {
+                    Ok(g) => Ok(Backend::Gpu(Box::new(g))),
+                    Err(e) => {
+                        eprintln!("warning: no usable Vulkan device ({e}); falling back to the CPU backend");
+                        Ok(Backend::Cpu)
+                    }
                 }
-            },
+            }
         }
     }
 
@@ -79,8 +81,15 @@ impl Backend {
             Backend::Cpu => Ok(cpu::generate(count, |id| probe::rng_draws(id, seed))),
             Backend::Gpu(g) => {
                 let mut out = vec![RngDraws::zeroed(); count as usize];
-                g.dispatch("rng_draws_cs", count, seed, &[], &[], &mut [bytemuck::cast_slice_mut(&mut out)])
-                    .map_err(gpu_err("rng_draws_cs"))?;
+                g.dispatch(
+                    "rng_draws_cs",
+                    count,
+                    seed,
+                    &[],
+                    &[],
+                    &mut [bytemuck::cast_slice_mut(&mut out)],
+                )
+                .map_err(gpu_err("rng_draws_cs"))?;
                 Ok(out)
             }
         }

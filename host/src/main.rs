@@ -43,8 +43,18 @@ fn normal_pair(id: u32, seed: u32, tau: f32, sigma: f32) -> DepthPair {
     }
 }
 
-fn main() -> Result<()> {
+fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
     anyhow::ensure!(
         cli.tau.is_finite() && cli.sigma.is_finite() && cli.sigma >= 0.0,
         "--tau must be finite and --sigma finite and >= 0 (got --tau {} --sigma {})",
@@ -54,7 +64,8 @@ fn main() -> Result<()> {
     let backend = Backend::open(cli.backend)?;
     println!("backend: {} ({})", backend.kind(), backend.device());
 
-    let pairs: Vec<DepthPair> = host::cpu::generate(cli.count, |i| normal_pair(i, cli.seed, cli.tau, cli.sigma));
+    let pairs: Vec<DepthPair> =
+        host::cpu::generate(cli.count, |i| normal_pair(i, cli.seed, cli.tau, cli.sigma));
     let start = Instant::now();
     let out = backend.transmittance_pairs(&pairs)?;
     let elapsed = start.elapsed();
@@ -65,7 +76,10 @@ fn main() -> Result<()> {
     let naive = mean(&|i| out[i].naive);
     let exact = (-(cli.tau as f64)).exp();
     let var = |m: f64, f: &dyn Fn(usize) -> f32| {
-        (0..out.len()).map(|i| (f(i) as f64 - m).powi(2)).sum::<f64>() / (n - 1.0).max(1.0)
+        (0..out.len())
+            .map(|i| (f(i) as f64 - m).powi(2))
+            .sum::<f64>()
+            / (n - 1.0).max(1.0)
     };
     let se_j = (var(jackknife, &|i| out[i].jackknife) / n).sqrt();
     let se_n = (var(naive, &|i| out[i].naive) / n).sqrt();
@@ -78,7 +92,13 @@ fn main() -> Result<()> {
         elapsed.as_secs_f64() * 1e3
     );
     println!("  exact exp(-tau)        {exact:.6}");
-    println!("  jackknife K (Eq. 4)    {jackknife:.6} ± {se_j:.6}  bias {:+.6}", jackknife - exact);
-    println!("  naive exp(-X̄)         {naive:.6} ± {se_n:.6}  bias {:+.6}", naive - exact);
+    println!(
+        "  jackknife K (Eq. 4)    {jackknife:.6} ± {se_j:.6}  bias {:+.6}",
+        jackknife - exact
+    );
+    println!(
+        "  naive exp(-X̄)         {naive:.6} ± {se_n:.6}  bias {:+.6}",
+        naive - exact
+    );
     Ok(())
 }

@@ -120,7 +120,10 @@ mod tests {
     #[test]
     fn exp_matches_std_reference() {
         let z = Complex::new(-0.7, 1.3).exp();
-        let (re, im) = ((-0.7f64).exp() * 1.3f64.cos(), (-0.7f64).exp() * 1.3f64.sin());
+        let (re, im) = (
+            (-0.7f64).exp() * 1.3f64.cos(),
+            (-0.7f64).exp() * 1.3f64.sin(),
+        );
         assert!((z.re as f64 - re).abs() < 1e-7 && (z.im as f64 - im).abs() < 1e-7);
     }
 }

@@ -62,7 +62,7 @@ pub fn abs(x: f32) -> f32 {
 /// Largest integer-valued float <= x (identical on both targets; no `as` overflow).
 #[inline]
 pub fn floor(x: f32) -> f32 {
-    if !(abs(x) < 8_388_608.0) {
+    if is_nan(x) || abs(x) >= 8_388_608.0 {
         // |x| >= 2^23 is already an integer (or NaN/inf).
         return x;
     }
@@ -101,8 +101,8 @@ pub fn exp(x: f32) -> f32 {
     if x < EXP_UNDERFLOW {
         return 0.0;
     }
-    if abs(x) < 7.450_580_6e-9 {
-        // 2^-27: e^x rounds to 1 + x.
+    if abs(x) < f32::from_bits(0x3200_0000) {
+        // |x| < 2^-27: e^x rounds to 1 + x.
         return 1.0 + x;
     }
     let n = round_to_i32(x * LOG2_E);
@@ -165,7 +165,7 @@ fn sin_kernel(r: f32) -> f32 {
 #[inline]
 fn cos_kernel(r: f32) -> f32 {
     let z = r * r;
-    let p = 4.166_666_8e-2 + z * (-1.388_888_9e-3 + z * (2.480_158_7e-5 + z * -2.755_731_9e-7));
+    let p = 4.166_666_8e-2 + z * (-1.388_888_9e-3 + z * (2.480_158_7e-5 + z * -2.755_732e-7));
     // Not fdlibm's compensated `w + ((1 - w) - hz)`: Mesa's NIR folds `1 - (1 - hz)` to `hz` in
     // shaders without NoContraction (which rust-gpu cannot emit), so the two targets would differ.
     1.0 - (0.5 * z - (z * z) * p)
@@ -214,9 +214,10 @@ pub fn cos(x: f32) -> f32 {
     sin_cos(x).1
 }
 
-/// Clamps to [-1, 1] (NaN to 0); only active for inaccurate reductions of huge arguments, where
+/// Clamps to [-1, 1] (NaN to 0; hence no `f32::clamp`); only active for inaccurate reductions of huge arguments, where
 /// `k * pi/2` itself can overflow.
 #[inline]
+#[allow(clippy::manual_clamp)]
 fn clamp_unit(v: f32) -> f32 {
     if is_nan(v) {
         0.0

@@ -103,13 +103,22 @@ mod tests {
 
     #[test]
     fn pcg32_equals_rand_pcg() {
-        for (seed, stream) in [(0u64, 0u64), (42, 54), (u64::MAX, u64::MAX), (0xdead_beef, 7)] {
+        for (seed, stream) in [
+            (0u64, 0u64),
+            (42, 54),
+            (u64::MAX, u64::MAX),
+            (0xdead_beef, 7),
+        ] {
             let mut reference = rand_pcg::Pcg32::new(seed, stream);
             let mut ours = Pcg32::new(seed, stream);
             for i in 0..10_000 {
                 let (v, next) = ours.next_u32();
                 ours = next;
-                assert_eq!(v, reference.next_u32(), "seed {seed} stream {stream} draw {i}");
+                assert_eq!(
+                    v,
+                    reference.next_u32(),
+                    "seed {seed} stream {stream} draw {i}"
+                );
             }
         }
     }
@@ -121,8 +130,14 @@ mod tests {
         assert_eq!(pcg_hash(1), 2_831_084_092);
         assert_eq!(pcg_hash(12_345), 4_099_845_390);
         assert_eq!(pcg_hash(u32::MAX), 3_861_530_882);
-        assert_eq!(pcg3d([0, 0, 0]), [2_611_992_518, 2_833_812_075, 1_058_359_340]);
-        assert_eq!(pcg3d([1, 2, 3]), [4_204_755_366, 1_223_881_804, 1_500_469_937]);
+        assert_eq!(
+            pcg3d([0, 0, 0]),
+            [2_611_992_518, 2_833_812_075, 1_058_359_340]
+        );
+        assert_eq!(
+            pcg3d([1, 2, 3]),
+            [4_204_755_366, 1_223_881_804, 1_500_469_937]
+        );
     }
 
     #[test]

@@ -57,7 +57,8 @@ mod tests {
     #[test]
     fn matches_f64_formula() {
         let (x0, x1) = (0.8f32, 2.1f32);
-        let reference = ((x0 as f64 - x1 as f64).abs() / 2.0).cos() * (-(x0 as f64 + x1 as f64) / 2.0).exp();
+        let reference =
+            ((x0 as f64 - x1 as f64).abs() / 2.0).cos() * (-(x0 as f64 + x1 as f64) / 2.0).exp();
         assert!((jackknife(x0, x1) as f64 - reference).abs() < 1e-7);
     }
 

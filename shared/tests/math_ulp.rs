@@ -22,7 +22,11 @@ fn ulp_error(got: f32, want: f64) -> f64 {
     }
     if want.abs() > f32::MAX as f64 * (1.0 + 2f64.powi(-25)) {
         // Rounds to +-inf in f32.
-        return if got.is_infinite() && got.signum() as f64 == want.signum() { 0.0 } else { f64::INFINITY };
+        return if got.is_infinite() && got.signum() as f64 == want.signum() {
+            0.0
+        } else {
+            f64::INFINITY
+        };
     }
     if got.is_infinite() || got.is_nan() {
         return f64::INFINITY;
@@ -60,13 +64,23 @@ fn worst(xs: &[f32], f: fn(f32) -> f32, reference: fn(f64) -> f64) -> (f64, f32)
         .reduce(|| (0.0, 0.0), |a, b| if b.0 > a.0 { b } else { a })
 }
 
-fn check(name: &str, ranges: &[(f32, f32)], f: fn(f32) -> f32, reference: fn(f64) -> f64, limit: f64) {
+fn check(
+    name: &str,
+    ranges: &[(f32, f32)],
+    f: fn(f32) -> f32,
+    reference: fn(f64) -> f64,
+    limit: f64,
+) {
     let s = stride();
     let mut overall = (0.0f64, 0.0f32);
     let mut n = 0usize;
     for &(lo, hi) in ranges {
         // Positive range, then the mirrored negative one where asked (bit order is by magnitude).
-        let (xs, neg) = if lo < 0.0 { (args(0.0, hi, s), true) } else { (args(lo, hi, s), false) };
+        let (xs, neg) = if lo < 0.0 {
+            (args(0.0, hi, s), true)
+        } else {
+            (args(lo, hi, s), false)
+        };
         let w = worst(&xs, f, reference);
         n += xs.len();
         if w.0 > overall.0 {
@@ -81,8 +95,16 @@ fn check(name: &str, ranges: &[(f32, f32)], f: fn(f32) -> f32, reference: fn(f64
             }
         }
     }
-    println!("{name}: max error {:.3} ulp at x = {:e} ({n} arguments, stride {s})", overall.0, overall.1);
-    assert!(overall.0 <= limit, "{name}: {:.3} ulp at x = {:e} exceeds {limit} ulp", overall.0, overall.1);
+    println!(
+        "{name}: max error {:.3} ulp at x = {:e} ({n} arguments, stride {s})",
+        overall.0, overall.1
+    );
+    assert!(
+        overall.0 <= limit,
+        "{name}: {:.3} ulp at x = {:e} exceeds {limit} ulp",
+        overall.0,
+        overall.1
+    );
 }
 
 #[test]
@@ -94,17 +116,35 @@ fn exp_within_4_ulp() {
 #[test]
 fn ln_within_4_ulp() {
     // Every positive finite float, subnormals included.
-    check("ln", &[(f32::from_bits(1), f32::MAX)], math::ln, f64::ln, 4.0);
+    check(
+        "ln",
+        &[(f32::from_bits(1), f32::MAX)],
+        math::ln,
+        f64::ln,
+        4.0,
+    );
 }
 
 #[test]
 fn sin_within_4_ulp() {
-    check("sin", &[(-math::TRIG_ACCURATE_RANGE, math::TRIG_ACCURATE_RANGE)], math::sin, f64::sin, 4.0);
+    check(
+        "sin",
+        &[(-math::TRIG_ACCURATE_RANGE, math::TRIG_ACCURATE_RANGE)],
+        math::sin,
+        f64::sin,
+        4.0,
+    );
 }
 
 #[test]
 fn cos_within_4_ulp() {
-    check("cos", &[(-math::TRIG_ACCURATE_RANGE, math::TRIG_ACCURATE_RANGE)], math::cos, f64::cos, 4.0);
+    check(
+        "cos",
+        &[(-math::TRIG_ACCURATE_RANGE, math::TRIG_ACCURATE_RANGE)],
+        math::cos,
+        f64::cos,
+        4.0,
+    );
 }
 
 #[test]
@@ -124,7 +164,12 @@ fn special_values() {
     assert_eq!(math::sin(0.0), 0.0);
     assert!(math::sin(f32::INFINITY).is_nan() && math::cos(f32::NEG_INFINITY).is_nan());
     // Canonical NaN bits, so GPU and CPU outputs compare byte for byte.
-    for v in [math::exp(f32::NAN), math::ln(-2.0), math::sin(f32::NAN), math::cos(f32::INFINITY)] {
+    for v in [
+        math::exp(f32::NAN),
+        math::ln(-2.0),
+        math::sin(f32::NAN),
+        math::cos(f32::INFINITY),
+    ] {
         assert_eq!(v.to_bits(), math::NAN.to_bits());
     }
 }
@@ -134,13 +179,29 @@ fn huge_trig_arguments_stay_bounded() {
     // Beyond TRIG_ACCURATE_RANGE accuracy is not promised, but results are finite and in [-1, 1].
     for x in [1e4f32, 1e6, 3e7, 1e10, 1e20, f32::MAX, -f32::MAX] {
         let (s, c) = math::sin_cos(x);
-        assert!((-1.0..=1.0).contains(&s) && (-1.0..=1.0).contains(&c), "sin_cos({x}) = ({s}, {c})");
+        assert!(
+            (-1.0..=1.0).contains(&s) && (-1.0..=1.0).contains(&c),
+            "sin_cos({x}) = ({s}, {c})"
+        );
     }
 }
 
 #[test]
 fn floor_matches_std() {
-    for x in [-2.5f32, -1.0, -0.5, -0.0, 0.0, 0.5, 1.0, 1.5, 8_388_607.5, -8_388_607.5, 1e20, -1e20] {
+    for x in [
+        -2.5f32,
+        -1.0,
+        -0.5,
+        -0.0,
+        0.0,
+        0.5,
+        1.0,
+        1.5,
+        8_388_607.5,
+        -8_388_607.5,
+        1e20,
+        -1e20,
+    ] {
         assert_eq!(math::floor(x), x.floor(), "floor({x})");
     }
 }

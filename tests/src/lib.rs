@@ -17,7 +17,12 @@ pub fn gpu() -> Gpu {
 
 /// Asserts that two output buffers are byte-identical; on mismatch prints the first rows that
 /// differ with their input, both values and both values' bytes, and the mismatch count.
-pub fn assert_bytes_equal<I: Debug, O: Pod + Debug>(what: &str, inputs: &[I], gpu: &[O], cpu: &[O]) {
+pub fn assert_bytes_equal<I: Debug, O: Pod + Debug>(
+    what: &str,
+    inputs: &[I],
+    gpu: &[O],
+    cpu: &[O],
+) {
     assert_eq!(gpu.len(), cpu.len(), "{what}: output lengths differ");
     let size = std::mem::size_of::<O>();
     let g: &[u8] = bytemuck::cast_slice(gpu);
@@ -28,7 +33,11 @@ pub fn assert_bytes_equal<I: Debug, O: Pod + Debug>(what: &str, inputs: &[I], gp
     let bad: Vec<usize> = (0..gpu.len())
         .filter(|&i| g[i * size..(i + 1) * size] != c[i * size..(i + 1) * size])
         .collect();
-    let mut msg = format!("{what}: {} of {} outputs differ between GPU and CPU\n", bad.len(), gpu.len());
+    let mut msg = format!(
+        "{what}: {} of {} outputs differ between GPU and CPU\n",
+        bad.len(),
+        gpu.len()
+    );
     for &i in bad.iter().take(10) {
         msg += &format!(
             "  [{i}] input {:?}\n      gpu {:?} bytes {:02x?}\n      cpu {:?} bytes {:02x?}\n",

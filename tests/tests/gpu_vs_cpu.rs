@@ -70,7 +70,12 @@ fn depth_pairs() -> Vec<DepthPair> {
         pairs.push(DepthPair { x0: a, x1: a });
     }
     let r = random_floats(2 * RANDOM_COUNT, 7);
-    pairs.extend(r.chunks_exact(2).map(|c| DepthPair { x0: c[0], x1: c[1] }));
+    pairs.extend(
+        r.as_chunks::<2>()
+            .0
+            .iter()
+            .map(|&[x0, x1]| DepthPair { x0, x1 }),
+    );
     // X0 = X1 on random depths.
     pairs.extend(r.iter().step_by(97).map(|&x| DepthPair { x0: x, x1: x }));
     pairs

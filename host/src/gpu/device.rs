@@ -49,8 +49,10 @@ impl DeviceOwner {
             .api_version(vk::API_VERSION_1_2);
         let info = vk::InstanceCreateInfo::default().application_info(&app);
         // SAFETY: valid create info; the instance is destroyed in Drop (or below on error).
-        let instance = unsafe { entry.create_instance(&info, None) }
-            .map_err(|e| GpuError::Vulkan("vkCreateInstance", e))?;
+        let instance = unsafe { entry.create_instance(&info, None) }.map_err(|e| match e {
+            vk::Result::ERROR_INCOMPATIBLE_DRIVER => GpuError::NoDevice,
+            e => GpuError::Vulkan("vkCreateInstance", e),
+        })?;
         match Self::with_instance(entry, instance.clone()) {
             Ok(owner) => Ok(owner),
             Err(e) => {
@@ -71,8 +73,12 @@ impl DeviceOwner {
         let forced = std::env::var("JK_VULKAN_DEVICE").ok();
         let physical = match forced {
             Some(s) => {
-                let i: usize = s.parse().map_err(|_| GpuError::BadDeviceIndex(s.clone(), devices.len()))?;
-                *devices.get(i).ok_or(GpuError::BadDeviceIndex(s, devices.len()))?
+                let i: usize = s
+                    .parse()
+                    .map_err(|_| GpuError::BadDeviceIndex(s.clone(), devices.len()))?;
+                *devices
+                    .get(i)
+                    .ok_or(GpuError::BadDeviceIndex(s, devices.len()))?
             }
             None => *devices
                 .iter()
@@ -129,7 +135,8 @@ impl DeviceOwner {
             .queue_family_index(queue_family)
             .queue_priorities(&priorities)];
         let features = vk::PhysicalDeviceFeatures::default().shader_int64(true);
-        let mut features12 = vk::PhysicalDeviceVulkan12Features::default().vulkan_memory_model(true);
+        let mut features12 =
+            vk::PhysicalDeviceVulkan12Features::default().vulkan_memory_model(true);
         let device_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_info)
             .enabled_features(&features)
@@ -153,7 +160,11 @@ impl DeviceOwner {
     }
 
     /// Index of a memory type allowed by `type_bits` with all of `flags`.
-    pub(crate) fn memory_type(&self, type_bits: u32, flags: vk::MemoryPropertyFlags) -> Option<u32> {
+    pub(crate) fn memory_type(
+        &self,
+        type_bits: u32,
+        flags: vk::MemoryPropertyFlags,
+    ) -> Option<u32> {
         (0..self.memory.memory_type_count).find(|&i| {
             type_bits & (1 << i) != 0
                 && self.memory.memory_types[i as usize]
@@ -188,4 +199,3 @@ impl Drop for DeviceOwner {
         }
     }
 }
-

@@ -24,7 +24,9 @@ pub enum GpuError {
     NoLoader(String),
     #[error("no Vulkan device found; install a GPU driver or lavapipe (`apt-get install mesa-vulkan-drivers`)")]
     NoDevice,
-    #[error("JK_VULKAN_DEVICE={0} is not a device index (this machine has {1} Vulkan devices: 0..{1})")]
+    #[error(
+        "JK_VULKAN_DEVICE={0} is not a device index (this machine has {1} Vulkan devices: 0..{1})"
+    )]
     BadDeviceIndex(String, usize),
     #[error("Vulkan device {0} lacks {1}, which the kernels need")]
     Unsupported(String, &'static str),
@@ -81,8 +83,16 @@ impl Gpu {
         self.owner.description()
     }
 
-    fn pipeline(&self, entry: &str, bindings: u32, push_size: u32) -> Result<Arc<Pipeline>, GpuError> {
-        let mut cache = self.pipelines.lock().map_err(|_| GpuError::Internal("poisoned".into()))?;
+    fn pipeline(
+        &self,
+        entry: &str,
+        bindings: u32,
+        push_size: u32,
+    ) -> Result<Arc<Pipeline>, GpuError> {
+        let mut cache = self
+            .pipelines
+            .lock()
+            .map_err(|_| GpuError::Internal("poisoned".into()))?;
         if let Some(p) = cache.get(entry) {
             if p.bindings != bindings || p.push_size != push_size {
                 return Err(GpuError::Internal(format!(
@@ -95,7 +105,13 @@ impl Gpu {
         if !kernel_names().any(|n| n == entry) {
             return Err(GpuError::BadEntryPoint(entry.into()));
         }
-        let p = Arc::new(Pipeline::new(&self.owner, self.module, entry, bindings, push_size)?);
+        let p = Arc::new(Pipeline::new(
+            &self.owner,
+            self.module,
+            entry,
+            bindings,
+            push_size,
+        )?);
         cache.insert(entry.to_string(), p.clone());
         Ok(p)
     }
@@ -116,23 +132,35 @@ impl Gpu {
             return Ok(());
         }
         let bindings = (inputs.len() + outputs.len()) as u32;
-        if bindings > MAX_BINDINGS || extra_push.len() % 4 != 0 {
-            return Err(GpuError::Internal(format!("bad dispatch shape for {entry}")));
+        if bindings > MAX_BINDINGS || !extra_push.len().is_multiple_of(4) {
+            return Err(GpuError::Internal(format!(
+                "bad dispatch shape for {entry}"
+            )));
         }
         let push_size = (std::mem::size_of::<Launch>() + extra_push.len()) as u32;
         let pipeline = self.pipeline(entry, bindings, push_size)?;
         let limit = self.owner.limits.max_storage_buffer_range as u64;
         let mut buffers = Vec::with_capacity(bindings as usize);
-        for data in inputs.iter().map(|d| &**d).chain(outputs.iter().map(|d| &**d)) {
+        for data in inputs
+            .iter()
+            .map(|d| &**d)
+            .chain(outputs.iter().map(|d| &**d))
+        {
             if data.len() as u64 > limit {
-                return Err(GpuError::TooLarge { size: data.len() as u64, limit });
+                return Err(GpuError::TooLarge {
+                    size: data.len() as u64,
+                    limit,
+                });
             }
             let mut b = Buffer::new(&self.owner, data.len() as u64)?;
             b.write(data);
             buffers.push(b);
         }
 
-        let sub = self.submitter.lock().map_err(|_| GpuError::Internal("poisoned".into()))?;
+        let sub = self
+            .submitter
+            .lock()
+            .map_err(|_| GpuError::Internal("poisoned".into()))?;
         let d = &self.owner.device;
         // SAFETY: all handles are alive; the command buffer is re-recorded only after the
         // previous submission's fence was waited for (the submitter lock serializes this).
@@ -148,7 +176,12 @@ impl Gpu {
                 .map_err(|e| GpuError::Vulkan("vkAllocateDescriptorSets", e))?[0];
             let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
                 .iter()
-                .map(|b| [vk::DescriptorBufferInfo::default().buffer(b.buffer).offset(0).range(b.size)])
+                .map(|b| {
+                    [vk::DescriptorBufferInfo::default()
+                        .buffer(b.buffer)
+                        .offset(0)
+                        .range(b.size)]
+                })
                 .collect();
             let writes: Vec<_> = infos
                 .iter()
@@ -165,20 +198,39 @@ impl Gpu {
 
             d.reset_command_buffer(sub.cmd, vk::CommandBufferResetFlags::empty())
                 .map_err(|e| GpuError::Vulkan("vkResetCommandBuffer", e))?;
-            let begin = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+            let begin = vk::CommandBufferBeginInfo::default()
+                .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
             d.begin_command_buffer(sub.cmd, &begin)
                 .map_err(|e| GpuError::Vulkan("vkBeginCommandBuffer", e))?;
             d.cmd_bind_pipeline(sub.cmd, vk::PipelineBindPoint::COMPUTE, pipeline.pipeline);
-            d.cmd_bind_descriptor_sets(sub.cmd, vk::PipelineBindPoint::COMPUTE, pipeline.layout, 0, &[set], &[]);
+            d.cmd_bind_descriptor_sets(
+                sub.cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                pipeline.layout,
+                0,
+                &[set],
+                &[],
+            );
             let max_groups = self.owner.limits.max_compute_work_group_count[0].min(65_535);
             let chunk = max_groups * WORKGROUP_SIZE;
             let mut offset = 0u32;
             while offset < count {
                 let n = (count - offset).min(chunk);
-                let launch = Launch { offset, count, seed, _pad: 0 };
+                let launch = Launch {
+                    offset,
+                    count,
+                    seed,
+                    _pad: 0,
+                };
                 let mut push = bytemuck::bytes_of(&launch).to_vec();
                 push.extend_from_slice(extra_push);
-                d.cmd_push_constants(sub.cmd, pipeline.layout, vk::ShaderStageFlags::COMPUTE, 0, &push);
+                d.cmd_push_constants(
+                    sub.cmd,
+                    pipeline.layout,
+                    vk::ShaderStageFlags::COMPUTE,
+                    0,
+                    &push,
+                );
                 d.cmd_dispatch(sub.cmd, n.div_ceil(WORKGROUP_SIZE), 1, 1);
                 offset += n;
             }
@@ -198,7 +250,8 @@ impl Gpu {
                 .map_err(|e| GpuError::Vulkan("vkEndCommandBuffer", e))?;
             let cmds = [sub.cmd];
             let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
-            d.reset_fences(&[sub.fence]).map_err(|e| GpuError::Vulkan("vkResetFences", e))?;
+            d.reset_fences(&[sub.fence])
+                .map_err(|e| GpuError::Vulkan("vkResetFences", e))?;
             d.queue_submit(self.owner.queue, &submit, sub.fence)
                 .map_err(|e| lost_or(e, entry, "vkQueueSubmit"))?;
             d.wait_for_fences(&[sub.fence], true, u64::MAX)
@@ -222,8 +275,10 @@ fn lost_or(e: vk::Result, entry: &str, call: &'static str) -> GpuError {
 /// Entry-point names in the embedded module (from its OpEntryPoint instructions).
 pub fn kernel_names() -> impl Iterator<Item = String> {
     let words: Vec<u32> = KERNELS_SPV
-        .chunks_exact(4)
-        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .as_chunks::<4>()
+        .0
+        .iter()
+        .map(|c| u32::from_le_bytes(*c))
         .collect();
     let mut names = Vec::new();
     let mut i = 5;

@@ -38,7 +38,10 @@ impl Buffer {
         let Some(type_index) = owner.memory_type(req.memory_type_bits, flags) else {
             // SAFETY: the buffer is unused.
             unsafe { device.destroy_buffer(buffer, None) };
-            return Err(GpuError::Unsupported(owner.description.clone(), "host-visible coherent memory"));
+            return Err(GpuError::Unsupported(
+                owner.description.clone(),
+                "host-visible coherent memory",
+            ));
         };
         let alloc = vk::MemoryAllocateInfo::default()
             .allocation_size(req.size)
@@ -54,9 +57,9 @@ impl Buffer {
         };
         // SAFETY: memory of a compatible type, offset 0; mapping the whole allocation.
         let mapped = unsafe {
-            device
-                .bind_buffer_memory(buffer, memory, 0)
-                .and_then(|_| device.map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty()))
+            device.bind_buffer_memory(buffer, memory, 0).and_then(|_| {
+                device.map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty())
+            })
         };
         let mapped = match mapped {
             Ok(p) => p as *mut u8,
@@ -80,14 +83,20 @@ impl Buffer {
 
     /// Copies `data` to the start of the buffer.
     pub fn write(&mut self, data: &[u8]) {
-        assert!(data.len() as u64 <= self.size, "write past the end of a GPU buffer");
+        assert!(
+            data.len() as u64 <= self.size,
+            "write past the end of a GPU buffer"
+        );
         // SAFETY: the mapping covers `size` bytes and the GPU is idle (dispatcher invariant).
         unsafe { std::ptr::copy_nonoverlapping(data.as_ptr(), self.mapped, data.len()) };
     }
 
     /// Copies the start of the buffer into `out`.
     pub fn read(&self, out: &mut [u8]) {
-        assert!(out.len() as u64 <= self.size, "read past the end of a GPU buffer");
+        assert!(
+            out.len() as u64 <= self.size,
+            "read past the end of a GPU buffer"
+        );
         // SAFETY: as in `write`.
         unsafe { std::ptr::copy_nonoverlapping(self.mapped, out.as_mut_ptr(), out.len()) };
     }
@@ -155,14 +164,19 @@ impl Pipeline {
                 return Err(GpuError::Vulkan("vkCreatePipelineLayout", e));
             }
         };
-        let name = std::ffi::CString::new(entry).map_err(|_| GpuError::BadEntryPoint(entry.into()))?;
+        let name =
+            std::ffi::CString::new(entry).map_err(|_| GpuError::BadEntryPoint(entry.into()))?;
         let stage = vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::COMPUTE)
             .module(module)
             .name(&name);
-        let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)];
+        let info = [vk::ComputePipelineCreateInfo::default()
+            .stage(stage)
+            .layout(layout)];
         // SAFETY: the module outlives this call; the entry name was checked by the caller.
-        let pipeline = match unsafe { device.create_compute_pipelines(vk::PipelineCache::null(), &info, None) } {
+        let pipeline = match unsafe {
+            device.create_compute_pipelines(vk::PipelineCache::null(), &info, None)
+        } {
             Ok(p) => p[0],
             Err((_, e)) => {
                 // SAFETY: unused.
@@ -190,7 +204,9 @@ impl Drop for Pipeline {
         unsafe {
             self.owner.device.destroy_pipeline(self.pipeline, None);
             self.owner.device.destroy_pipeline_layout(self.layout, None);
-            self.owner.device.destroy_descriptor_set_layout(self.set_layout, None);
+            self.owner
+                .device
+                .destroy_descriptor_set_layout(self.set_layout, None);
         }
     }
 }
