@@ -4,5 +4,10 @@
 pub mod backend;
 pub mod cpu;
 pub mod gpu;
+pub mod volume;
+
+pub mod bricks;
+pub mod output;
+pub mod render;
 
 pub use backend::{Backend, BackendChoice};

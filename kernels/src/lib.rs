@@ -2,8 +2,10 @@
 //! the CPU backend calls the same functions over the same ids.
 #![cfg_attr(target_arch = "spirv", no_std)]
 
+use shared::grid::{Brick, GridDesc, VolumeView};
 use shared::launch::Launch;
 use shared::probe::{self, DepthPair, MathValues, RngDraws, TransmittancePair};
+use shared::render::{self, PixelOut, RenderParams};
 use spirv_std::glam::UVec3;
 use spirv_std::spirv;
 
@@ -42,5 +44,26 @@ pub fn rng_draws_cs(
 ) {
     if let Some(i) = launch.id(gid.x) {
         output[i] = probe::rng_draws(i as u32, launch.seed);
+    }
+}
+
+/// Primary-ray transmittance image: mean over spp of the chosen estimator, per pixel.
+#[spirv(compute(threads(64)))]
+pub fn render_cs(
+    #[spirv(global_invocation_id)] gid: UVec3,
+    #[spirv(push_constant)] launch: &Launch,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &[RenderParams],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] desc: &[GridDesc],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] voxels: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] bricks: &[Brick],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] output: &mut [PixelOut],
+) {
+    if let Some(i) = launch.id(gid.x) {
+        let vol = VolumeView {
+            desc: &desc[0],
+            voxels,
+            bricks,
+        };
+        output[i] = render::render_pixel(&vol, &params[0], i as u32);
     }
 }

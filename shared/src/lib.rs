@@ -1,12 +1,20 @@
 //! All estimator logic of the jackknife transmittance renderer, written once for the CPU and for
 //! SPIR-V (rust-gpu). Nothing here may depend on the target: one body per function.
 #![cfg_attr(not(test), no_std)]
+#![feature(core_float_math)]
 
+pub mod camera;
 pub mod complex;
+pub mod dda;
+pub mod grid;
+pub mod half;
 pub mod launch;
 pub mod math;
+pub mod optical_depth;
 pub mod probe;
+pub mod render;
 pub mod rng;
 pub mod transmittance;
+pub mod vec3;
 
 pub use complex::Complex;

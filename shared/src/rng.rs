@@ -58,6 +58,44 @@ impl Pcg32 {
     }
 }
 
+/// The paper's `rand()` (Sec. 4.3): a PCG-hash chain, state = pcg_hash(state), one u32 of state.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Pod, Zeroable)]
+pub struct HashRng {
+    pub state: u32,
+}
+
+impl HashRng {
+    /// A generator for one (pixel, sample, seed) triple: the three are hashed together.
+    #[inline]
+    pub fn for_sample(pixel: u32, sample: u32, seed: u32) -> Self {
+        HashRng {
+            state: pcg_hash(pixel ^ pcg_hash(sample ^ pcg_hash(seed))),
+        }
+    }
+
+    /// Next 32 random bits and the advanced generator.
+    #[inline]
+    pub fn next_u32(self) -> (u32, Self) {
+        let s = pcg_hash(self.state);
+        (s, HashRng { state: s })
+    }
+
+    /// Uniform in [0, 1) (24 bits).
+    #[inline]
+    pub fn next_f32(self) -> (f32, Self) {
+        let (bits, rng) = self.next_u32();
+        (unit_f32(bits), rng)
+    }
+
+    /// Uniform in (0, 1]: never 0, so a stratum offset k + xi never falls into stratum k - 1.
+    #[inline]
+    pub fn next_f32_open0(self) -> (f32, Self) {
+        let (u, rng) = self.next_f32();
+        (1.0 - u, rng)
+    }
+}
+
 /// `x.rotate_right(r)` written with shifts that stay in range for r = 0 on every target.
 #[inline]
 pub fn rotate_right(x: u32, r: u32) -> u32 {

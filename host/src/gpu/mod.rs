@@ -7,7 +7,8 @@ mod device;
 mod resources;
 
 pub use device::DeviceOwner;
-use resources::{Buffer, Pipeline, Submitter, MAX_BINDINGS};
+pub use resources::Buffer;
+use resources::{Pipeline, Submitter, MAX_BINDINGS};
 
 use ash::vk;
 use shared::launch::{Launch, WORKGROUP_SIZE};
@@ -116,9 +117,25 @@ impl Gpu {
         Ok(p)
     }
 
+    /// A storage buffer holding `data`, kept on the device across dispatches.
+    pub fn upload(&self, data: &[u8]) -> Result<Buffer, GpuError> {
+        let mut b = self.buffer(data.len() as u64)?;
+        b.write(data);
+        Ok(b)
+    }
+
+    /// An uninitialised storage buffer of `size` bytes (checked against the device limit).
+    pub fn buffer(&self, size: u64) -> Result<Buffer, GpuError> {
+        let limit = self.owner.limits.max_storage_buffer_range as u64;
+        if size > limit {
+            return Err(GpuError::TooLarge { size, limit });
+        }
+        Buffer::new(&self.owner, size)
+    }
+
     /// Runs kernel `entry` over ids 0..count: copies `inputs` to bindings 0..i, the `outputs` to
-    /// the next bindings, dispatches in chunks the device's workgroup-count limit allows, waits,
-    /// and copies the outputs back. `extra_push` follows the [`Launch`] header in push constants.
+    /// the next bindings, dispatches, waits, and copies the outputs back. `extra_push` follows
+    /// the [`Launch`] header in push constants.
     pub fn dispatch(
         &self,
         entry: &str,
@@ -128,34 +145,52 @@ impl Gpu {
         inputs: &[&[u8]],
         outputs: &mut [&mut [u8]],
     ) -> Result<(), GpuError> {
-        if count == 0 {
+        let mut bindings: Vec<Binding> = inputs.iter().map(|d| Binding::Input(d)).collect();
+        bindings.extend(outputs.iter_mut().map(|d| Binding::Output(d)));
+        self.dispatch_range(entry, 0..count, count, seed, extra_push, &mut bindings)
+    }
+
+    /// Runs kernel `entry` over ids `ids` of a launch of `count` ids, with the given bindings
+    /// (binding i of set 0 is `bindings[i]`), in as many dispatches as the device's
+    /// workgroup-count limit needs; waits for completion and copies `Output` bindings back.
+    pub fn dispatch_range(
+        &self,
+        entry: &str,
+        ids: std::ops::Range<u32>,
+        count: u32,
+        seed: u32,
+        extra_push: &[u8],
+        bindings: &mut [Binding],
+    ) -> Result<(), GpuError> {
+        if ids.is_empty() {
             return Ok(());
         }
-        let bindings = (inputs.len() + outputs.len()) as u32;
-        if bindings > MAX_BINDINGS || !extra_push.len().is_multiple_of(4) {
+        let n_bindings = bindings.len() as u32;
+        if n_bindings > MAX_BINDINGS || !extra_push.len().is_multiple_of(4) || ids.end > count {
             return Err(GpuError::Internal(format!(
                 "bad dispatch shape for {entry}"
             )));
         }
         let push_size = (std::mem::size_of::<Launch>() + extra_push.len()) as u32;
-        let pipeline = self.pipeline(entry, bindings, push_size)?;
-        let limit = self.owner.limits.max_storage_buffer_range as u64;
-        let mut buffers = Vec::with_capacity(bindings as usize);
-        for data in inputs
-            .iter()
-            .map(|d| &**d)
-            .chain(outputs.iter().map(|d| &**d))
-        {
-            if data.len() as u64 > limit {
-                return Err(GpuError::TooLarge {
-                    size: data.len() as u64,
-                    limit,
-                });
-            }
-            let mut b = Buffer::new(&self.owner, data.len() as u64)?;
-            b.write(data);
-            buffers.push(b);
+        let pipeline = self.pipeline(entry, n_bindings, push_size)?;
+        // Fresh buffers for Input/Output bindings; resident ones are used as they are.
+        let mut fresh: Vec<Option<Buffer>> = Vec::with_capacity(bindings.len());
+        for b in bindings.iter() {
+            fresh.push(match b {
+                Binding::Input(data) => Some(self.upload(data)?),
+                Binding::Output(data) => Some(self.buffer(data.len() as u64)?),
+                Binding::Resident(_) => None,
+            });
         }
+        let handles: Vec<(vk::Buffer, u64)> = bindings
+            .iter()
+            .zip(&fresh)
+            .map(|(b, f)| match (b, f) {
+                (Binding::Resident(r), _) => (r.buffer, r.size),
+                (_, Some(f)) => (f.buffer, f.size),
+                _ => unreachable!("fresh buffer exists for every non-resident binding"),
+            })
+            .collect();
 
         let sub = self
             .submitter
@@ -174,13 +209,13 @@ impl Gpu {
             let set = d
                 .allocate_descriptor_sets(&alloc)
                 .map_err(|e| GpuError::Vulkan("vkAllocateDescriptorSets", e))?[0];
-            let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
+            let infos: Vec<[vk::DescriptorBufferInfo; 1]> = handles
                 .iter()
-                .map(|b| {
+                .map(|&(buffer, size)| {
                     [vk::DescriptorBufferInfo::default()
-                        .buffer(b.buffer)
+                        .buffer(buffer)
                         .offset(0)
-                        .range(b.size)]
+                        .range(size)]
                 })
                 .collect();
             let writes: Vec<_> = infos
@@ -213,12 +248,12 @@ impl Gpu {
             );
             let max_groups = self.owner.limits.max_compute_work_group_count[0].min(65_535);
             let chunk = max_groups * WORKGROUP_SIZE;
-            let mut offset = 0u32;
-            while offset < count {
-                let n = (count - offset).min(chunk);
+            let mut offset = ids.start;
+            while offset < ids.end {
+                let n = (ids.end - offset).min(chunk);
                 let launch = Launch {
                     offset,
-                    count,
+                    count: offset + n,
                     seed,
                     _pad: 0,
                 };
@@ -257,11 +292,23 @@ impl Gpu {
             d.wait_for_fences(&[sub.fence], true, u64::MAX)
                 .map_err(|e| lost_or(e, entry, "vkWaitForFences"))?;
         }
-        for (out, b) in outputs.iter_mut().zip(&buffers[inputs.len()..]) {
-            b.read(out);
+        for (b, f) in bindings.iter_mut().zip(&fresh) {
+            if let (Binding::Output(out), Some(f)) = (b, f) {
+                f.read(out);
+            }
         }
         Ok(())
     }
+}
+
+/// One storage-buffer binding of a dispatch.
+pub enum Binding<'a> {
+    /// Copied into a fresh buffer before the dispatch.
+    Input(&'a [u8]),
+    /// A buffer made by [`Gpu::upload`] or [`Gpu::buffer`], reused across dispatches.
+    Resident(&'a Buffer),
+    /// A fresh buffer copied back into the slice after the dispatch.
+    Output(&'a mut [u8]),
 }
 
 fn lost_or(e: vk::Result, entry: &str, call: &'static str) -> GpuError {

@@ -1,0 +1,237 @@
+//! Rendering primary-ray transmittance images on either backend, with progress.
+
+use crate::backend::Backend;
+use crate::bricks::PackedVolume;
+use crate::gpu::Binding;
+use crate::volume::{Affine, DenseVolume};
+use anyhow::{Context, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use shared::camera::{Affine3x4, Camera};
+use shared::render::{render_pixel, PixelOut, RenderParams};
+use shared::vec3::V3;
+
+/// Axis-aligned world-space bounds of the volume's grid box [0, dims].
+pub fn world_bounds(vol: &DenseVolume) -> ([f64; 3], [f64; 3]) {
+    let m = vol.index_to_world.0;
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for c in 0..8 {
+        let p = [0, 1, 2].map(|a| {
+            if c >> a & 1 == 1 {
+                vol.dims[a] as f64
+            } else {
+                0.0
+            }
+        });
+        for r in 0..3 {
+            let w = m[r][0] as f64 * p[0]
+                + m[r][1] as f64 * p[1]
+                + m[r][2] as f64 * p[2]
+                + m[r][3] as f64;
+            lo[r] = lo[r].min(w);
+            hi[r] = hi[r].max(w);
+        }
+    }
+    (lo, hi)
+}
+
+/// Inverse of an index-to-world affine map, computed in f64; errors if it is singular.
+pub fn world_to_index(a: &Affine) -> Result<Affine3x4> {
+    let m = a.0.map(|r| r.map(|v| v as f64));
+    let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+        - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    anyhow::ensure!(
+        det.abs() > 1e-30 && det.is_finite(),
+        "the volume's index-to-world transform is singular"
+    );
+    let inv = [
+        [
+            (m[1][1] * m[2][2] - m[1][2] * m[2][1]) / det,
+            (m[0][2] * m[2][1] - m[0][1] * m[2][2]) / det,
+            (m[0][1] * m[1][2] - m[0][2] * m[1][1]) / det,
+        ],
+        [
+            (m[1][2] * m[2][0] - m[1][0] * m[2][2]) / det,
+            (m[0][0] * m[2][2] - m[0][2] * m[2][0]) / det,
+            (m[0][2] * m[1][0] - m[0][0] * m[1][2]) / det,
+        ],
+        [
+            (m[1][0] * m[2][1] - m[1][1] * m[2][0]) / det,
+            (m[0][1] * m[2][0] - m[0][0] * m[2][1]) / det,
+            (m[0][0] * m[1][1] - m[0][1] * m[1][0]) / det,
+        ],
+    ];
+    let t = [m[0][3], m[1][3], m[2][3]];
+    let rows = [0, 1, 2].map(|r| {
+        let tr = -(inv[r][0] * t[0] + inv[r][1] * t[1] + inv[r][2] * t[2]);
+        [
+            inv[r][0] as f32,
+            inv[r][1] as f32,
+            inv[r][2] as f32,
+            tr as f32,
+        ]
+    });
+    Ok(Affine3x4 { rows })
+}
+
+/// Where the camera is and what it sees.
+#[derive(Clone, Copy, Debug)]
+pub struct CameraSpec {
+    /// Eye position in world space; `None` = in front of the volume, slightly above.
+    pub position: Option<[f32; 3]>,
+    /// Point looked at; `None` = the volume's center.
+    pub look_at: Option<[f32; 3]>,
+    /// Vertical field of view in degrees.
+    pub fov_deg: f32,
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+fn normalize(a: [f64; 3]) -> [f64; 3] {
+    let l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+    [a[0] / l, a[1] / l, a[2] / l]
+}
+fn v3(a: [f64; 3]) -> V3 {
+    V3::new(a[0] as f32, a[1] as f32, a[2] as f32)
+}
+
+/// A pinhole camera for a `w` x `h` image; by default it frames the whole volume (y is up).
+pub fn make_camera(
+    spec: &CameraSpec,
+    bounds: ([f64; 3], [f64; 3]),
+    w: u32,
+    h: u32,
+) -> Result<Camera> {
+    let (lo, hi) = bounds;
+    let center = [0, 1, 2].map(|a| 0.5 * (lo[a] + hi[a]));
+    let radius = 0.5 * sub(hi, lo).iter().map(|v| v * v).sum::<f64>().sqrt();
+    let fov = (spec.fov_deg as f64).to_radians();
+    anyhow::ensure!(
+        fov > 0.0 && fov < std::f64::consts::PI,
+        "--fov must be in (0, 180) degrees"
+    );
+    let target = spec.look_at.map(|p| p.map(|v| v as f64)).unwrap_or(center);
+    let eye = match spec.position {
+        Some(p) => p.map(|v| v as f64),
+        None => {
+            let dist = radius / (0.5 * fov).sin() * 1.05;
+            let dir = normalize([0.35, 0.25, -1.0]);
+            [0, 1, 2].map(|a| center[a] + dir[a] * dist)
+        }
+    };
+    let fwd = sub(target, eye);
+    anyhow::ensure!(
+        fwd.iter().any(|v| *v != 0.0),
+        "--camera and --look-at must differ"
+    );
+    let fwd = normalize(fwd);
+    let mut right = cross(fwd, [0.0, 1.0, 0.0]);
+    if right.iter().map(|v| v * v).sum::<f64>() < 1e-12 {
+        right = cross(fwd, [0.0, 0.0, 1.0]);
+    }
+    let right = normalize(right);
+    let up = cross(right, fwd);
+    let th = (0.5 * fov).tan();
+    let aspect = w as f64 / h as f64;
+    Ok(Camera {
+        origin: v3(eye),
+        forward: v3(fwd),
+        right: v3(right.map(|v| v * th * aspect)),
+        up: v3(up.map(|v| v * th)),
+        ..Default::default()
+    })
+}
+
+fn progress_bar(len: u64, enabled: bool) -> ProgressBar {
+    if !enabled {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::new(len);
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{spinner} rendering [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}",
+        )
+        .expect("valid template")
+        .progress_chars("=> "),
+    );
+    bar
+}
+
+/// Renders every pixel of `params` on `backend`. Pixels go in row-major order.
+pub fn render(
+    backend: &Backend,
+    vol: &PackedVolume,
+    params: &RenderParams,
+    progress: bool,
+) -> Result<Vec<PixelOut>> {
+    let count = params
+        .width
+        .checked_mul(params.height)
+        .context("image too large")?;
+    // About 64 progress updates; each chunk is a whole number of workgroups.
+    let chunk = (count.div_ceil(64)).next_multiple_of(64).max(64);
+    let bar = progress_bar(count as u64, progress);
+    let out = match backend {
+        Backend::Cpu => {
+            use rayon::prelude::*;
+            let view = vol.view();
+            let mut out = vec![PixelOut::default(); count as usize];
+            for (c, block) in out.chunks_mut(chunk as usize).enumerate() {
+                let base = c as u32 * chunk;
+                block
+                    .par_iter_mut()
+                    .enumerate()
+                    .for_each(|(i, o)| *o = render_pixel(&view, params, base + i as u32));
+                bar.inc(block.len() as u64);
+            }
+            out
+        }
+        Backend::Gpu(gpu) => {
+            let voxels = gpu
+                .upload(bytemuck::cast_slice(&vol.voxels))
+                .context("uploading the volume")?;
+            let bricks = gpu
+                .upload(bytemuck::cast_slice(&vol.bricks))
+                .context("uploading the bricks")?;
+            let p = gpu.upload(bytemuck::bytes_of(params))?;
+            let d = gpu.upload(bytemuck::bytes_of(&vol.desc))?;
+            let size = count as u64 * std::mem::size_of::<PixelOut>() as u64;
+            let output = gpu.buffer(size).context("allocating the image")?;
+            let mut start = 0;
+            while start < count {
+                let end = (start + chunk).min(count);
+                let mut bindings = [
+                    Binding::Resident(&p),
+                    Binding::Resident(&d),
+                    Binding::Resident(&voxels),
+                    Binding::Resident(&bricks),
+                    Binding::Resident(&output),
+                ];
+                gpu.dispatch_range(
+                    "render_cs",
+                    start..end,
+                    count,
+                    params.seed,
+                    &[],
+                    &mut bindings,
+                )
+                .context("GPU kernel render_cs")?;
+                bar.inc((end - start) as u64);
+                start = end;
+            }
+            let mut out = vec![PixelOut::default(); count as usize];
+            output.read(bytemuck::cast_slice_mut(&mut out));
+            out
+        }
+    };
+    bar.finish_and_clear();
+    Ok(out)
+}

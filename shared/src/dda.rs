@@ -1,0 +1,213 @@
+//! Ray/box clipping and Amanatides-Woo traversal of the brick grid, in voxel index space.
+
+use crate::grid::GridDesc;
+use crate::math;
+use crate::vec3::V3;
+
+/// A ray x(t) = o + t d in voxel index space. `d` is the world-space unit direction mapped to
+/// index space, so t stays a world-space distance and extinction stays per world unit.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct Ray {
+    pub o: V3,
+    pub d: V3,
+}
+
+impl Ray {
+    /// The point at parameter t.
+    #[inline]
+    pub fn at(&self, t: f32) -> V3 {
+        self.o + self.d * t
+    }
+}
+
+/// Clips [t_lo, t_hi] to the box [0, hi] (slab test). Returns (t_enter, t_exit); the ray misses
+/// when `!(t_enter < t_exit)`. Axis-parallel rays are handled without 0 * inf.
+#[inline]
+pub fn clip_to_box(ray: &Ray, hi: V3, t_lo: f32, t_hi: f32) -> (f32, f32) {
+    let mut t0 = t_lo;
+    let mut t1 = t_hi;
+    let mut axis = 0;
+    while axis < 3 {
+        let o = ray.o.get(axis);
+        let d = ray.d.get(axis);
+        let h = hi.get(axis);
+        if d == 0.0 {
+            if !(o >= 0.0 && o <= h) {
+                return (1.0, 0.0);
+            }
+        } else {
+            let inv = 1.0 / d;
+            let ta = (0.0 - o) * inv;
+            let tb = (h - o) * inv;
+            let (near, far) = if ta < tb { (ta, tb) } else { (tb, ta) };
+            if near > t0 {
+                t0 = near;
+            }
+            if far < t1 {
+                t1 = far;
+            }
+        }
+        axis += 1;
+    }
+    (t0, t1)
+}
+
+/// One brick crossed by the ray: parameter range [t0, t1] and brick coordinates.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Segment {
+    pub t0: f32,
+    pub t1: f32,
+    pub cell: [u32; 3],
+}
+
+/// Amanatides-Woo DDA over the bricks. Boundary parameters are computed from the plane each time
+/// ((plane - o) / d), never accumulated, so two traversals of one ray agree on every t.
+#[derive(Clone, Copy, Debug)]
+pub struct BrickDda {
+    cx: i32,
+    cy: i32,
+    cz: i32,
+    sx: i32,
+    sy: i32,
+    sz: i32,
+    inv: V3,
+    o: V3,
+    t: f32,
+    t_end: f32,
+    size: f32,
+    dims: [i32; 3],
+    /// Steps left before the traversal is forced to end (guards against NaN loops).
+    budget: u32,
+    pub done: bool,
+}
+
+/// Sign of d as a step: +1, -1, or 0 for an axis the ray does not move along.
+#[inline]
+fn step_of(d: f32) -> i32 {
+    if d > 0.0 {
+        1
+    } else if d < 0.0 {
+        -1
+    } else {
+        0
+    }
+}
+
+/// 1/d, or 0 where d = 0 (that axis never crosses a plane).
+#[inline]
+fn inv_or_zero(d: f32) -> f32 {
+    if d == 0.0 {
+        0.0
+    } else {
+        1.0 / d
+    }
+}
+
+/// Brick index of coordinate v, clamped to [0, n-1].
+#[inline]
+fn cell_of(v: f32, size: f32, n: i32) -> i32 {
+    let c = math::floor(v / size);
+    if c < 0.0 {
+        0
+    } else if c >= n as f32 {
+        n - 1
+    } else {
+        c as i32
+    }
+}
+
+impl BrickDda {
+    /// Starts traversal at parameter t_start (inside the grid box) and ends at t_end.
+    pub fn new(desc: &GridDesc, ray: &Ray, t_start: f32, t_end: f32) -> Self {
+        let size = desc.brick_size as f32;
+        let dims = [
+            desc.brick_dims[0] as i32,
+            desc.brick_dims[1] as i32,
+            desc.brick_dims[2] as i32,
+        ];
+        let p = ray.at(t_start);
+        let valid = t_start < t_end && math::is_finite(t_start) && math::is_finite(t_end);
+        BrickDda {
+            cx: cell_of(p.x, size, dims[0]),
+            cy: cell_of(p.y, size, dims[1]),
+            cz: cell_of(p.z, size, dims[2]),
+            sx: step_of(ray.d.x),
+            sy: step_of(ray.d.y),
+            sz: step_of(ray.d.z),
+            inv: V3::new(
+                inv_or_zero(ray.d.x),
+                inv_or_zero(ray.d.y),
+                inv_or_zero(ray.d.z),
+            ),
+            o: ray.o,
+            t: t_start,
+            t_end,
+            size,
+            dims,
+            budget: (dims[0] + dims[1] + dims[2]) as u32 + 3,
+            done: !valid,
+        }
+    }
+
+    /// Parameter where the ray leaves the current cell along one axis (+inf if it never does).
+    #[inline]
+    fn exit(&self, c: i32, s: i32, o: f32, inv: f32) -> f32 {
+        if s == 0 {
+            return f32::INFINITY;
+        }
+        let plane = (c + if s > 0 { 1 } else { 0 }) as f32 * self.size;
+        (plane - o) * inv
+    }
+
+    /// The current brick's segment; advances to the next brick. Call only while `!done`.
+    pub fn step(&mut self) -> Segment {
+        let tx = self.exit(self.cx, self.sx, self.o.x, self.inv.x);
+        let ty = self.exit(self.cy, self.sy, self.o.y, self.inv.y);
+        let tz = self.exit(self.cz, self.sz, self.o.z, self.inv.z);
+        let cell = [self.cx as u32, self.cy as u32, self.cz as u32];
+        let t0 = self.t;
+        let mut t1 = tx;
+        let mut axis = 0;
+        if ty < t1 {
+            t1 = ty;
+            axis = 1;
+        }
+        if tz < t1 {
+            t1 = tz;
+            axis = 2;
+        }
+        if t1 < t0 {
+            // A plane behind the start (start exactly on a boundary): zero-length segment.
+            t1 = t0;
+        }
+        if t1 >= self.t_end {
+            t1 = self.t_end;
+            self.done = true;
+        } else {
+            if axis == 0 {
+                self.cx += self.sx;
+            } else if axis == 1 {
+                self.cy += self.sy;
+            } else {
+                self.cz += self.sz;
+            }
+            if self.cx < 0
+                || self.cy < 0
+                || self.cz < 0
+                || self.cx >= self.dims[0]
+                || self.cy >= self.dims[1]
+                || self.cz >= self.dims[2]
+            {
+                self.done = true;
+            }
+        }
+        self.t = t1;
+        if self.budget == 0 {
+            self.done = true;
+        } else {
+            self.budget -= 1;
+        }
+        Segment { t0, t1, cell }
+    }
+}

@@ -1,0 +1,223 @@
+//! Optical depth estimation along a ray: Alg. 2 (preparation) and Alg. 1 (two interleaved,
+//! stratified, importance-sampled estimates with the mu_min control variate), Sec. 4.
+
+use crate::dda::{BrickDda, Ray};
+use crate::grid::{Brick, Lookup, VolumeView};
+use crate::rng::{pcg3d, unit_f32, HashRng};
+use crate::vec3::V3;
+
+/// Which super-voxel statistic drives importance sampling and whether mu_min is subtracted.
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Importance {
+    /// P of Eq. 5 with the mu_min control variate (the paper's method).
+    VarianceAware = 0,
+    /// Mean extinction, no control variate (Kettunen et al. 2021; ablation of Fig. 9).
+    Mean = 1,
+}
+
+/// How the N samples of one estimate are jittered within their strata (Sec. 4.1).
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Jitter {
+    /// One independent offset per stratum (the paper's choice).
+    Stratified = 0,
+    /// One offset shared by all strata of an estimate.
+    Uniform = 1,
+}
+
+/// Sampling importance of a brick.
+#[inline]
+pub fn importance(b: &Brick, mode: Importance) -> f32 {
+    match mode {
+        Importance::VarianceAware => b.p,
+        Importance::Mean => b.mean,
+    }
+}
+
+/// Control variate mu_min of a brick (0 without a control variate).
+#[inline]
+pub fn mu_min(b: &Brick, mode: Importance) -> f32 {
+    match mode {
+        Importance::VarianceAware => b.mu_min,
+        Importance::Mean => 0.0,
+    }
+}
+
+/// Output of Alg. 2: the integral of importance F and the tight segment [t'_min, t'_max].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Prep {
+    pub f: f32,
+    pub t_min: f32,
+    pub t_max: f32,
+}
+
+/// Alg. 2: one DDA over the bricks of [t0, t1], summing (t_{n+1} - t_n) P into F and recording
+/// the entry of the first and the exit of the last brick with P != 0.
+pub fn prepare(vol: &VolumeView, ray: &Ray, t0: f32, t1: f32, mode: Importance) -> Prep {
+    let mut f = 0.0;
+    let mut t_min = t1;
+    let mut t_max = t0;
+    let mut dda = BrickDda::new(vol.desc, ray, t0, t1);
+    while !dda.done {
+        let seg = dda.step();
+        let p = importance(&vol.brick(seg.cell), mode);
+        f += (seg.t1 - seg.t0) * p;
+        if p != 0.0 {
+            if seg.t0 < t_min {
+                t_min = seg.t0;
+            }
+            if seg.t1 > t_max {
+                t_max = seg.t1;
+            }
+        }
+    }
+    Prep { f, t_min, t_max }
+}
+
+/// Two optical depth estimates of one ray and the number of high-resolution lookups they took.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DepthPairEstimate {
+    pub x0: f32,
+    pub x1: f32,
+    pub samples: u32,
+}
+
+/// Extinction at index-space point p with the chosen lookup; `key` decorrelates the jitter.
+#[inline]
+pub fn mu_at(vol: &VolumeView, p: V3, lookup: Lookup, key: [u32; 3]) -> f32 {
+    match lookup {
+        Lookup::Nearest => vol.mu_nearest(p),
+        Lookup::Stochastic => {
+            let h = pcg3d(key);
+            let j = V3::new(
+                unit_f32(h[0]) - 0.5,
+                unit_f32(h[1]) - 0.5,
+                unit_f32(h[2]) - 0.5,
+            );
+            vol.mu_nearest(p + j)
+        }
+    }
+}
+
+/// The brick segment a sample is placed in: its range, the CDF at its end and its statistics.
+#[derive(Clone, Copy, Default)]
+struct Placed {
+    t0: f32,
+    t1: f32,
+    f_end: f32,
+    p: f32,
+    mu_min: f32,
+}
+
+/// Alg. 1: two i.i.d. optical depth estimates with N samples each (CDF step F_delta = F / N),
+/// stratified or uniform jitter, over the tight segment of `prep`. Every estimate takes exactly
+/// N samples whenever F > 0; with F = 0 both estimates are exactly 0 and no sample is taken.
+#[allow(clippy::too_many_arguments)]
+pub fn estimate_pair(
+    vol: &VolumeView,
+    ray: &Ray,
+    prep: &Prep,
+    n: u32,
+    mode: Importance,
+    jitter: Jitter,
+    lookup: Lookup,
+    rng: HashRng,
+) -> (DepthPairEstimate, HashRng) {
+    if !(prep.f > 0.0) || n == 0 {
+        return (DepthPairEstimate::default(), rng);
+    }
+    let f_delta = prep.f / n as f32;
+    let (xi0, rng) = rng.next_f32_open0();
+    let (xi1, mut rng) = rng.next_f32_open0();
+    // Per estimate: samples taken k_j, current offset xi_j, running sum of (mu - mu_min) / P.
+    let (mut k0, mut k1) = (0u32, 0u32);
+    let (mut o0, mut o1) = (xi0, xi1);
+    let (mut sum0, mut sum1) = (0.0f32, 0.0f32);
+    let mut f = 0.0f32;
+    let mut tau_c = 0.0f32;
+    let mut cur = Placed::default();
+    let mut last_nonzero = Placed::default();
+    let mut have_nonzero = false;
+    let mut dda = BrickDda::new(vol.desc, ray, prep.t_min, prep.t_max);
+    let mut samples = 0u32;
+    // Each pass takes one high-resolution sample (coherent on SIMD hardware).
+    while k0 < n || k1 < n {
+        let j0 = k0 < n && (k1 >= n || f_delta * (k0 as f32 + o0) <= f_delta * (k1 as f32 + o1));
+        let target = if j0 {
+            f_delta * (k0 as f32 + o0)
+        } else {
+            f_delta * (k1 as f32 + o1)
+        };
+        // Advance over bricks until the CDF passes the target.
+        while target >= f && !dda.done {
+            let seg = dda.step();
+            let b = vol.brick(seg.cell);
+            let len = seg.t1 - seg.t0;
+            let p = importance(&b, mode);
+            let m = mu_min(&b, mode);
+            f += len * p;
+            tau_c += len * m;
+            cur = Placed {
+                t0: seg.t0,
+                t1: seg.t1,
+                f_end: f,
+                p,
+                mu_min: m,
+            };
+            if p > 0.0 {
+                last_nonzero = cur;
+                have_nonzero = true;
+            }
+        }
+        // Rounding can leave the last target a hair beyond the final CDF: the sample then goes to
+        // the end of the last brick with P > 0, so the count stays exactly N per estimate.
+        let seg = if target < f && cur.p > 0.0 {
+            cur
+        } else {
+            last_nonzero
+        };
+        if !have_nonzero {
+            break;
+        }
+        // Rewind to the sample location within the brick (Alg. 1), clamped against rounding.
+        let mut t = seg.t1 - (seg.f_end - target) / seg.p;
+        if t < seg.t0 {
+            t = seg.t0;
+        }
+        if t > seg.t1 {
+            t = seg.t1;
+        }
+        let key = [rng.state, samples, 0x9e37_79b9];
+        let contribution = (mu_at(vol, ray.at(t), lookup, key) - seg.mu_min) / seg.p;
+        samples += 1;
+        if j0 {
+            sum0 += contribution;
+            k0 += 1;
+            if jitter == Jitter::Stratified {
+                let (xi, r) = rng.next_f32_open0();
+                o0 = xi;
+                rng = r;
+            }
+        } else {
+            sum1 += contribution;
+            k1 += 1;
+            if jitter == Jitter::Stratified {
+                let (xi, r) = rng.next_f32_open0();
+                o1 = xi;
+                rng = r;
+            }
+        }
+    }
+    // The control variate needs the rest of the segment.
+    while !dda.done {
+        let seg = dda.step();
+        tau_c += (seg.t1 - seg.t0) * mu_min(&vol.brick(seg.cell), mode);
+    }
+    let est = DepthPairEstimate {
+        x0: f_delta * sum0 + tau_c,
+        x1: f_delta * sum1 + tau_c,
+        samples,
+    };
+    (est, rng)
+}

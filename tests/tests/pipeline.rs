@@ -1,0 +1,274 @@
+//! The jackknife pipeline (Alg. 2 + Alg. 1 + Eq. 4) on volumes built in the test.
+
+use host::bricks::{pack, PackedVolume};
+use host::render::{make_camera, render, world_bounds, world_to_index, CameraSpec};
+use host::volume::{Affine, DenseVolume};
+use host::Backend;
+use integration_tests::{assert_bytes_equal, gpu};
+use shared::dda::{clip_to_box, BrickDda, Ray};
+use shared::grid::Lookup;
+use shared::optical_depth::{estimate_pair, prepare, Importance, Jitter};
+use shared::render::{ray_transmittance, Estimator, RenderParams};
+use shared::rng::{pcg_hash, unit_f32, HashRng};
+use shared::vec3::V3;
+
+/// A sparse, lumpy test volume: hashed blobs with empty regions (deterministic).
+fn lumpy(n: u32) -> DenseVolume {
+    let mut v = Vec::with_capacity((n * n * n) as usize);
+    for z in 0..n {
+        for y in 0..n {
+            for x in 0..n {
+                let cell = pcg_hash(x / 8 + 101 * (y / 8) + 10007 * (z / 8));
+                let inside = cell % 3 != 0;
+                let fine = unit_f32(pcg_hash(x + n * (y + n * z)));
+                v.push(if inside {
+                    0.5 + 2.0 * fine * unit_f32(cell)
+                } else {
+                    0.0
+                });
+            }
+        }
+    }
+    DenseVolume::new(
+        "lumpy",
+        [n; 3],
+        v,
+        Affine::scale_translate([2.0 / n as f32; 3], [-1.0; 3]),
+    )
+    .unwrap()
+}
+
+fn constant(n: u32, c: f32) -> DenseVolume {
+    DenseVolume::new(
+        "constant",
+        [n; 3],
+        vec![c; (n * n * n) as usize],
+        Affine::identity(),
+    )
+    .unwrap()
+}
+
+fn params(vol: &DenseVolume, w: u32, h: u32, spp: u32, estimator: Estimator) -> RenderParams {
+    let spec = CameraSpec {
+        position: None,
+        look_at: None,
+        fov_deg: 40.0,
+    };
+    RenderParams {
+        camera: make_camera(&spec, world_bounds(vol), w, h).unwrap(),
+        world_to_index: world_to_index(&vol.index_to_world).unwrap(),
+        width: w,
+        height: h,
+        spp,
+        seed: 5,
+        n: 10,
+        estimator: estimator as u32,
+        importance: Importance::VarianceAware as u32,
+        jitter: Jitter::Stratified as u32,
+    }
+}
+
+/// Random index-space rays through (or near) the grid of `packed`.
+fn random_rays(packed: &PackedVolume, count: u32) -> Vec<Ray> {
+    let d = packed.desc.dims;
+    (0..count)
+        .map(|i| {
+            let r = |k: u32| unit_f32(pcg_hash(i * 8 + k));
+            let o = V3::new(
+                (r(0) * 3.0 - 1.0) * d[0] as f32,
+                (r(1) * 3.0 - 1.0) * d[1] as f32,
+                -(d[2] as f32),
+            );
+            let target = V3::new(r(2) * d[0] as f32, r(3) * d[1] as f32, r(4) * d[2] as f32);
+            let dir = target - o;
+            let len = dir.dot(dir).sqrt();
+            Ray {
+                o,
+                d: dir * (1.0 / len),
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn dda_segments_tile_the_clipped_ray_and_match_their_cells() {
+    let packed = pack(&lumpy(40), 1.0, 16, Lookup::Nearest).unwrap();
+    let d = packed.desc.dims;
+    let hi = V3::new(d[0] as f32, d[1] as f32, d[2] as f32);
+    let mut checked = 0;
+    for ray in random_rays(&packed, 2000) {
+        let (t0, t1) = clip_to_box(&ray, hi, 0.0, f32::INFINITY);
+        if !(t0 < t1) {
+            continue;
+        }
+        let mut dda = BrickDda::new(&packed.desc, &ray, t0, t1);
+        let mut t = t0;
+        while !dda.done {
+            let s = dda.step();
+            assert_eq!(s.t0, t, "segments must be contiguous");
+            assert!(s.t1 >= s.t0);
+            if s.t1 - s.t0 > 1e-3 {
+                let mid = ray.at(0.5 * (s.t0 + s.t1));
+                for a in 0..3 {
+                    let c = (mid.get(a) / 16.0).floor() as u32;
+                    assert_eq!(
+                        c, s.cell[a],
+                        "midpoint of [{}, {}] not in brick {:?}",
+                        s.t0, s.t1, s.cell
+                    );
+                }
+            }
+            t = s.t1;
+        }
+        assert!(
+            (t - t1).abs() <= 1e-4 * t1.abs().max(1.0),
+            "traversal ended at {t}, not {t1}"
+        );
+        checked += 1;
+    }
+    assert!(checked > 1000);
+}
+
+#[test]
+fn homogeneous_medium_is_exact_for_jackknife_and_naive() {
+    // Constant density: P = 0.01 mu_min, every sample contributes 0, X0 = X1 = tau_c = tau.
+    // 0.0625 is exact in f16, so the stored volume is exactly constant.
+    let c = 0.0625;
+    let vol = constant(48, c);
+    let packed = pack(&vol, 1.0, 16, Lookup::Nearest).unwrap();
+    let view = packed.view();
+    let hi = V3::new(48.0, 48.0, 48.0);
+    for (i, ray) in random_rays(&packed, 500).iter().enumerate() {
+        let (t0, t1) = clip_to_box(ray, hi, 0.0, f32::INFINITY);
+        if !(t0 < t1) {
+            continue;
+        }
+        let exact = (-(c as f64) * (t1 - t0) as f64).exp();
+        for est in [Estimator::Jackknife, Estimator::NaiveMean] {
+            let mut p = params(&vol, 1, 1, 1, est);
+            p.world_to_index = shared::camera::Affine3x4 {
+                rows: [
+                    [1.0, 0.0, 0.0, 0.0],
+                    [0.0, 1.0, 0.0, 0.0],
+                    [0.0, 0.0, 1.0, 0.0],
+                ],
+            };
+            let (t, samples, _) =
+                ray_transmittance(&view, &p, ray, HashRng::for_sample(i as u32, 0, 1));
+            assert_eq!(samples, 20);
+            assert!(
+                (t as f64 - exact).abs() <= 2e-6 * exact.max(1e-3),
+                "{est:?}: T = {t}, exact {exact}"
+            );
+        }
+    }
+}
+
+#[test]
+fn every_ray_through_a_nonempty_brick_takes_exactly_20_samples() {
+    // The lumpy volume with its x < 16 slab emptied: bricks with x index 0 are empty (their
+    // widened window reaches x = 16, which is still empty), so rays along z there have F = 0.
+    let mut vol = lumpy(64);
+    for (i, v) in vol.values.iter_mut().enumerate() {
+        if i % 64 <= 16 {
+            *v = 0.0;
+        }
+    }
+    let packed = pack(&vol, 1.0, 16, Lookup::Stochastic).unwrap();
+    let view = packed.view();
+    let d = packed.desc.dims;
+    let hi = V3::new(d[0] as f32, d[1] as f32, d[2] as f32);
+    let (mut with, mut without) = (0, 0);
+    let mut rays = random_rays(&packed, 20_000);
+    rays.extend((0..500).map(|i| Ray {
+        o: V3::new(0.5 + (i % 15) as f32, (i / 15) as f32 * 1.9, -5.0),
+        d: V3::new(0.0, 0.0, 1.0),
+    }));
+    for (i, ray) in rays.iter().enumerate() {
+        let (t0, t1) = clip_to_box(ray, hi, 0.0, f32::INFINITY);
+        if !(t0 < t1) {
+            continue;
+        }
+        for mode in [Importance::VarianceAware, Importance::Mean] {
+            let prep = prepare(&view, ray, t0, t1, mode);
+            for jitter in [Jitter::Stratified, Jitter::Uniform] {
+                let rng = HashRng::for_sample(i as u32, 0, 3);
+                let (est, _) =
+                    estimate_pair(&view, ray, &prep, 10, mode, jitter, Lookup::Stochastic, rng);
+                if prep.f > 0.0 {
+                    assert_eq!(
+                        est.samples, 20,
+                        "ray {i}: F = {}, {mode:?} {jitter:?}",
+                        prep.f
+                    );
+                    with += 1;
+                } else {
+                    assert_eq!(est.samples, 0);
+                    assert_eq!((est.x0, est.x1), (0.0, 0.0));
+                    without += 1;
+                }
+                assert!(
+                    est.x0 >= 0.0 && est.x1 >= 0.0,
+                    "negative optical depth {est:?}"
+                );
+            }
+        }
+    }
+    assert!(
+        with > 10_000 && without > 0,
+        "test rays must cover both cases ({with}, {without})"
+    );
+}
+
+#[test]
+fn transmittance_stays_in_unit_interval_and_empty_volume_gives_one() {
+    let vol = lumpy(48);
+    for lookup in [Lookup::Nearest, Lookup::Stochastic] {
+        let packed = pack(&vol, 4.0, 16, lookup).unwrap();
+        let view = packed.view();
+        let p = params(&vol, 1, 1, 1, Estimator::Jackknife);
+        for (i, ray) in random_rays(&packed, 5000).iter().enumerate() {
+            let (t, _, _) = ray_transmittance(&view, &p, ray, HashRng::for_sample(i as u32, 0, 9));
+            assert!((-1.0..=1.0).contains(&t), "T = {t}");
+        }
+    }
+    let empty = constant(32, 0.0);
+    let packed = pack(&empty, 1.0, 16, Lookup::Nearest).unwrap();
+    let p = params(&empty, 16, 16, 2, Estimator::Jackknife);
+    for px in render(&Backend::Cpu, &packed, &p, false).unwrap() {
+        assert_eq!(px.t_mean, 1.0);
+        assert_eq!(px.samples, 0);
+    }
+}
+
+#[test]
+fn gpu_and_cpu_render_identical_images_for_every_estimator_and_lookup() {
+    let gpu = Backend::Gpu(Box::new(gpu()));
+    let vol = lumpy(64);
+    for lookup in [Lookup::Nearest, Lookup::Stochastic] {
+        let packed = pack(&vol, 3.0, 16, lookup).unwrap();
+        for est in [Estimator::Jackknife, Estimator::NaiveMean] {
+            for (importance, jitter) in [
+                (Importance::VarianceAware, Jitter::Stratified),
+                (Importance::Mean, Jitter::Uniform),
+            ] {
+                let mut p = params(&vol, 48, 40, 3, est);
+                p.importance = importance as u32;
+                p.jitter = jitter as u32;
+                let g = render(&gpu, &packed, &p, false).unwrap();
+                let c = render(&Backend::Cpu, &packed, &p, false).unwrap();
+                let ids: Vec<u32> = (0..g.len() as u32).collect();
+                assert_bytes_equal(
+                    &format!("render_cs {lookup:?} {est:?} {importance:?} {jitter:?}"),
+                    &ids,
+                    &g,
+                    &c,
+                );
+                assert!(
+                    c.iter().any(|px| px.samples > 0),
+                    "the camera must see the volume"
+                );
+            }
+        }
+    }
+}
