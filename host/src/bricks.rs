@@ -70,12 +70,14 @@ pub fn pack(
         }
         halves.push(h.to_bits());
     }
-    if halves.len() % 2 == 1 {
+    if !halves.len().is_multiple_of(2) {
         halves.push(0);
     }
     let voxels: Vec<u32> = halves
-        .chunks_exact(2)
-        .map(|c| c[0] as u32 | (c[1] as u32) << 16)
+        .as_chunks::<2>()
+        .0
+        .iter()
+        .map(|&[lo, hi]| lo as u32 | (hi as u32) << 16)
         .collect();
     let brick_dims = [0, 1, 2].map(|a| dims[a].div_ceil(brick_size));
     let desc = GridDesc {

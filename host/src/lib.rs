@@ -2,12 +2,15 @@
 //! the operations both run from the same `shared` code.
 
 pub mod backend;
+pub mod cli;
+pub mod commands;
 pub mod cpu;
 pub mod gpu;
+pub mod io;
+pub mod procedural;
 pub mod volume;
 
+pub use backend::{Backend, BackendChoice};
 pub mod bricks;
 pub mod output;
 pub mod render;
-
-pub use backend::{Backend, BackendChoice};

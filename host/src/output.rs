@@ -3,14 +3,30 @@
 use anyhow::{Context, Result};
 use std::path::Path;
 
-/// Writes a single-channel linear image as an RGB EXR (all channels equal), f32.
+/// Writes a single-channel linear image as an RGB EXR (all channels equal), f32, ZIP-compressed
+/// scan lines in increasing order, written on one thread so equal images give equal bytes.
 pub fn write_exr(path: &Path, w: u32, h: u32, values: &[f32]) -> Result<()> {
     use exr::prelude::*;
-    write_rgb_file(path, w as usize, h as usize, |x, y| {
-        let v = values[y * w as usize + x];
+    let encoding = Encoding {
+        compression: Compression::ZIP16,
+        blocks: Blocks::ScanLines,
+        line_order: LineOrder::Increasing,
+    };
+    let channels = SpecificChannels::rgb(|pos: Vec2<usize>| {
+        let v = values[pos.y() * w as usize + pos.x()];
         (v, v, v)
-    })
-    .with_context(|| format!("writing {}", path.display()))
+    });
+    let layer = Layer::new(
+        (w as usize, h as usize),
+        LayerAttributes::named("transmittance"),
+        encoding,
+        channels,
+    );
+    Image::from_layer(layer)
+        .write()
+        .non_parallel()
+        .to_file(path)
+        .with_context(|| format!("writing {}", path.display()))
 }
 
 /// sRGB encoding of a linear value in [0, 1].

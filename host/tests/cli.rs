@@ -14,7 +14,10 @@ fn without_vulkan(cmd: &mut Command) -> &mut Command {
 
 #[test]
 fn default_run_reports_the_device_and_a_less_biased_jackknife() {
-    let out = host().args(["--count", "200000"]).output().unwrap();
+    let out = host()
+        .args(["probe", "--count", "200000"])
+        .output()
+        .unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
         out.status.success(),
@@ -36,7 +39,15 @@ fn default_run_reports_the_device_and_a_less_biased_jackknife() {
 fn cpu_and_gpu_print_identical_numbers() {
     let run = |backend: &str| {
         let out = host()
-            .args(["--count", "100000", "--seed", "9", "--backend", backend])
+            .args([
+                "probe",
+                "--count",
+                "100000",
+                "--seed",
+                "9",
+                "--backend",
+                backend,
+            ])
             .output()
             .unwrap();
         assert!(out.status.success());
@@ -53,7 +64,7 @@ fn cpu_and_gpu_print_identical_numbers() {
 #[test]
 fn without_a_driver_auto_falls_back_to_cpu_with_a_warning() {
     let out = without_vulkan(&mut host())
-        .args(["--count", "1000"])
+        .args(["probe", "--count", "1000"])
         .output()
         .unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -74,7 +85,7 @@ fn without_a_driver_auto_falls_back_to_cpu_with_a_warning() {
 #[test]
 fn without_a_driver_forced_gpu_fails_clearly() {
     let out = without_vulkan(&mut host())
-        .args(["--backend", "gpu", "--count", "1000"])
+        .args(["probe", "--backend", "gpu", "--count", "1000"])
         .output()
         .unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -101,4 +112,140 @@ fn bad_flags_get_helpful_errors() {
             "{args:?}: {stderr}"
         );
     }
+}
+
+/// A small, fast render of an embedded volume with the given extra flags; returns the JSON.
+fn small_render(
+    dir: &std::path::Path,
+    extra: &[&str],
+) -> (std::process::Output, serde_json::Value) {
+    let exr = dir.join("r.exr");
+    let json = dir.join("r.json");
+    let out = host()
+        .args([
+            "render",
+            "--resolution",
+            "64",
+            "--width",
+            "40",
+            "--height",
+            "32",
+            "--spp",
+            "2",
+            "--quiet",
+        ])
+        .args([
+            "--out",
+            exr.to_str().unwrap(),
+            "--json",
+            json.to_str().unwrap(),
+        ])
+        .args(extra)
+        .output()
+        .unwrap();
+    let value = std::fs::read_to_string(&json)
+        .ok()
+        .and_then(|t| serde_json::from_str(&t).ok())
+        .unwrap_or(serde_json::Value::Null);
+    (out, value)
+}
+
+#[test]
+fn render_writes_exr_png_and_a_complete_json_summary() {
+    let dir = tempfile::tempdir().unwrap();
+    let (out, json) = small_render(dir.path(), &["--backend", "cpu"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for field in [
+        "backend",
+        "device",
+        "volume",
+        "estimator",
+        "width",
+        "height",
+        "spp",
+        "seed",
+        "elapsed_ms",
+        "mean_samples_per_ray",
+        "mean_T",
+    ] {
+        assert!(json.get(field).is_some(), "JSON lacks {field}: {json}");
+    }
+    assert_eq!(json["backend"], "cpu");
+    assert_eq!(json["width"], 40);
+    let t = json["mean_T"].as_f64().unwrap();
+    assert!(t > 0.0 && t < 1.0, "mean_T {t}");
+    let spr = json["mean_samples_per_ray"].as_f64().unwrap();
+    assert!(spr > 0.0 && spr <= 20.0, "samples per ray {spr}");
+    assert!(dir.path().join("r.exr").metadata().unwrap().len() > 0);
+    let png = image::open(dir.path().join("r.png")).unwrap();
+    assert_eq!((png.width(), png.height()), (40, 32));
+}
+
+#[test]
+fn render_on_gpu_and_cpu_writes_identical_exr_files() {
+    let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    for (dir, backend) in [(&a, "gpu"), (&b, "cpu")] {
+        let (out, _) = small_render(
+            dir.path(),
+            &["--backend", backend, "--volume", "explosion", "--seed", "3"],
+        );
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let ga = std::fs::read(a.path().join("r.exr")).unwrap();
+    let gb = std::fs::read(b.path().join("r.exr")).unwrap();
+    assert!(ga == gb, "GPU and CPU EXR files differ");
+}
+
+#[test]
+fn render_rejects_bad_values_with_the_flag_name() {
+    let dir = tempfile::tempdir().unwrap();
+    for (extra, needle) in [
+        (&["--spp", "0"][..], "--spp"),
+        (&["--width", "0"], "--width"),
+        (&["--estimator", "magic"], "--estimator"),
+        (&["--volume", "no-such-volume"], "--volume"),
+        (&["--density-scale", "-1"], "--density-scale"),
+        (&["--camera", "1,2"], "--camera"),
+        (&["--fov", "0"], "--fov"),
+    ] {
+        let (out, _) = small_render(dir.path(), extra);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{extra:?} succeeded");
+        assert!(stderr.contains(needle), "{extra:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{extra:?}: {stderr}");
+    }
+}
+
+#[test]
+fn render_reads_openvdb_and_nanovdb_files_with_identical_results() {
+    // The same OpenVDB-written grid as .vdb and as its nanovdb_convert'ed .nvdb.
+    let fixtures = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/fixtures");
+    let mut pngs = Vec::new();
+    for file in ["density_zip.vdb", "density.nvdb"] {
+        let dir = tempfile::tempdir().unwrap();
+        let path = fixtures.join(file);
+        let (out, json) = small_render(
+            dir.path(),
+            &["--volume", path.to_str().unwrap(), "--density-scale", "5"],
+        );
+        assert!(
+            out.status.success(),
+            "{file}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(
+            json["mean_samples_per_ray"].as_f64().unwrap() > 0.0,
+            "{file}: camera missed the volume"
+        );
+        pngs.push(std::fs::read(dir.path().join("r.exr")).unwrap());
+    }
+    assert!(pngs[0] == pngs[1], ".vdb and .nvdb renders differ");
 }

@@ -19,7 +19,7 @@ fn lumpy(n: u32) -> DenseVolume {
         for y in 0..n {
             for x in 0..n {
                 let cell = pcg_hash(x / 8 + 101 * (y / 8) + 10007 * (z / 8));
-                let inside = cell % 3 != 0;
+                let inside = !cell.is_multiple_of(3);
                 let fine = unit_f32(pcg_hash(x + n * (y + n * z)));
                 v.push(if inside {
                     0.5 + 2.0 * fine * unit_f32(cell)

@@ -1,0 +1,416 @@
+//! Volume file loaders: a scalar grid of an OpenVDB (`.vdb`) or NanoVDB (`.nvdb`) file, made
+//! dense over its active voxels' bounding box.
+//!
+//! Index conventions: OpenVDB and NanoVDB put voxel centers at integer index coordinates (voxel
+//! `c` covers `[c - 0.5, c + 0.5]`), while [`DenseVolume`] voxel `i` covers `[i, i + 1)`. Dense
+//! voxel `i` is file voxel `bbox_min + i`, so a dense index point `p` is the file index point
+//! `p + bbox_min - 0.5`, and `index_to_world` is the file's map composed with that shift.
+//!
+//! Inactive voxels and tiles read as the grid's background value (0 for fog volumes), whatever
+//! value the file stores for them. Every error names the file and says what to do about it.
+
+mod blosc;
+mod bytes;
+mod nanovdb;
+mod openvdb;
+
+use crate::volume::{Affine, DenseVolume};
+use anyhow::{anyhow, bail, ensure, Context, Result};
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::path::Path;
+
+/// The grid loaded when none is named.
+pub const DEFAULT_GRID: &str = "density";
+
+/// Largest dense grid a loader builds (2^31 voxels, 8 GiB of f32).
+pub const MAX_DENSE_VOXELS: u64 = 1 << 31;
+
+/// Loads grid `grid` (default: "density", else the file's first float grid) of a `.vdb` or
+/// `.nvdb` file as a dense volume over its active voxels.
+pub fn load_volume(path: &Path, grid: Option<&str>) -> Result<DenseVolume> {
+    load_volume_capped(path, grid, MAX_DENSE_VOXELS)
+}
+
+/// [`load_volume`] refusing dense grids of more than `max_voxels` (at most [`MAX_DENSE_VOXELS`]).
+pub fn load_volume_capped(path: &Path, grid: Option<&str>, max_voxels: u64) -> Result<DenseVolume> {
+    let format = Format::of(path)?;
+    let cap = max_voxels.min(MAX_DENSE_VOXELS);
+    let loaded = guarded(|| match format {
+        Format::OpenVdb => openvdb::load(&read_file(path)?, grid, cap),
+        Format::NanoVdb => nanovdb::load(path, grid, cap),
+    })
+    .with_context(|| format!("cannot load {} file {}", format.name(), path.display()))?;
+    loaded.into_volume(path)
+}
+
+/// The volume file formats, by extension.
+#[derive(Clone, Copy)]
+enum Format {
+    OpenVdb,
+    NanoVdb,
+}
+
+impl Format {
+    /// The format named by `path`'s extension.
+    fn of(path: &Path) -> Result<Self> {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        match ext.as_deref() {
+            Some("vdb") => Ok(Format::OpenVdb),
+            Some("nvdb") => Ok(Format::NanoVdb),
+            _ => bail!(
+                "cannot load {}: unknown volume file extension; expected .vdb (OpenVDB) or .nvdb (NanoVDB)",
+                path.display()
+            ),
+        }
+    }
+
+    /// The format's name, for messages.
+    fn name(self) -> &'static str {
+        match self {
+            Format::OpenVdb => "OpenVDB",
+            Format::NanoVdb => "NanoVDB",
+        }
+    }
+}
+
+/// Reads a whole file, with an error naming it.
+fn read_file(path: &Path) -> Result<Vec<u8>> {
+    std::fs::read(path).with_context(|| format!("cannot read {}: check the path", path.display()))
+}
+
+/// Runs a parser, turning a panic (a bug or a third-party reader's bad-input assertion) into an
+/// error instead of unwinding through the caller.
+fn guarded<T>(parse: impl FnOnce() -> Result<T>) -> Result<T> {
+    catch_unwind(AssertUnwindSafe(parse)).unwrap_or_else(|payload| {
+        let msg = payload
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown panic".into());
+        Err(anyhow!(
+            "the reader panicked ({msg}): the file is probably corrupt"
+        ))
+    })
+}
+
+/// A grid listed in a file, for choosing one and for messages.
+#[derive(Clone, Debug)]
+struct GridEntry {
+    name: String,
+    /// The value type as the format names it ("float", "vec3s", "Int32", ...).
+    value_type: String,
+    /// Whether the loader can read this grid's values.
+    supported: bool,
+}
+
+/// Picks the grid to load: `requested`, else "density", else the first supported grid.
+fn select_grid(grids: &[GridEntry], requested: Option<&str>) -> Result<usize> {
+    ensure!(!grids.is_empty(), "the file contains no grids");
+    let name = requested.unwrap_or(DEFAULT_GRID);
+    let found = grids.iter().position(|g| g.name == name);
+    let index = match (found, requested) {
+        (Some(i), _) => i,
+        (None, Some(_)) => bail!("no grid named '{name}'; available grids: {}", list(grids)),
+        (None, None) => grids.iter().position(|g| g.supported).with_context(|| {
+            format!(
+                "no '{DEFAULT_GRID}' grid and no float grid to fall back on; available grids: {}",
+                list(grids)
+            )
+        })?,
+    };
+    let g = &grids[index];
+    ensure!(
+        g.supported,
+        "grid '{}' holds {} values, not scalar floats; pick a float grid (available grids: {})",
+        g.name,
+        g.value_type,
+        list(grids)
+    );
+    Ok(index)
+}
+
+/// "name (type), ..." for messages.
+fn list(grids: &[GridEntry]) -> String {
+    grids
+        .iter()
+        .map(|g| format!("{} ({})", g.name, g.value_type))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// A file's index-to-world map, `world = m * index + t`, with voxel centers at integer indices.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct LinearMap {
+    /// Row `r` gives world axis `r` from the three index axes.
+    m: [[f64; 3]; 3],
+    t: [f64; 3],
+}
+
+impl LinearMap {
+    /// A diagonal map: `world = scale * index + translation`.
+    fn scale_translate(scale: [f64; 3], translation: [f64; 3]) -> Self {
+        let mut m = [[0.0; 3]; 3];
+        for (a, row) in m.iter_mut().enumerate() {
+            row[a] = scale[a];
+        }
+        LinearMap { m, t: translation }
+    }
+
+    /// Whether every entry is finite.
+    fn is_finite(&self) -> bool {
+        self.m
+            .iter()
+            .flatten()
+            .chain(&self.t)
+            .all(|v| v.is_finite())
+    }
+
+    /// The dense grid's affine map, whose voxel (0,0,0) is file voxel `min` (see the module doc).
+    fn dense_affine(&self, min: [i32; 3]) -> Affine {
+        let shift: [f64; 3] = std::array::from_fn(|a| f64::from(min[a]) - 0.5);
+        Affine(std::array::from_fn(|r| {
+            let row = self.m[r];
+            let t = self.t[r] + (0..3).map(|c| row[c] * shift[c]).sum::<f64>();
+            [row[0] as f32, row[1] as f32, row[2] as f32, t as f32]
+        }))
+    }
+}
+
+/// What a format reader returns: the dense values and the file's map.
+struct Loaded {
+    dense: Dense,
+    map: LinearMap,
+}
+
+impl Loaded {
+    /// The validated [`DenseVolume`], named after the file.
+    fn into_volume(self, path: &Path) -> Result<DenseVolume> {
+        let name = path.display().to_string();
+        let Dense {
+            min, dims, values, ..
+        } = self.dense;
+        DenseVolume::new(name, dims, values, self.map.dense_affine(min)).with_context(|| {
+            format!(
+                "{} is not a density grid: use a fog volume with values >= 0",
+                path.display()
+            )
+        })
+    }
+}
+
+/// The bounding box of active voxels, grown tile by tile and leaf by leaf.
+#[derive(Default)]
+struct DenseBuilder {
+    bounds: Option<([i64; 3], [i64; 3])>,
+}
+
+impl DenseBuilder {
+    /// Includes the inclusive index box `min..=max`.
+    fn include(&mut self, min: [i64; 3], max: [i64; 3]) {
+        self.bounds = Some(match self.bounds {
+            None => (min, max),
+            Some((lo, hi)) => (
+                std::array::from_fn(|a| lo[a].min(min[a])),
+                std::array::from_fn(|a| hi[a].max(max[a])),
+            ),
+        });
+    }
+
+    /// Includes an active tile of `2^log2` voxels per axis at `origin`.
+    fn include_tile(&mut self, origin: [i32; 3], log2: u32) {
+        let min = origin.map(i64::from);
+        self.include(min, min.map(|v| v + (1i64 << log2) - 1));
+    }
+
+    /// Includes the active voxels of an 8^3 leaf (bit `x << 6 | y << 3 | z` of `mask`).
+    fn include_leaf(&mut self, origin: [i32; 3], mask: &[u64; 8]) {
+        let mut lo = [i64::MAX; 3];
+        let mut hi = [i64::MIN; 3];
+        for (w, &word) in mask.iter().enumerate() {
+            let mut bits = word;
+            while bits != 0 {
+                let n = w * 64 + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let local = [n >> 6, (n >> 3) & 7, n & 7];
+                for a in 0..3 {
+                    let v = i64::from(origin[a]) + local[a] as i64;
+                    lo[a] = lo[a].min(v);
+                    hi[a] = hi[a].max(v);
+                }
+            }
+        }
+        if lo[0] <= hi[0] {
+            self.include(lo, hi);
+        }
+    }
+
+    /// Allocates the dense grid over the bounds, filled with `background`; refuses empty grids
+    /// and grids above `cap` voxels before allocating.
+    fn allocate(&self, background: f32, cap: u64) -> Result<Dense> {
+        let (lo, hi) = self
+            .bounds
+            .context("the grid has no active voxels (it is empty); pick another grid")?;
+        let dims = dense_dims(lo, hi, cap)?;
+        let count = dims.iter().map(|&d| d as usize).product();
+        let min = lo.map(|v| v as i32);
+        Ok(Dense {
+            min,
+            dims,
+            values: vec![background; count],
+            background,
+        })
+    }
+}
+
+/// Voxel counts of the inclusive box `lo..=hi`, if its dense grid has at most `cap` voxels.
+fn dense_dims(lo: [i64; 3], hi: [i64; 3], cap: u64) -> Result<[u32; 3]> {
+    let d: [u64; 3] = std::array::from_fn(|a| (hi[a] - lo[a] + 1).max(0) as u64);
+    let total = d.iter().map(|&v| u128::from(v)).product::<u128>();
+    ensure!(
+        total > 0,
+        "the grid's bounding box {lo:?}..={hi:?} is empty"
+    );
+    ensure!(
+        total <= u128::from(cap),
+        "its active voxels span {}x{}x{} = {total} voxels (index box {lo:?}..={hi:?}), more than the \
+         {cap} a dense grid may hold; crop the volume to the region of interest or resample it coarser",
+        d[0],
+        d[1],
+        d[2]
+    );
+    Ok(d.map(|v| v as u32))
+}
+
+/// The dense grid being filled: voxel `min + (x, y, z)` is `values[x + dims.x * (y + dims.y * z)]`.
+struct Dense {
+    min: [i32; 3],
+    dims: [u32; 3],
+    values: Vec<f32>,
+    background: f32,
+}
+
+impl Dense {
+    /// The index of file voxel `ijk` in `values`, if it lies in the grid.
+    fn index(&self, ijk: [i64; 3]) -> Option<usize> {
+        let mut index = 0usize;
+        for a in (0..3).rev() {
+            let local = ijk[a] - i64::from(self.min[a]);
+            if local < 0 || local >= i64::from(self.dims[a]) {
+                return None;
+            }
+            index = index * self.dims[a] as usize + local as usize;
+        }
+        Some(index)
+    }
+
+    /// Sets file voxel `ijk` (ignored outside the grid).
+    fn set(&mut self, ijk: [i32; 3], value: f32) {
+        if let Some(i) = self.index(ijk.map(i64::from)) {
+            self.values[i] = value;
+        }
+    }
+
+    /// Sets every voxel of an active tile of `2^log2` voxels per axis at `origin`.
+    fn fill_tile(&mut self, origin: [i32; 3], log2: u32, value: f32) {
+        let lo: [i64; 3] =
+            std::array::from_fn(|a| i64::from(origin[a]).max(i64::from(self.min[a])));
+        let hi: [i64; 3] = std::array::from_fn(|a| {
+            (i64::from(origin[a]) + (1i64 << log2))
+                .min(i64::from(self.min[a]) + i64::from(self.dims[a]))
+        });
+        for z in lo[2]..hi[2] {
+            for y in lo[1]..hi[1] {
+                let (Some(start), Some(end)) =
+                    (self.index([lo[0], y, z]), self.index([hi[0] - 1, y, z]))
+                else {
+                    continue;
+                };
+                self.values[start..=end].fill(value);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn entry(name: &str, value_type: &str, supported: bool) -> GridEntry {
+        GridEntry {
+            name: name.into(),
+            value_type: value_type.into(),
+            supported,
+        }
+    }
+
+    #[test]
+    fn selection_prefers_density_then_first_float() {
+        let grids = [
+            entry("vel", "vec3s", false),
+            entry("heat", "float", true),
+            entry("density", "float", true),
+        ];
+        assert_eq!(select_grid(&grids, None).unwrap(), 2);
+        assert_eq!(select_grid(&grids[..2], None).unwrap(), 1);
+        assert_eq!(select_grid(&grids, Some("heat")).unwrap(), 1);
+        let err = select_grid(&grids, Some("smoke")).unwrap_err().to_string();
+        assert!(
+            err.contains("no grid named 'smoke'") && err.contains("vel (vec3s), heat (float)"),
+            "{err}"
+        );
+        let err = select_grid(&grids, Some("vel")).unwrap_err().to_string();
+        assert!(err.contains("vec3s"), "{err}");
+        let err = select_grid(&grids[..1], None).unwrap_err().to_string();
+        assert!(err.contains("no float grid"), "{err}");
+    }
+
+    #[test]
+    fn dense_affine_shifts_by_half_a_voxel() {
+        let map = LinearMap::scale_translate([2.0, 1.0, 0.5], [10.0, 0.0, 0.0]);
+        let a = map.dense_affine([3, -1, 0]);
+        // Dense point 0 is file index 2.5 on x: world 10 + 2 * 2.5 = 15.
+        assert_eq!(a.0[0], [2.0, 0.0, 0.0, 15.0]);
+        assert_eq!(a.0[1], [0.0, 1.0, 0.0, -1.5]);
+        assert_eq!(a.0[2], [0.0, 0.0, 0.5, -0.25]);
+    }
+
+    #[test]
+    fn oversized_boxes_are_refused_before_allocating() {
+        let err = dense_dims([0; 3], [2000; 3], MAX_DENSE_VOXELS)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("2001x2001x2001") && err.contains("crop"),
+            "{err}"
+        );
+        let err = dense_dims([i32::MIN.into(); 3], [i32::MAX.into(); 3], MAX_DENSE_VOXELS)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("4294967296x"), "{err}");
+        assert_eq!(dense_dims([-1, 0, 5], [1, 0, 6], 6).unwrap(), [3, 1, 2]);
+        assert!(dense_dims([-1, 0, 5], [1, 0, 6], 5).is_err());
+    }
+
+    #[test]
+    fn tiles_are_clipped_to_the_grid() {
+        let mut b = DenseBuilder::default();
+        b.include([0, 0, 0], [9, 1, 1]);
+        let mut dense = b.allocate(0.0, 1000).unwrap();
+        dense.fill_tile([8, 0, 0], 3, 2.0);
+        assert_eq!(
+            dense.values.iter().filter(|&&v| v == 2.0).count(),
+            2 * 2 * 2
+        );
+        assert_eq!(dense.values[8], 2.0);
+        assert_eq!(dense.values[7], 0.0);
+    }
+
+    #[test]
+    fn panics_become_errors() {
+        let err = guarded::<()>(|| panic!("boom")).unwrap_err().to_string();
+        assert!(err.contains("boom") && err.contains("corrupt"), "{err}");
+    }
+}
