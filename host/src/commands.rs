@@ -4,7 +4,7 @@ use crate::backend::Backend;
 use crate::bricks::pack;
 use crate::cli::{EstimatorArg, ImportanceArg, JitterArg, LookupArg, ProbeArgs, RenderArgs};
 use crate::output::{ensure_parent, write_exr, write_json, write_png};
-use crate::render::{make_camera, render, world_bounds, world_to_index, CameraSpec};
+use crate::render::{make_camera, occupied_world_bounds, render, world_to_index, CameraSpec};
 use crate::volume::DenseVolume;
 use anyhow::{bail, Context, Result};
 use shared::grid::Lookup;
@@ -95,7 +95,7 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderSummary> {
         fov_deg: args.fov,
     };
     let params = RenderParams {
-        camera: make_camera(&spec, world_bounds(&vol), args.width, args.height)?,
+        camera: make_camera(&spec, occupied_world_bounds(&vol), args.width, args.height)?,
         world_to_index: world_to_index(&vol.index_to_world)?,
         width: args.width,
         height: args.height,

@@ -12,21 +12,37 @@ use shared::vec3::V3;
 
 /// Axis-aligned world-space bounds of the volume's grid box [0, dims].
 pub fn world_bounds(vol: &DenseVolume) -> ([f64; 3], [f64; 3]) {
+    index_box_to_world(vol, [0; 3], vol.dims)
+}
+
+/// Axis-aligned world-space bounds of the voxels with non-zero density (the whole grid if none),
+/// so the default camera frames what is visible rather than the grid's padding.
+pub fn occupied_world_bounds(vol: &DenseVolume) -> ([f64; 3], [f64; 3]) {
+    let (mut lo, mut hi) = ([u32::MAX; 3], [0u32; 3]);
+    let [dx, dy, _] = vol.dims.map(|d| d as usize);
+    for (i, &v) in vol.values.iter().enumerate() {
+        if v > 0.0 {
+            let c = [(i % dx) as u32, (i / dx % dy) as u32, (i / (dx * dy)) as u32];
+            for a in 0..3 {
+                lo[a] = lo[a].min(c[a]);
+                hi[a] = hi[a].max(c[a] + 1);
+            }
+        }
+    }
+    if lo[0] == u32::MAX {
+        return world_bounds(vol);
+    }
+    index_box_to_world(vol, lo, hi)
+}
+
+/// World bounds of the index-space box [lo, hi].
+fn index_box_to_world(vol: &DenseVolume, lo_i: [u32; 3], hi_i: [u32; 3]) -> ([f64; 3], [f64; 3]) {
     let m = vol.index_to_world.0;
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
     for c in 0..8 {
-        let p = [0, 1, 2].map(|a| {
-            if c >> a & 1 == 1 {
-                vol.dims[a] as f64
-            } else {
-                0.0
-            }
-        });
+        let p = [0, 1, 2].map(|a| if c >> a & 1 == 1 { hi_i[a] as f64 } else { lo_i[a] as f64 });
         for r in 0..3 {
-            let w = m[r][0] as f64 * p[0]
-                + m[r][1] as f64 * p[1]
-                + m[r][2] as f64 * p[2]
-                + m[r][3] as f64;
+            let w = m[r][0] as f64 * p[0] + m[r][1] as f64 * p[1] + m[r][2] as f64 * p[2] + m[r][3] as f64;
             lo[r] = lo[r].min(w);
             hi[r] = hi[r].max(w);
         }
@@ -122,7 +138,8 @@ pub fn make_camera(
     let eye = match spec.position {
         Some(p) => p.map(|v| v as f64),
         None => {
-            let dist = radius / (0.5 * fov).sin() * 1.05;
+            // 0.8: the bounding sphere is loose; its corners are rarely occupied.
+            let dist = 0.8 * radius / (0.5 * fov).sin();
             let dir = normalize([0.35, 0.25, -1.0]);
             [0, 1, 2].map(|a| center[a] + dir[a] * dist)
         }
