@@ -22,7 +22,11 @@ pub fn occupied_world_bounds(vol: &DenseVolume) -> ([f64; 3], [f64; 3]) {
     let [dx, dy, _] = vol.dims.map(|d| d as usize);
     for (i, &v) in vol.values.iter().enumerate() {
         if v > 0.0 {
-            let c = [(i % dx) as u32, (i / dx % dy) as u32, (i / (dx * dy)) as u32];
+            let c = [
+                (i % dx) as u32,
+                (i / dx % dy) as u32,
+                (i / (dx * dy)) as u32,
+            ];
             for a in 0..3 {
                 lo[a] = lo[a].min(c[a]);
                 hi[a] = hi[a].max(c[a] + 1);
@@ -40,9 +44,18 @@ fn index_box_to_world(vol: &DenseVolume, lo_i: [u32; 3], hi_i: [u32; 3]) -> ([f6
     let m = vol.index_to_world.0;
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
     for c in 0..8 {
-        let p = [0, 1, 2].map(|a| if c >> a & 1 == 1 { hi_i[a] as f64 } else { lo_i[a] as f64 });
+        let p = [0, 1, 2].map(|a| {
+            if c >> a & 1 == 1 {
+                hi_i[a] as f64
+            } else {
+                lo_i[a] as f64
+            }
+        });
         for r in 0..3 {
-            let w = m[r][0] as f64 * p[0] + m[r][1] as f64 * p[1] + m[r][2] as f64 * p[2] + m[r][3] as f64;
+            let w = m[r][0] as f64 * p[0]
+                + m[r][1] as f64 * p[1]
+                + m[r][2] as f64 * p[2]
+                + m[r][3] as f64;
             lo[r] = lo[r].min(w);
             hi[r] = hi[r].max(w);
         }

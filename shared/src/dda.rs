@@ -53,7 +53,7 @@ pub fn clip_to_box(ray: &Ray, hi: V3, t_lo: f32, t_hi: f32) -> (f32, f32) {
     (t0, t1)
 }
 
-/// One brick crossed by the ray: parameter range [t0, t1] and brick coordinates.
+/// One cell crossed by the ray: parameter range [t0, t1] and cell coordinates.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Segment {
     pub t0: f32,
@@ -61,10 +61,11 @@ pub struct Segment {
     pub cell: [u32; 3],
 }
 
-/// Amanatides-Woo DDA over the bricks. Boundary parameters are computed from the plane each time
+/// Amanatides-Woo DDA over a grid of cubic cells of `size` voxels (bricks, or voxels with size 1
+/// for regular tracking). Boundary parameters are computed from the plane each time
 /// ((plane - o) / d), never accumulated, so two traversals of one ray agree on every t.
 #[derive(Clone, Copy, Debug)]
-pub struct BrickDda {
+pub struct GridDda {
     cx: i32,
     cy: i32,
     cz: i32,
@@ -117,18 +118,27 @@ fn cell_of(v: f32, size: f32, n: i32) -> i32 {
     }
 }
 
-impl BrickDda {
-    /// Starts traversal at parameter t_start (inside the grid box) and ends at t_end.
-    pub fn new(desc: &GridDesc, ray: &Ray, t_start: f32, t_end: f32) -> Self {
-        let size = desc.brick_size as f32;
-        let dims = [
-            desc.brick_dims[0] as i32,
-            desc.brick_dims[1] as i32,
-            desc.brick_dims[2] as i32,
-        ];
+impl GridDda {
+    /// Traversal of the bricks of `desc` from t_start (inside the grid box) to t_end.
+    #[inline]
+    pub fn bricks(desc: &GridDesc, ray: &Ray, t_start: f32, t_end: f32) -> Self {
+        let dims = [desc.brick_dims[0], desc.brick_dims[1], desc.brick_dims[2]];
+        Self::new(desc.brick_size as f32, dims, ray, t_start, t_end)
+    }
+
+    /// Traversal of the voxels of `desc` (regular tracking) from t_start to t_end.
+    #[inline]
+    pub fn voxels(desc: &GridDesc, ray: &Ray, t_start: f32, t_end: f32) -> Self {
+        let dims = [desc.dims[0], desc.dims[1], desc.dims[2]];
+        Self::new(1.0, dims, ray, t_start, t_end)
+    }
+
+    /// Traversal of cells of `size` voxels in a grid of `cells` cells, from t_start to t_end.
+    pub fn new(size: f32, cells: [u32; 3], ray: &Ray, t_start: f32, t_end: f32) -> Self {
+        let dims = [cells[0] as i32, cells[1] as i32, cells[2] as i32];
         let p = ray.at(t_start);
         let valid = t_start < t_end && math::is_finite(t_start) && math::is_finite(t_end);
-        BrickDda {
+        GridDda {
             cx: cell_of(p.x, size, dims[0]),
             cy: cell_of(p.y, size, dims[1]),
             cz: cell_of(p.z, size, dims[2]),

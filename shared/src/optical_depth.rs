@@ -1,7 +1,7 @@
 //! Optical depth estimation along a ray: Alg. 2 (preparation) and Alg. 1 (two interleaved,
 //! stratified, importance-sampled estimates with the mu_min control variate), Sec. 4.
 
-use crate::dda::{BrickDda, Ray};
+use crate::dda::{GridDda, Ray};
 use crate::grid::{Brick, Lookup, VolumeView};
 use crate::rng::{pcg3d, unit_f32, HashRng};
 use crate::vec3::V3;
@@ -58,7 +58,7 @@ pub fn prepare(vol: &VolumeView, ray: &Ray, t0: f32, t1: f32, mode: Importance) 
     let mut f = 0.0;
     let mut t_min = t1;
     let mut t_max = t0;
-    let mut dda = BrickDda::new(vol.desc, ray, t0, t1);
+    let mut dda = GridDda::bricks(vol.desc, ray, t0, t1);
     while !dda.done {
         let seg = dda.step();
         let p = importance(&vol.brick(seg.cell), mode);
@@ -139,7 +139,7 @@ pub fn estimate_pair(
     let mut cur = Placed::default();
     let mut last_nonzero = Placed::default();
     let mut have_nonzero = false;
-    let mut dda = BrickDda::new(vol.desc, ray, prep.t_min, prep.t_max);
+    let mut dda = GridDda::bricks(vol.desc, ray, prep.t_min, prep.t_max);
     let mut samples = 0u32;
     // Each pass takes one high-resolution sample (coherent on SIMD hardware).
     while k0 < n || k1 < n {

@@ -5,7 +5,7 @@ use host::render::{make_camera, render, world_bounds, world_to_index, CameraSpec
 use host::volume::{Affine, DenseVolume};
 use host::Backend;
 use integration_tests::{assert_bytes_equal, gpu};
-use shared::dda::{clip_to_box, BrickDda, Ray};
+use shared::dda::{clip_to_box, GridDda, Ray};
 use shared::grid::Lookup;
 use shared::optical_depth::{estimate_pair, prepare, Importance, Jitter};
 use shared::render::{ray_transmittance, Estimator, RenderParams};
@@ -101,7 +101,7 @@ fn dda_segments_tile_the_clipped_ray_and_match_their_cells() {
         if !(t0 < t1) {
             continue;
         }
-        let mut dda = BrickDda::new(&packed.desc, &ray, t0, t1);
+        let mut dda = GridDda::bricks(&packed.desc, &ray, t0, t1);
         let mut t = t0;
         while !dda.done {
             let s = dda.step();
