@@ -22,15 +22,8 @@ pub enum Command {
     Render(RenderArgs),
     /// Evaluate Eq. 4 on simulated normal optical-depth pairs and compare with exp(-tau).
     Probe(ProbeArgs),
-}
-
-/// Transmittance estimators of `host render`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum EstimatorArg {
-    /// Jackknife K = cos(S) exp(-X̄) (Eq. 4) on Alg. 1's two estimates.
-    Jackknife,
-    /// Naive exp(-X̄) on the same two estimates (biased up by Jensen's inequality).
-    Naive,
+    /// Measure bias, std, RMSE, samples/ray and time of estimators against a reference.
+    Eval(EvalArgs),
 }
 
 /// High-resolution lookups.
@@ -40,24 +33,6 @@ pub enum LookupArg {
     Nearest,
     /// Stochastic texture filtering: jitter by up to half a voxel, then nearest (Sec. 4.3).
     Stochastic,
-}
-
-/// Super-voxel importance.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum ImportanceArg {
-    /// RMS of (mu - mu_min) with the mu_min control variate (Eq. 5; the paper's method).
-    Variance,
-    /// Mean extinction without a control variate (Kettunen et al. 2021; Fig. 9 ablation).
-    Mean,
-}
-
-/// Jitter of the N samples of one estimate.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum JitterArg {
-    /// An independent offset per stratum (the paper's choice, Sec. 4.1).
-    Stratified,
-    /// One offset shared by all strata.
-    Uniform,
 }
 
 /// Flags of `host render`.
@@ -81,18 +56,17 @@ pub struct RenderArgs {
     /// How the high-resolution volume is read.
     #[arg(long, value_enum, default_value_t = LookupArg::Stochastic)]
     pub lookup: LookupArg,
-    /// Transmittance estimator.
-    #[arg(long, value_enum, default_value_t = EstimatorArg::Jackknife)]
-    pub estimator: EstimatorArg,
+    /// Transmittance estimator: jackknife, naive, naive-m1, jackknife-adaptive, jackknife-mean,
+    /// jackknife-uniform, biased-rm, biased-rm2, unbiased-rm, unbiased-rm2, track-length, ratio,
+    /// regular (see README).
+    #[arg(long, default_value = "jackknife", value_parser = crate::estimators::parse)]
+    pub estimator: &'static crate::estimators::EstimatorSpec,
     /// Samples per optical depth estimate (N; two estimates per ray).
     #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub n: u32,
-    /// Super-voxel importance for sampling.
-    #[arg(long, value_enum, default_value_t = ImportanceArg::Variance)]
-    pub importance: ImportanceArg,
-    /// Jitter of the samples within their strata.
-    #[arg(long, value_enum, default_value_t = JitterArg::Stratified)]
-    pub jitter: JitterArg,
+    /// CDF step of jackknife-adaptive (the author's default 0.3).
+    #[arg(long, default_value_t = 0.3, allow_negative_numbers = true)]
+    pub f_delta: f32,
     /// Image width in pixels.
     #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
     pub width: u32,
@@ -124,6 +98,81 @@ pub struct RenderArgs {
     #[arg(long, default_value_t = 40.0, allow_negative_numbers = true)]
     pub fov: f32,
     /// No progress bar.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// Flags of `host eval`.
+#[derive(Args, Debug, Clone)]
+pub struct EvalArgs {
+    /// Embedded volume (cloud, explosion, constant) or a .vdb / .nvdb file.
+    #[arg(long, default_value = "cloud")]
+    pub volume: String,
+    /// Grid to read from a file.
+    #[arg(long)]
+    pub grid: Option<String>,
+    /// Voxels per axis of an embedded volume.
+    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(8..=1024))]
+    pub resolution: u32,
+    /// Extinction per unit of stored density (default: the embedded volume's own, 1 for files).
+    #[arg(long, allow_negative_numbers = true)]
+    pub density_scale: Option<f32>,
+    /// Voxels per super-voxel (brick) along each axis.
+    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(2..=256))]
+    pub brick_size: u32,
+    /// Lookups: nearest (reference = regular tracking, exact) or stochastic (reference = ratio
+    /// tracking at --reference-spp, unbiased but noisy).
+    #[arg(long, value_enum, default_value_t = LookupArg::Nearest)]
+    pub lookup: LookupArg,
+    /// Comma-separated estimators, or "all" (every one but the reference).
+    #[arg(long, default_value = "all")]
+    pub estimators: String,
+    /// Samples per optical depth estimate (N).
+    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub n: u32,
+    /// CDF step of jackknife-adaptive.
+    #[arg(long, default_value_t = 0.3, allow_negative_numbers = true)]
+    pub f_delta: f32,
+    /// Image width.
+    #[arg(long, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub width: u32,
+    /// Image height.
+    #[arg(long, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub height: u32,
+    /// Estimates per pixel (all along the pixel center's ray).
+    #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(2..=1 << 20))]
+    pub spp: u32,
+    /// Estimates per pixel of the reference when it is stochastic (default 4 x --spp).
+    #[arg(long)]
+    pub reference_spp: Option<u32>,
+    /// Seed.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
+    /// Where kernels run.
+    #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
+    pub backend: BackendChoice,
+    /// Directory for the bias/std/mean EXRs and false-colour PNGs.
+    #[arg(long, default_value = "out/eval")]
+    pub out_dir: PathBuf,
+    /// JSON report path (default: <out-dir>/eval.json).
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// |bias| mapped to full colour in the bias PNGs.
+    #[arg(long, default_value_t = 0.05)]
+    pub bias_scale: f32,
+    /// std mapped to full colour in the std PNGs.
+    #[arg(long, default_value_t = 0.5)]
+    pub std_scale: f32,
+    /// Camera position x,y,z.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub camera: Option<[f32; 3]>,
+    /// Point looked at, x,y,z.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub look_at: Option<[f32; 3]>,
+    /// Vertical field of view in degrees.
+    #[arg(long, default_value_t = 40.0, allow_negative_numbers = true)]
+    pub fov: f32,
+    /// No progress bars.
     #[arg(long, short)]
     pub quiet: bool,
 }

@@ -2,15 +2,14 @@
 
 use crate::backend::Backend;
 use crate::bricks::pack;
-use crate::cli::{EstimatorArg, ImportanceArg, JitterArg, LookupArg, ProbeArgs, RenderArgs};
+use crate::cli::{EvalArgs, LookupArg, ProbeArgs, RenderArgs};
 use crate::output::{ensure_parent, write_exr, write_json, write_png};
 use crate::render::{make_camera, occupied_world_bounds, render, world_to_index, CameraSpec};
 use crate::volume::DenseVolume;
 use anyhow::{bail, Context, Result};
 use shared::grid::Lookup;
-use shared::optical_depth::{Importance, Jitter};
 use shared::probe::{self, DepthPair};
-use shared::render::{Estimator, RenderParams};
+use shared::render::RenderParams;
 use std::path::Path;
 use std::time::Instant;
 
@@ -53,13 +52,6 @@ pub struct RenderSummary {
     pub png: String,
 }
 
-fn estimator_name(e: EstimatorArg) -> &'static str {
-    match e {
-        EstimatorArg::Jackknife => "jackknife",
-        EstimatorArg::Naive => "naive",
-    }
-}
-
 /// `host render`: loads, packs, renders, writes EXR + PNG (+ JSON), prints a summary.
 pub fn run_render(args: &RenderArgs) -> Result<RenderSummary> {
     anyhow::ensure!(
@@ -94,7 +86,7 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderSummary> {
         look_at: args.look_at,
         fov_deg: args.fov,
     };
-    let params = RenderParams {
+    let mut params = RenderParams {
         camera: make_camera(&spec, occupied_world_bounds(&vol), args.width, args.height)?,
         world_to_index: world_to_index(&vol.index_to_world)?,
         width: args.width,
@@ -102,19 +94,11 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderSummary> {
         spp: args.spp,
         seed: args.seed,
         n: args.n,
-        estimator: match args.estimator {
-            EstimatorArg::Jackknife => Estimator::Jackknife,
-            EstimatorArg::Naive => Estimator::NaiveMean,
-        } as u32,
-        importance: match args.importance {
-            ImportanceArg::Variance => Importance::VarianceAware,
-            ImportanceArg::Mean => Importance::Mean,
-        } as u32,
-        jitter: match args.jitter {
-            JitterArg::Stratified => Jitter::Stratified,
-            JitterArg::Uniform => Jitter::Uniform,
-        } as u32,
+        f_delta: args.f_delta,
+        pixel_jitter: 1,
+        ..Default::default()
     };
+    args.estimator.apply(&mut params);
     let start = Instant::now();
     let pixels = render(&backend, &packed, &params, !args.quiet)?;
     let elapsed_ms = start.elapsed().as_secs_f64() * 1e3;
@@ -131,7 +115,7 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderSummary> {
         backend: backend.kind().into(),
         device: backend.device(),
         volume: vol.name.clone(),
-        estimator: estimator_name(args.estimator).into(),
+        estimator: args.estimator.name.into(),
         lookup: format!("{:?}", args.lookup).to_lowercase(),
         width: args.width,
         height: args.height,
@@ -226,4 +210,86 @@ pub fn run_probe(args: &ProbeArgs) -> Result<()> {
         naive - exact
     );
     Ok(())
+}
+
+fn lookup_of(arg: LookupArg) -> Lookup {
+    match arg {
+        LookupArg::Nearest => Lookup::Nearest,
+        LookupArg::Stochastic => Lookup::Stochastic,
+    }
+}
+
+/// `host eval`: the reference and each estimator on pixel-center rays; JSON + images.
+pub fn run_eval(args: &EvalArgs) -> Result<crate::eval::EvalReport> {
+    anyhow::ensure!(
+        args.fov.is_finite() && args.fov > 0.0 && args.fov < 180.0,
+        "--fov must be in (0, 180) degrees (got {})",
+        args.fov
+    );
+    anyhow::ensure!(
+        args.f_delta.is_finite() && args.f_delta > 0.0,
+        "--f-delta must be finite and > 0 (got {})",
+        args.f_delta
+    );
+    anyhow::ensure!(
+        args.bias_scale > 0.0 && args.std_scale > 0.0,
+        "--bias-scale and --std-scale must be > 0"
+    );
+    let estimators = crate::eval::parse_list(&args.estimators)?;
+    let (vol, default_scale) = load_volume(&args.volume, args.grid.as_deref(), args.resolution)?;
+    let density_scale = args.density_scale.unwrap_or(default_scale);
+    let lookup = lookup_of(args.lookup);
+    let packed = pack(&vol, density_scale, args.brick_size, lookup)?;
+    let backend = Backend::open(args.backend)?;
+    if !args.quiet {
+        eprintln!("backend: {} ({})", backend.kind(), backend.device());
+    }
+    let spec = CameraSpec {
+        position: args.camera,
+        look_at: args.look_at,
+        fov_deg: args.fov,
+    };
+    let params = RenderParams {
+        camera: make_camera(&spec, occupied_world_bounds(&vol), args.width, args.height)?,
+        world_to_index: world_to_index(&vol.index_to_world)?,
+        width: args.width,
+        height: args.height,
+        spp: args.spp,
+        seed: args.seed,
+        n: args.n,
+        f_delta: args.f_delta,
+        pixel_jitter: 0,
+        ..Default::default()
+    };
+    let (reference, reference_spp) = match lookup {
+        // Deterministic and exact for nearest lookups: one estimate per pixel suffices.
+        Lookup::Nearest => (
+            crate::estimators::by_name("regular").expect("registered"),
+            1,
+        ),
+        Lookup::Stochastic => (
+            crate::estimators::by_name("ratio").expect("registered"),
+            args.reference_spp.unwrap_or(4 * args.spp),
+        ),
+    };
+    let setup = crate::eval::EvalSetup {
+        backend: &backend,
+        volume: &packed,
+        volume_name: vol.name.clone(),
+        params,
+        reference,
+        reference_spp,
+        out_dir: &args.out_dir,
+        bias_scale: args.bias_scale,
+        std_scale: args.std_scale,
+        progress: !args.quiet,
+    };
+    let report = crate::eval::evaluate(&setup, &estimators)?;
+    let json = args
+        .json
+        .clone()
+        .unwrap_or_else(|| args.out_dir.join("eval.json"));
+    crate::eval::write_report(&json, &report)?;
+    println!("wrote {}", json.display());
+    Ok(report)
 }

@@ -5,6 +5,7 @@ pub mod backend;
 pub mod cli;
 pub mod commands;
 pub mod cpu;
+pub mod estimators;
 pub mod gpu;
 pub mod io;
 pub mod procedural;
@@ -12,5 +13,6 @@ pub mod volume;
 
 pub use backend::{Backend, BackendChoice};
 pub mod bricks;
+pub mod eval;
 pub mod output;
 pub mod render;

@@ -2,7 +2,7 @@
 
 use clap::Parser;
 use host::cli::{Cli, Command};
-use host::commands::{run_probe, run_render};
+use host::commands::{run_eval, run_probe, run_render};
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
@@ -11,6 +11,7 @@ fn main() -> ExitCode {
         None => run_render(&cli.render).map(|_| ()),
         Some(Command::Render(args)) => run_render(args).map(|_| ()),
         Some(Command::Probe(args)) => run_probe(args),
+        Some(Command::Eval(args)) => run_eval(args).map(|_| ()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

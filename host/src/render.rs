@@ -7,7 +7,7 @@ use crate::volume::{Affine, DenseVolume};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use shared::camera::{Affine3x4, Camera};
-use shared::render::{render_pixel, PixelOut, RenderParams};
+use shared::render::{finish_pixel, render_pixel_pass, PixelOut, PixelSums, RenderParams};
 use shared::vec3::V3;
 
 /// Axis-aligned world-space bounds of the volume's grid box [0, dims].
@@ -195,7 +195,11 @@ fn progress_bar(len: u64, enabled: bool) -> ProgressBar {
     bar
 }
 
-/// Renders every pixel of `params` on `backend`. Pixels go in row-major order.
+/// Samples per pixel per pass (see [`shared::render::RenderPass`] for why passes exist).
+pub const SPP_PER_PASS: u32 = 16;
+
+/// Renders every pixel of `params` on `backend`. Pixels go in row-major order. The work runs in
+/// passes of at most [`SPP_PER_PASS`] samples; within a pass, in chunks for the progress bar.
 pub fn render(
     backend: &Backend,
     vol: &PackedVolume,
@@ -206,23 +210,30 @@ pub fn render(
         .width
         .checked_mul(params.height)
         .context("image too large")?;
-    // About 64 progress updates; each chunk is a whole number of workgroups.
-    let chunk = (count.div_ceil(64)).next_multiple_of(64).max(64);
-    let bar = progress_bar(count as u64, progress);
-    let out = match backend {
+    anyhow::ensure!(params.spp > 0, "--spp must be at least 1");
+    let passes: Vec<(u32, u32)> = (0..params.spp)
+        .step_by(SPP_PER_PASS as usize)
+        .map(|s| (s, (s + SPP_PER_PASS).min(params.spp)))
+        .collect();
+    // About 64 progress updates overall; each chunk is a whole number of workgroups.
+    let per_pass = (64 / passes.len() as u32).max(1);
+    let chunk = count.div_ceil(per_pass).next_multiple_of(64).max(64);
+    let bar = progress_bar(count as u64 * params.spp as u64, progress);
+    let sums = match backend {
         Backend::Cpu => {
             use rayon::prelude::*;
             let view = vol.view();
-            let mut out = vec![PixelOut::default(); count as usize];
-            for (c, block) in out.chunks_mut(chunk as usize).enumerate() {
-                let base = c as u32 * chunk;
-                block
-                    .par_iter_mut()
-                    .enumerate()
-                    .for_each(|(i, o)| *o = render_pixel(&view, params, base + i as u32));
-                bar.inc(block.len() as u64);
+            let mut sums = vec![PixelSums::default(); count as usize];
+            for &(s0, s1) in &passes {
+                for (c, block) in sums.chunks_mut(chunk as usize).enumerate() {
+                    let base = c as u32 * chunk;
+                    block.par_iter_mut().enumerate().for_each(|(i, acc)| {
+                        *acc = render_pixel_pass(&view, params, base + i as u32, s0, s1, *acc);
+                    });
+                    bar.inc(block.len() as u64 * (s1 - s0) as u64);
+                }
             }
-            out
+            sums
         }
         Backend::Gpu(gpu) => {
             let voxels = gpu
@@ -233,35 +244,41 @@ pub fn render(
                 .context("uploading the bricks")?;
             let p = gpu.upload(bytemuck::bytes_of(params))?;
             let d = gpu.upload(bytemuck::bytes_of(&vol.desc))?;
-            let size = count as u64 * std::mem::size_of::<PixelOut>() as u64;
+            let size = count as u64 * std::mem::size_of::<PixelSums>() as u64;
             let output = gpu.buffer(size).context("allocating the image")?;
-            let mut start = 0;
-            while start < count {
-                let end = (start + chunk).min(count);
-                let mut bindings = [
-                    Binding::Resident(&p),
-                    Binding::Resident(&d),
-                    Binding::Resident(&voxels),
-                    Binding::Resident(&bricks),
-                    Binding::Resident(&output),
-                ];
-                gpu.dispatch_range(
-                    "render_cs",
-                    start..end,
-                    count,
-                    params.seed,
-                    &[],
-                    &mut bindings,
-                )
-                .context("GPU kernel render_cs")?;
-                bar.inc((end - start) as u64);
-                start = end;
+            for &(s0, s1) in &passes {
+                let extra = [s0, s1, 0, 0];
+                let mut start = 0;
+                while start < count {
+                    let end = (start + chunk).min(count);
+                    let mut bindings = [
+                        Binding::Resident(&p),
+                        Binding::Resident(&d),
+                        Binding::Resident(&voxels),
+                        Binding::Resident(&bricks),
+                        Binding::Resident(&output),
+                    ];
+                    gpu.dispatch_range(
+                        "render_cs",
+                        start..end,
+                        count,
+                        params.seed,
+                        bytemuck::cast_slice(&extra),
+                        &mut bindings,
+                    )
+                    .context("GPU kernel render_cs")?;
+                    bar.inc((end - start) as u64 * (s1 - s0) as u64);
+                    start = end;
+                }
             }
-            let mut out = vec![PixelOut::default(); count as usize];
-            output.read(bytemuck::cast_slice_mut(&mut out));
-            out
+            let mut sums = vec![PixelSums::default(); count as usize];
+            output.read(bytemuck::cast_slice_mut(&mut sums));
+            sums
         }
     };
     bar.finish_and_clear();
-    Ok(out)
+    Ok(sums
+        .into_iter()
+        .map(|s| finish_pixel(s, params.spp))
+        .collect())
 }

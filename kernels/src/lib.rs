@@ -5,7 +5,7 @@
 use shared::grid::{Brick, GridDesc, VolumeView};
 use shared::launch::Launch;
 use shared::probe::{self, DepthPair, MathValues, RngDraws, TransmittancePair};
-use shared::render::{self, PixelOut, RenderParams};
+use shared::render::{self, PixelSums, RenderParams, RenderPass};
 use spirv_std::glam::UVec3;
 use spirv_std::spirv;
 
@@ -47,23 +47,29 @@ pub fn rng_draws_cs(
     }
 }
 
-/// Primary-ray transmittance image: mean over spp of the chosen estimator, per pixel.
+/// One pass of a primary-ray transmittance image: adds samples s_begin..s_end of each pixel.
 #[spirv(compute(threads(64)))]
 pub fn render_cs(
     #[spirv(global_invocation_id)] gid: UVec3,
-    #[spirv(push_constant)] launch: &Launch,
+    #[spirv(push_constant)] pass: &RenderPass,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &[RenderParams],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] desc: &[GridDesc],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] voxels: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] bricks: &[Brick],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] output: &mut [PixelOut],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] sums: &mut [PixelSums],
 ) {
-    if let Some(i) = launch.id(gid.x) {
+    if let Some(i) = pass.launch.id(gid.x) {
         let vol = VolumeView {
             desc: &desc[0],
             voxels,
             bricks,
         };
-        output[i] = render::render_pixel(&vol, &params[0], i as u32);
+        let prev = if pass.s_begin == 0 {
+            PixelSums::default()
+        } else {
+            sums[i]
+        };
+        sums[i] =
+            render::render_pixel_pass(&vol, &params[0], i as u32, pass.s_begin, pass.s_end, prev);
     }
 }

@@ -12,8 +12,10 @@ pub mod launch;
 pub mod math;
 pub mod optical_depth;
 pub mod probe;
+pub mod ray_marching;
 pub mod render;
 pub mod rng;
+pub mod tracking;
 pub mod transmittance;
 pub mod vec3;
 

@@ -3,6 +3,7 @@
 
 use crate::dda::{GridDda, Ray};
 use crate::grid::{Brick, Lookup, VolumeView};
+use crate::math;
 use crate::rng::{pcg3d, unit_f32, HashRng};
 use crate::vec3::V3;
 
@@ -114,6 +115,7 @@ struct Placed {
 /// stratified or uniform jitter, over the tight segment of `prep`. Every estimate takes exactly
 /// N samples whenever F > 0; with F = 0 both estimates are exactly 0 and no sample is taken.
 #[allow(clippy::too_many_arguments)]
+#[inline]
 pub fn estimate_pair(
     vol: &VolumeView,
     ray: &Ray,
@@ -124,10 +126,123 @@ pub fn estimate_pair(
     lookup: Lookup,
     rng: HashRng,
 ) -> (DepthPairEstimate, HashRng) {
-    if !(prep.f > 0.0) || n == 0 {
+    let plan = Strata::fixed(prep, n, n);
+    estimate_interleaved(vol, ray, prep, &plan, mode, jitter, lookup, rng)
+}
+
+/// One optical depth estimate with N samples (m = 1), as Alg. 1 with a single estimate.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn estimate_single(
+    vol: &VolumeView,
+    ray: &Ray,
+    prep: &Prep,
+    n: u32,
+    mode: Importance,
+    jitter: Jitter,
+    lookup: Lookup,
+    rng: HashRng,
+) -> (f32, u32, HashRng) {
+    let plan = Strata::fixed(prep, n, 0);
+    let (est, rng) = estimate_interleaved(vol, ray, prep, &plan, mode, jitter, lookup, rng);
+    (est.x0, est.samples, rng)
+}
+
+/// Most strata per estimate in the adaptive variant (bounds the work per ray on the GPU).
+pub const MAX_ADAPTIVE_STRATA: u32 = 1024;
+
+/// Alg. 1 with a constant CDF step F_delta (the paper's adaptive variant, Fig. 8d): the sample
+/// count grows with the importance integral F; the last, partial stratum is sampled only when
+/// its jittered target falls below F, which keeps the estimate unbiased.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn estimate_pair_adaptive(
+    vol: &VolumeView,
+    ray: &Ray,
+    prep: &Prep,
+    f_delta: f32,
+    mode: Importance,
+    jitter: Jitter,
+    lookup: Lookup,
+    rng: HashRng,
+) -> (DepthPairEstimate, HashRng) {
+    let plan = Strata::adaptive(prep, f_delta);
+    estimate_interleaved(vol, ray, prep, &plan, mode, jitter, lookup, rng)
+}
+
+/// How Alg. 1 divides the importance CDF: step, strata per estimate, and whether targets past
+/// F are skipped (adaptive) or clamped into the last brick (fixed count; only rounding).
+#[derive(Clone, Copy, Debug)]
+pub struct Strata {
+    pub f_delta: f32,
+    pub n0: u32,
+    pub n1: u32,
+    pub adaptive: bool,
+}
+
+impl Strata {
+    /// F_delta = F / N with exactly n0 and n1 samples (Sec. 4.3, fixed sample count).
+    #[inline]
+    pub fn fixed(prep: &Prep, n0: u32, n1: u32) -> Self {
+        let n = if n0 > n1 { n0 } else { n1 };
+        Strata {
+            f_delta: prep.f / n as f32,
+            n0,
+            n1,
+            adaptive: false,
+        }
+    }
+
+    /// A constant F_delta; ceil(F / F_delta) strata per estimate, capped.
+    #[inline]
+    pub fn adaptive(prep: &Prep, f_delta: f32) -> Self {
+        let strata = if f_delta > 0.0 {
+            let q = prep.f / f_delta;
+            if q >= MAX_ADAPTIVE_STRATA as f32 {
+                MAX_ADAPTIVE_STRATA
+            } else {
+                let c = math::floor(q) as u32;
+                if (c as f32) < q {
+                    c + 1
+                } else {
+                    c
+                }
+            }
+        } else {
+            0
+        };
+        // With the cap reached, widen the step so the strata still cover [0, F].
+        let f_delta = if strata == MAX_ADAPTIVE_STRATA && prep.f > f_delta * strata as f32 {
+            prep.f / strata as f32
+        } else {
+            f_delta
+        };
+        Strata {
+            f_delta,
+            n0: strata,
+            n1: strata,
+            adaptive: true,
+        }
+    }
+}
+
+/// The shared loop of Alg. 1: up to two interleaved estimates over one DDA (Sec. 4.3).
+#[allow(clippy::too_many_arguments)]
+pub fn estimate_interleaved(
+    vol: &VolumeView,
+    ray: &Ray,
+    prep: &Prep,
+    plan: &Strata,
+    mode: Importance,
+    jitter: Jitter,
+    lookup: Lookup,
+    rng: HashRng,
+) -> (DepthPairEstimate, HashRng) {
+    let (n0, n1) = (plan.n0, plan.n1);
+    if !(prep.f > 0.0) || (n0 == 0 && n1 == 0) || !(plan.f_delta > 0.0) {
         return (DepthPairEstimate::default(), rng);
     }
-    let f_delta = prep.f / n as f32;
+    let f_delta = plan.f_delta;
     let (xi0, rng) = rng.next_f32_open0();
     let (xi1, mut rng) = rng.next_f32_open0();
     // Per estimate: samples taken k_j, current offset xi_j, running sum of (mu - mu_min) / P.
@@ -142,13 +257,22 @@ pub fn estimate_pair(
     let mut dda = GridDda::bricks(vol.desc, ray, prep.t_min, prep.t_max);
     let mut samples = 0u32;
     // Each pass takes one high-resolution sample (coherent on SIMD hardware).
-    while k0 < n || k1 < n {
-        let j0 = k0 < n && (k1 >= n || f_delta * (k0 as f32 + o0) <= f_delta * (k1 as f32 + o1));
+    while k0 < n0 || k1 < n1 {
+        let j0 = k0 < n0 && (k1 >= n1 || f_delta * (k0 as f32 + o0) <= f_delta * (k1 as f32 + o1));
         let target = if j0 {
             f_delta * (k0 as f32 + o0)
         } else {
             f_delta * (k1 as f32 + o1)
         };
+        if plan.adaptive && target >= prep.f {
+            // The jittered target of a partial last stratum fell past F: no sample there.
+            if j0 {
+                k0 = n0;
+            } else {
+                k1 = n1;
+            }
+            continue;
+        }
         // Advance over bricks until the CDF passes the target.
         while target >= f && !dda.done {
             let seg = dda.step();

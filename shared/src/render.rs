@@ -3,8 +3,13 @@
 use crate::camera::{to_index_space, Affine3x4, Camera};
 use crate::dda::clip_to_box;
 use crate::grid::{Lookup, VolumeView};
-use crate::optical_depth::{estimate_pair, prepare, Importance, Jitter};
+use crate::math;
+use crate::optical_depth::{
+    estimate_pair, estimate_pair_adaptive, estimate_single, prepare, Importance, Jitter,
+};
+use crate::ray_marching::{biased_ray_marching, unbiased_ray_marching};
 use crate::rng::HashRng;
+use crate::tracking::{ratio_tracking, regular_tracking_tau, track_length};
 use crate::transmittance;
 use crate::vec3::V3;
 use bytemuck::{Pod, Zeroable};
@@ -15,18 +20,51 @@ use bytemuck::{Pod, Zeroable};
 pub enum Estimator {
     /// Jackknife K = cos(S) exp(-X̄) from Alg. 1's two estimates (Eq. 4).
     Jackknife = 0,
-    /// Naive exp(-X̄) from the same two estimates.
+    /// Naive exp(-X̄) from the same two estimates (m = 2).
     NaiveMean = 1,
+    /// Naive exp(-X) from one estimate with all 2N samples (m = 1).
+    NaiveSingle = 2,
+    /// Jackknife with a constant CDF step F_delta instead of F / N (Fig. 8d).
+    JackknifeAdaptive = 3,
+    /// Kettunen et al.'s biased ray marching, exp(-X) with N_CMF mean-importance samples.
+    BiasedRayMarching = 4,
+    /// Kettunen et al.'s unbiased ray marching (power series, roulette, U-statistics).
+    UnbiasedRayMarching = 5,
+    /// exp(-tau) with tau exact for the nearest-neighbour grid (voxel DDA): the reference.
+    RegularTracking = 6,
+    /// Track-length estimate (delta tracking over per-brick majorants): 0 or 1.
+    TrackLength = 7,
+    /// Ratio tracking over per-brick majorants, with Russian roulette.
+    RatioTracking = 8,
 }
 
 impl Estimator {
+    /// Every estimator, in enum order.
+    pub const ALL: [Estimator; 9] = [
+        Estimator::Jackknife,
+        Estimator::NaiveMean,
+        Estimator::NaiveSingle,
+        Estimator::JackknifeAdaptive,
+        Estimator::BiasedRayMarching,
+        Estimator::UnbiasedRayMarching,
+        Estimator::RegularTracking,
+        Estimator::TrackLength,
+        Estimator::RatioTracking,
+    ];
+
     /// From the stored u32 (unknown values read as the jackknife).
     #[inline]
     pub fn from_u32(v: u32) -> Self {
-        if v == 1 {
-            Estimator::NaiveMean
-        } else {
-            Estimator::Jackknife
+        match v {
+            1 => Estimator::NaiveMean,
+            2 => Estimator::NaiveSingle,
+            3 => Estimator::JackknifeAdaptive,
+            4 => Estimator::BiasedRayMarching,
+            5 => Estimator::UnbiasedRayMarching,
+            6 => Estimator::RegularTracking,
+            7 => Estimator::TrackLength,
+            8 => Estimator::RatioTracking,
+            _ => Estimator::Jackknife,
         }
     }
 }
@@ -49,6 +87,14 @@ pub struct RenderParams {
     pub importance: u32,
     /// [`Jitter`] as u32.
     pub jitter: u32,
+    /// Sample-count multiplier of Kettunen et al.'s ray marching (1 as published, 2 doubled).
+    pub rm_scale: f32,
+    /// CDF step of the adaptive jackknife variant (author's default 0.3).
+    pub f_delta: f32,
+    /// 1: jitter rays within their pixel (anti-aliasing); 0: every sample uses the pixel center,
+    /// so per-pixel statistics measure the transmittance estimator alone (`host eval`).
+    pub pixel_jitter: u32,
+    pub _pad: [u32; 3],
 }
 
 /// Per-pixel result: mean transmittance over spp and the high-resolution lookups taken.
@@ -56,7 +102,10 @@ pub struct RenderParams {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct PixelOut {
     pub t_mean: f32,
+    /// Mean of the squared estimates (for the per-pixel standard deviation).
+    pub t2_mean: f32,
     pub samples: u32,
+    pub _pad: u32,
 }
 
 /// Transmittance estimate of one world-space ray through the whole volume, and its lookups.
@@ -85,36 +134,117 @@ pub fn ray_transmittance(
         Jitter::Stratified
     };
     let lookup = Lookup::from_u32(vol.desc.lookup);
-    let prep = prepare(vol, &ray, t0, t1, mode);
-    let (est, rng) = estimate_pair(vol, &ray, &prep, params.n, mode, jitter, lookup, rng);
-    let t = match Estimator::from_u32(params.estimator) {
-        Estimator::Jackknife => transmittance::jackknife(est.x0, est.x1),
-        Estimator::NaiveMean => transmittance::naive(est.x0, est.x1),
-    };
-    (t, est.samples, rng)
+    let which = Estimator::from_u32(params.estimator);
+    match which {
+        Estimator::Jackknife | Estimator::NaiveMean => {
+            let prep = prepare(vol, &ray, t0, t1, mode);
+            let (est, rng) = estimate_pair(vol, &ray, &prep, params.n, mode, jitter, lookup, rng);
+            let t = if which == Estimator::Jackknife {
+                transmittance::jackknife(est.x0, est.x1)
+            } else {
+                transmittance::naive(est.x0, est.x1)
+            };
+            (t, est.samples, rng)
+        }
+        Estimator::NaiveSingle => {
+            let prep = prepare(vol, &ray, t0, t1, mode);
+            let (x, n, rng) =
+                estimate_single(vol, &ray, &prep, 2 * params.n, mode, jitter, lookup, rng);
+            (math::exp(-x), n, rng)
+        }
+        Estimator::JackknifeAdaptive => {
+            let prep = prepare(vol, &ray, t0, t1, mode);
+            let (est, rng) =
+                estimate_pair_adaptive(vol, &ray, &prep, params.f_delta, mode, jitter, lookup, rng);
+            (transmittance::jackknife(est.x0, est.x1), est.samples, rng)
+        }
+        Estimator::BiasedRayMarching => {
+            biased_ray_marching(vol, &ray, t0, t1, params.rm_scale, lookup, rng)
+        }
+        Estimator::UnbiasedRayMarching => {
+            unbiased_ray_marching(vol, &ray, t0, t1, params.rm_scale, lookup, rng)
+        }
+        Estimator::RegularTracking => {
+            let (tau, n) = regular_tracking_tau(vol, &ray, t0, t1);
+            (math::exp(-tau), n, rng)
+        }
+        Estimator::TrackLength => track_length(vol, &ray, t0, t1, lookup, rng),
+        Estimator::RatioTracking => ratio_tracking(vol, &ray, t0, t1, lookup, rng),
+    }
 }
 
-/// Mean transmittance of pixel `id` (row-major) over `spp` jittered primary rays.
-pub fn render_pixel(vol: &VolumeView, params: &RenderParams, id: u32) -> PixelOut {
+/// Running sums of one pixel's estimates (accumulated over render passes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct PixelSums {
+    pub t_sum: f32,
+    pub t2_sum: f32,
+    pub samples: u32,
+    pub _pad: u32,
+}
+
+/// Push constants of the render kernel: the launch header, then the pass's sample range.
+///
+/// Passes keep each invocation's work short: lavapipe (gallivm) silently ends any shader loop
+/// after 65535 iterations, so a whole-spp loop in one invocation gave wrong images.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RenderPass {
+    pub launch: crate::launch::Launch,
+    /// First sample index of this pass.
+    pub s_begin: u32,
+    /// One past the last sample index of this pass.
+    pub s_end: u32,
+    pub _pad: [u32; 2],
+}
+
+/// Adds samples s_begin..s_end of pixel `id` (row-major) to `prev`: one pass of a render.
+/// Accumulating pass after pass gives exactly the sums of one loop over all samples.
+pub fn render_pixel_pass(
+    vol: &VolumeView,
+    params: &RenderParams,
+    id: u32,
+    s_begin: u32,
+    s_end: u32,
+    prev: PixelSums,
+) -> PixelSums {
     let x = id % params.width;
     let y = id / params.width;
-    let mut sum = 0.0f32;
-    let mut samples = 0u32;
-    let mut s = 0;
-    while s < params.spp {
+    let mut acc = prev;
+    let mut s = s_begin;
+    while s < s_end {
         let rng = HashRng::for_sample(id, s, params.seed);
         let (jx, rng) = rng.next_f32();
         let (jy, rng) = rng.next_f32();
+        let (jx, jy) = if params.pixel_jitter == 0 {
+            (0.5, 0.5)
+        } else {
+            (jx, jy)
+        };
         let world = params
             .camera
             .world_ray(x, y, jx, jy, params.width, params.height);
         let (t, n, _) = ray_transmittance(vol, params, &world, rng);
-        sum += t;
-        samples += n;
+        acc.t_sum += t;
+        acc.t2_sum += t * t;
+        acc.samples += n;
         s += 1;
     }
+    acc
+}
+
+/// Per-pixel means from the sums of `spp` estimates.
+pub fn finish_pixel(sums: PixelSums, spp: u32) -> PixelOut {
     PixelOut {
-        t_mean: sum / params.spp as f32,
-        samples,
+        t_mean: sums.t_sum / spp as f32,
+        t2_mean: sums.t2_sum / spp as f32,
+        samples: sums.samples,
+        _pad: 0,
     }
+}
+
+/// Mean transmittance of pixel `id` over all `spp` samples in one pass (tests, small renders).
+pub fn render_pixel(vol: &VolumeView, params: &RenderParams, id: u32) -> PixelOut {
+    let sums = render_pixel_pass(vol, params, id, 0, params.spp, PixelSums::default());
+    finish_pixel(sums, params.spp)
 }

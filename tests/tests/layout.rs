@@ -3,6 +3,8 @@
 use shared::launch::Launch;
 use shared::probe::{DepthPair, MathValues, RngDraws, TransmittancePair};
 use shared::rng::Pcg32;
+use shared::grid::{Brick, GridDesc};
+use shared::render::{PixelOut, PixelSums, RenderParams, RenderPass};
 use shared::Complex;
 use std::mem::{align_of, size_of};
 
@@ -16,4 +18,12 @@ fn shared_struct_layouts() {
     assert_eq!(size_of::<Pcg32>(), 16);
     assert_eq!(align_of::<Pcg32>(), 8);
     assert_eq!(size_of::<Complex>(), 8);
+    assert_eq!(size_of::<GridDesc>(), 48);
+    assert_eq!(size_of::<Brick>(), 16);
+    assert_eq!(size_of::<RenderParams>(), 176);
+    assert_eq!(size_of::<RenderPass>(), 32);
+    assert_eq!(size_of::<PixelSums>(), 16);
+    assert_eq!(size_of::<PixelOut>(), 16);
+    // The render kernel reads the pass range right after the Launch header in push constants.
+    assert_eq!(std::mem::offset_of!(RenderPass, s_begin), size_of::<Launch>());
 }

@@ -1,0 +1,252 @@
+//! `host eval`: per-pixel bias, standard deviation and cost of transmittance estimators against
+//! a reference, on the same primary rays (pixel centers), like the paper's Figs. 8-10.
+
+use crate::backend::Backend;
+use crate::bricks::PackedVolume;
+use crate::estimators::{by_name, EstimatorSpec};
+use crate::output::{write_exr, write_json};
+use crate::render::render;
+use anyhow::{Context, Result};
+use shared::render::{PixelOut, RenderParams};
+use std::path::Path;
+use std::time::Instant;
+
+/// Statistics of one estimator over the pixels whose reference transmittance is below 1.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct EstimatorReport {
+    pub name: String,
+    pub about: String,
+    pub unbiased: bool,
+    /// Mean over pixels of (pixel mean - reference).
+    pub mean_bias: f64,
+    /// Mean over pixels of |pixel mean - reference|; includes Monte Carlo noise of the mean.
+    pub mean_abs_bias: f64,
+    /// Expected mean |error| of an unbiased estimator with this std and spp: mean of
+    /// std * sqrt(2 / (pi spp)). `mean_abs_bias` near this means bias below the noise.
+    pub abs_bias_noise_floor: f64,
+    /// Mean over pixels of the per-sample standard deviation.
+    pub mean_std: f64,
+    /// sqrt(mean over pixels of bias^2 + std^2): error of a single-sample estimate.
+    pub rmse: f64,
+    /// High-resolution lookups per ray, over the evaluated pixels.
+    pub mean_samples_per_ray: f64,
+    /// Render time of all spp for the whole image.
+    pub elapsed_ms: f64,
+    pub bias_exr: String,
+    pub bias_png: String,
+    pub std_exr: String,
+    pub std_png: String,
+    pub mean_exr: String,
+}
+
+/// The whole evaluation, as written to `--json`.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct EvalReport {
+    pub volume: String,
+    pub backend: String,
+    pub device: String,
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub seed: u32,
+    pub n: u32,
+    pub lookup: String,
+    pub reference: String,
+    pub evaluated_pixels: usize,
+    pub estimators: Vec<EstimatorReport>,
+}
+
+/// Diverging false colour for signed values in [-scale, scale]: blue, white, red.
+fn diverging(v: f32, scale: f32) -> [u8; 3] {
+    let x = if v.is_nan() {
+        0.0
+    } else {
+        (v / scale).clamp(-1.0, 1.0)
+    };
+    let a = x.abs();
+    let fade = |c: f32| ((1.0 - a) * 255.0 + a * c * 255.0).round() as u8;
+    if x >= 0.0 {
+        [255, fade(0.1), fade(0.1)]
+    } else {
+        [fade(0.1), fade(0.3), 255]
+    }
+}
+
+/// Sequential false colour for values in [0, scale]: black through orange to yellow-white.
+fn sequential(v: f32, scale: f32) -> [u8; 3] {
+    let x = if v.is_nan() {
+        0.0
+    } else {
+        (v / scale).clamp(0.0, 1.0)
+    };
+    let r = (x * 3.0).min(1.0);
+    let g = (x * 3.0 - 1.0).clamp(0.0, 1.0);
+    let b = (x * 3.0 - 2.0).clamp(0.0, 1.0);
+    [(r * 255.0) as u8, (g * 255.0) as u8, (b * 255.0) as u8]
+}
+
+fn write_false_colour(
+    path: &Path,
+    w: u32,
+    h: u32,
+    values: &[f32],
+    f: impl Fn(f32) -> [u8; 3],
+) -> Result<()> {
+    let bytes: Vec<u8> = values.iter().flat_map(|&v| f(v)).collect();
+    image::save_buffer(path, &bytes, w, h, image::ColorType::Rgb8)
+        .with_context(|| format!("writing {}", path.display()))
+}
+
+/// Per-sample standard deviation of one pixel (Bessel-corrected).
+fn pixel_std(p: &PixelOut, spp: u32) -> f64 {
+    let var = (p.t2_mean as f64 - (p.t_mean as f64).powi(2)).max(0.0);
+    let n = spp as f64;
+    if n > 1.0 {
+        (var * n / (n - 1.0)).sqrt()
+    } else {
+        0.0
+    }
+}
+
+/// Settings of one evaluation.
+pub struct EvalSetup<'a> {
+    pub backend: &'a Backend,
+    pub volume: &'a PackedVolume,
+    pub volume_name: String,
+    pub params: RenderParams,
+    pub reference: &'a EstimatorSpec,
+    pub reference_spp: u32,
+    pub out_dir: &'a Path,
+    pub bias_scale: f32,
+    pub std_scale: f32,
+    pub progress: bool,
+}
+
+/// Renders the reference and each estimator and measures them.
+pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Result<EvalReport> {
+    std::fs::create_dir_all(setup.out_dir)
+        .with_context(|| format!("creating {}", setup.out_dir.display()))?;
+    let (w, h) = (setup.params.width, setup.params.height);
+    let mut ref_params = setup.params;
+    setup.reference.apply(&mut ref_params);
+    ref_params.spp = setup.reference_spp;
+    let reference = render(setup.backend, setup.volume, &ref_params, setup.progress)
+        .context("rendering the reference")?;
+    let ref_t: Vec<f32> = reference.iter().map(|p| p.t_mean).collect();
+    write_exr(&setup.out_dir.join("reference.exr"), w, h, &ref_t)?;
+    crate::output::write_png(&setup.out_dir.join("reference.png"), w, h, &ref_t)?;
+    let mask: Vec<bool> = ref_t.iter().map(|&t| t < 1.0).collect();
+    let count = mask.iter().filter(|&&m| m).count().max(1);
+
+    let mut reports = Vec::new();
+    for spec in estimators {
+        let mut params = setup.params;
+        spec.apply(&mut params);
+        let start = Instant::now();
+        let pixels = render(setup.backend, setup.volume, &params, setup.progress)
+            .with_context(|| format!("rendering {}", spec.name))?;
+        let elapsed_ms = start.elapsed().as_secs_f64() * 1e3;
+        let bias: Vec<f32> = pixels
+            .iter()
+            .zip(&ref_t)
+            .map(|(p, &r)| p.t_mean - r)
+            .collect();
+        let std: Vec<f32> = pixels
+            .iter()
+            .map(|p| pixel_std(p, params.spp) as f32)
+            .collect();
+        let masked = |f: &dyn Fn(usize) -> f64| {
+            (0..pixels.len()).filter(|&i| mask[i]).map(f).sum::<f64>() / count as f64
+        };
+        let noise = (2.0 / (std::f64::consts::PI * params.spp as f64)).sqrt();
+        let stem = setup.out_dir.join(spec.name);
+        let file = |suffix: &str| format!("{}_{suffix}", stem.display());
+        let mean_t: Vec<f32> = pixels.iter().map(|p| p.t_mean).collect();
+        write_exr(Path::new(&file("mean.exr")), w, h, &mean_t)?;
+        write_exr(Path::new(&file("bias.exr")), w, h, &bias)?;
+        write_exr(Path::new(&file("std.exr")), w, h, &std)?;
+        write_false_colour(Path::new(&file("bias.png")), w, h, &bias, |v| {
+            diverging(v, setup.bias_scale)
+        })?;
+        write_false_colour(Path::new(&file("std.png")), w, h, &std, |v| {
+            sequential(v, setup.std_scale)
+        })?;
+        let report = EstimatorReport {
+            name: spec.name.into(),
+            about: spec.about.into(),
+            unbiased: spec.unbiased,
+            mean_bias: masked(&|i| bias[i] as f64),
+            mean_abs_bias: masked(&|i| (bias[i] as f64).abs()),
+            abs_bias_noise_floor: masked(&|i| std[i] as f64 * noise),
+            mean_std: masked(&|i| std[i] as f64),
+            rmse: masked(&|i| (bias[i] as f64).powi(2) + (std[i] as f64).powi(2)).sqrt(),
+            mean_samples_per_ray: masked(&|i| pixels[i].samples as f64) / params.spp as f64,
+            elapsed_ms,
+            bias_exr: file("bias.exr"),
+            bias_png: file("bias.png"),
+            std_exr: file("std.exr"),
+            std_png: file("std.png"),
+            mean_exr: file("mean.exr"),
+        };
+        println!(
+            "{:<20} bias {:+.5}  |bias| {:.5} (noise floor {:.5})  std {:.4}  rmse {:.4}  samples/ray {:7.2}  {:8.1} ms",
+            report.name,
+            report.mean_bias,
+            report.mean_abs_bias,
+            report.abs_bias_noise_floor,
+            report.mean_std,
+            report.rmse,
+            report.mean_samples_per_ray,
+            report.elapsed_ms
+        );
+        reports.push(report);
+    }
+    Ok(EvalReport {
+        volume: setup.volume_name.clone(),
+        backend: setup.backend.kind().into(),
+        device: setup.backend.device(),
+        width: w,
+        height: h,
+        spp: setup.params.spp,
+        seed: setup.params.seed,
+        n: setup.params.n,
+        lookup: if setup.volume.desc.lookup == 1 {
+            "stochastic"
+        } else {
+            "nearest"
+        }
+        .into(),
+        reference: format!(
+            "{} at {} spp: {}",
+            setup.reference.name, setup.reference_spp, setup.reference.about
+        ),
+        evaluated_pixels: count,
+        estimators: reports,
+    })
+}
+
+/// Parses a comma-separated estimator list ("all" for every one but the reference).
+pub fn parse_list(list: &str) -> Result<Vec<&'static EstimatorSpec>> {
+    if list == "all" {
+        return Ok(crate::estimators::ESTIMATORS
+            .iter()
+            .filter(|s| s.name != "regular")
+            .collect());
+    }
+    list.split(',')
+        .map(|n| {
+            by_name(n.trim()).with_context(|| {
+                format!(
+                    "--estimators: unknown estimator {n:?}; choose from: {}",
+                    crate::estimators::names()
+                )
+            })
+        })
+        .collect()
+}
+
+/// Writes the report as JSON.
+pub fn write_report(path: &Path, report: &EvalReport) -> Result<()> {
+    crate::output::ensure_parent(path)?;
+    write_json(path, report)
+}

@@ -1,0 +1,256 @@
+//! Baseline transmittance estimators: regular tracking (exact optical depth of the nearest-neighbour
+//! voxel grid, the reference for nearest lookups), and track-length and ratio tracking over the
+//! per-brick majorants (Novák et al. 2014), built on a majorant iterator and an exponential
+//! free-flight sampler in the design of pbrt-v4 (`DDAMajorantIterator`, `SampleT_maj`).
+//!
+//! The sampler is a pull iterator rather than pbrt-v4's callback, so every loop is flat, bounded
+//! and free of closures on the GPU.
+
+use crate::dda::{GridDda, Ray};
+use crate::grid::{Lookup, VolumeView};
+use crate::math;
+use crate::optical_depth::mu_at;
+use crate::rng::HashRng;
+
+/// Most tentative collisions per ray; at the cap the estimate returns what it has. Kept below
+/// 65535 because lavapipe (gallivm) silently ends any shader loop after 65535 iterations, and
+/// the CPU must stop at the same point to stay bit-identical.
+pub const MAX_TENTATIVE_COLLISIONS: u32 = 60_000;
+
+/// Ratio tracking starts Russian roulette once the running estimate drops below this (pbrt-v4).
+pub const RR_THRESHOLD: f32 = 0.05;
+
+/// Probability q that Russian roulette terminates ratio tracking (pbrt-v4: terminate with
+/// q = 0.75, otherwise divide by the survival probability 1 - q = 0.25).
+pub const RR_TERMINATE: f32 = 0.75;
+
+/// Salt of the stochastic-lookup jitter key of tracking (Alg. 1 uses another one).
+const JITTER_SALT: u32 = 0x85eb_ca6b;
+
+/// Exact optical depth of the nearest-neighbour grid over [t0, t1] (already clipped to the grid
+/// box) by a voxel DDA (regular tracking): sum of segment length times voxel extinction.
+/// Returns (tau, voxels visited).
+pub fn regular_tracking_tau(vol: &VolumeView, ray: &Ray, t0: f32, t1: f32) -> (f32, u32) {
+    let d = &vol.desc.dims;
+    let cap = d[0] + d[1] + d[2] + 4;
+    let mut tau = 0.0f32;
+    let mut visited = 0u32;
+    let mut dda = GridDda::voxels(vol.desc, ray, t0, t1);
+    while !dda.done && visited < cap {
+        let seg = dda.step();
+        tau += (seg.t1 - seg.t0) * vol.voxel(seg.cell[0], seg.cell[1], seg.cell[2]);
+        visited += 1;
+    }
+    (tau, visited)
+}
+
+/// A piece [t0, t1] of the ray with a constant majorant (pbrt-v4's `RayMajorantSegment`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MajorantSegment {
+    pub t0: f32,
+    pub t1: f32,
+    pub sigma_maj: f32,
+}
+
+/// pbrt-v4's `DDAMajorantIterator` over the brick grid: brick segments with majorant mu_max.
+#[derive(Clone, Copy, Debug)]
+pub struct MajorantIter {
+    dda: GridDda,
+    pub done: bool,
+}
+
+impl MajorantIter {
+    /// Iterator over the bricks of [t0, t1] (pbrt-v4 `DDAMajorantIterator`).
+    #[inline]
+    pub fn new(vol: &VolumeView, ray: &Ray, t0: f32, t1: f32) -> Self {
+        let dda = GridDda::bricks(vol.desc, ray, t0, t1);
+        MajorantIter {
+            dda,
+            done: dda.done,
+        }
+    }
+
+    /// Next brick segment and its majorant mu_max (pbrt-v4 `Next`); call only while `!done`.
+    #[inline]
+    pub fn next_segment(&mut self, vol: &VolumeView) -> MajorantSegment {
+        let seg = self.dda.step();
+        self.done = self.dda.done;
+        MajorantSegment {
+            t0: seg.t0,
+            t1: seg.t1,
+            sigma_maj: vol.brick(seg.cell).mu_max,
+        }
+    }
+}
+
+/// A tentative collision at distance t where the majorant is `sigma_maj`; `found` is false when
+/// the free flight escaped past the end of the ray instead.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Collision {
+    pub t: f32,
+    pub sigma_maj: f32,
+    pub found: bool,
+}
+
+/// pbrt-v4's `SampleT_maj` as a pull iterator: exponential free flights against the piecewise
+/// constant majorant, restarted memorylessly at every segment boundary.
+#[derive(Clone, Copy, Debug)]
+pub struct MajorantSampler {
+    iter: MajorantIter,
+    seg: MajorantSegment,
+    t: f32,
+    /// Bound on segment advances within one call (more than the DDA can produce).
+    guard: u32,
+    pub done: bool,
+}
+
+impl MajorantSampler {
+    /// Sampler over [t0, t1]; starts on an empty segment so the first call enters the first brick.
+    #[inline]
+    pub fn new(vol: &VolumeView, ray: &Ray, t0: f32, t1: f32) -> Self {
+        let iter = MajorantIter::new(vol, ray, t0, t1);
+        let b = &vol.desc.brick_dims;
+        MajorantSampler {
+            iter,
+            seg: MajorantSegment {
+                t0,
+                t1: t0,
+                sigma_maj: 0.0,
+            },
+            t: t0,
+            guard: b[0] + b[1] + b[2] + 8,
+            done: iter.done,
+        }
+    }
+
+    /// Next tentative collision (pbrt-v4 `SampleT_maj`): t += -ln(1 - u) / sigma_maj within the
+    /// current segment; past its end, restart at the next segment; segments with zero majorant
+    /// take no sample. Sets `done` (and returns `found == false`) once past the end of the ray.
+    pub fn next_collision(&mut self, vol: &VolumeView, rng: HashRng) -> (Collision, HashRng) {
+        let mut rng = rng;
+        let mut out = Collision::default();
+        let mut steps = 0u32;
+        while !out.found && !self.done && steps < self.guard {
+            steps += 1;
+            if self.seg.sigma_maj > 0.0 {
+                let (u, r) = rng.next_f32();
+                rng = r;
+                let t = self.t - math::ln(1.0 - u) / self.seg.sigma_maj;
+                if t < self.seg.t1 {
+                    self.t = t;
+                    out = Collision {
+                        t,
+                        sigma_maj: self.seg.sigma_maj,
+                        found: true,
+                    };
+                }
+            }
+            if !out.found {
+                if self.iter.done {
+                    self.done = true;
+                } else {
+                    self.seg = self.iter.next_segment(vol);
+                    self.t = self.seg.t0;
+                }
+            }
+        }
+        if !out.found {
+            self.done = true;
+        }
+        (out, rng)
+    }
+}
+
+/// Track-length estimator (delta tracking, Novák et al. 2014; pbrt-v4): 0 at the first real
+/// collision (accepted with probability mu / sigma_maj), 1 if the flight escapes past t1.
+/// Returns (T, high-resolution lookups, rng).
+pub fn track_length(
+    vol: &VolumeView,
+    ray: &Ray,
+    t0: f32,
+    t1: f32,
+    lookup: Lookup,
+    rng: HashRng,
+) -> (f32, u32, HashRng) {
+    let mut sampler = MajorantSampler::new(vol, ray, t0, t1);
+    let mut rng = rng;
+    let mut transmittance = 1.0f32;
+    let mut lookups = 0u32;
+    while !sampler.done && lookups < MAX_TENTATIVE_COLLISIONS {
+        let (c, r) = sampler.next_collision(vol, rng);
+        rng = r;
+        if c.found {
+            let key = [rng.state, lookups, JITTER_SALT];
+            let mu = mu_at(vol, ray.at(c.t), lookup, key);
+            lookups += 1;
+            let (u, r) = rng.next_f32();
+            rng = r;
+            if u < mu / c.sigma_maj {
+                transmittance = 0.0;
+                sampler.done = true;
+            }
+        }
+    }
+    (transmittance, lookups, rng)
+}
+
+/// Ratio tracking (Novák et al. 2014; pbrt-v4): product of (1 - mu / sigma_maj) over tentative
+/// collisions, with pbrt-v4's Russian roulette below [`RR_THRESHOLD`]. Returns (T, lookups, rng).
+pub fn ratio_tracking(
+    vol: &VolumeView,
+    ray: &Ray,
+    t0: f32,
+    t1: f32,
+    lookup: Lookup,
+    rng: HashRng,
+) -> (f32, u32, HashRng) {
+    let mut sampler = MajorantSampler::new(vol, ray, t0, t1);
+    let mut rng = rng;
+    let mut transmittance = 1.0f32;
+    let mut lookups = 0u32;
+    while !sampler.done && lookups < MAX_TENTATIVE_COLLISIONS {
+        let (c, r) = sampler.next_collision(vol, rng);
+        rng = r;
+        if c.found {
+            let key = [rng.state, lookups, JITTER_SALT];
+            let mu = mu_at(vol, ray.at(c.t), lookup, key);
+            lookups += 1;
+            let (t, r, stop) = ratio_step(transmittance, mu, c.sigma_maj, rng);
+            transmittance = t;
+            rng = r;
+            if stop {
+                sampler.done = true;
+            }
+        }
+    }
+    (transmittance, lookups, rng)
+}
+
+/// One ratio tracking update (pbrt-v4): T *= max(0, 1 - mu / sigma_maj); below the threshold,
+/// terminate with probability q (T = 0) or survive and divide by 1 - q. Returns (T, rng, stop).
+#[inline]
+pub fn ratio_step(
+    transmittance: f32,
+    mu: f32,
+    sigma_maj: f32,
+    rng: HashRng,
+) -> (f32, HashRng, bool) {
+    let mut factor = 1.0 - mu / sigma_maj;
+    // pbrt-v4 clamps the null density sigma_n to >= 0; majorants are conservative, so this only
+    // guards against a lookup that rounds into a hotter voxel outside the brick's window.
+    if !(factor > 0.0) {
+        factor = 0.0;
+    }
+    let mut t = transmittance * factor;
+    let mut rng = rng;
+    if t > 0.0 && t < RR_THRESHOLD {
+        let (u, r) = rng.next_f32();
+        rng = r;
+        if u < RR_TERMINATE {
+            t = 0.0;
+        } else {
+            t /= 1.0 - RR_TERMINATE;
+        }
+    }
+    (t, rng, !(t > 0.0))
+}

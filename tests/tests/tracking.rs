@@ -1,0 +1,462 @@
+//! Regular tracking, track-length and ratio tracking (shared/src/tracking.rs) on volumes built here.
+//!
+//! Statistical tests use fixed seeds, so they are deterministic; each check is a two-sided
+//! z-test at 4 standard errors (per-check confidence 99.994% for a normal statistic, so with the
+//! ~40 checks below a correct implementation would fail with probability < 0.3% over seeds).
+
+use host::bricks::{pack, PackedVolume};
+use host::volume::{Affine, DenseVolume};
+use shared::dda::{clip_to_box, Ray};
+use shared::grid::{Lookup, VolumeView};
+use shared::rng::{pcg_hash, unit_f32, HashRng};
+use shared::tracking::{
+    ratio_tracking, regular_tracking_tau, track_length, MajorantIter, MAX_TENTATIVE_COLLISIONS,
+};
+use shared::vec3::V3;
+
+/// Trials per ray in the statistical tests.
+const TRIALS: u32 = 200_000;
+/// Two-sided acceptance band in standard errors.
+const Z: f64 = 4.0;
+
+type Estimator = fn(&VolumeView, &Ray, f32, f32, Lookup, HashRng) -> (f32, u32, HashRng);
+
+fn volume(dims: [u32; 3], f: impl Fn(u32, u32, u32) -> f32) -> DenseVolume {
+    let mut v = Vec::with_capacity((dims[0] * dims[1] * dims[2]) as usize);
+    for z in 0..dims[2] {
+        for y in 0..dims[1] {
+            for x in 0..dims[0] {
+                v.push(f(x, y, z));
+            }
+        }
+    }
+    DenseVolume::new("tracking-test", dims, v, Affine::identity()).unwrap()
+}
+
+fn packed(vol: &DenseVolume) -> PackedVolume {
+    pack(vol, 1.0, 16, Lookup::Nearest).unwrap()
+}
+
+/// Homogeneous 32^3 box, c = 1/16 (exact in f16): majorant tight everywhere.
+fn homogeneous() -> PackedVolume {
+    packed(&volume([32; 3], |_, _, _| 0.0625))
+}
+
+/// 64x32x32, four brick columns along x with densities 1/32, 0, 1/16 and 1/64, plus a hot voxel
+/// (2.0) at (40, 8, 8). Brick majorants (over windows widened by one voxel): column 0 tight
+/// (1/32), column 1 loose (empty, majorant 1/16 from its neighbour), column 2 tight except in the
+/// bricks around the hot voxel (majorant 2 = 32x the density), column 3 loose (1/16 vs 1/64).
+fn piecewise() -> PackedVolume {
+    packed(&volume([64, 32, 32], |x, y, z| {
+        if (x, y, z) == (40, 8, 8) {
+            return 2.0;
+        }
+        match x / 16 {
+            0 => 0.03125,
+            1 => 0.0,
+            2 => 0.0625,
+            _ => 0.015625,
+        }
+    }))
+}
+
+/// 32^3 box of density 1/8 with one hot voxel (2.0) at (16, 16, 16), inside the widened window of
+/// every brick: majorant 2 = 16x the density everywhere, tau = 4 along an axis, so ratio tracking
+/// falls below the Russian roulette threshold on nearly every ray.
+fn loose() -> PackedVolume {
+    packed(&volume([32; 3], |x, y, z| {
+        if (x, y, z) == (16, 16, 16) {
+            2.0
+        } else {
+            0.125
+        }
+    }))
+}
+
+fn ray(o: [f32; 3], target: [f32; 3]) -> Ray {
+    let o = V3::new(o[0], o[1], o[2]);
+    let dir = V3::new(target[0], target[1], target[2]) - o;
+    Ray {
+        o,
+        d: dir * (1.0 / dir.dot(dir).sqrt()),
+    }
+}
+
+fn clip(p: &PackedVolume, r: &Ray) -> (f32, f32) {
+    let d = p.desc.dims;
+    clip_to_box(
+        r,
+        V3::new(d[0] as f32, d[1] as f32, d[2] as f32),
+        0.0,
+        f32::INFINITY,
+    )
+}
+
+/// Mean, sample variance and standard error of the mean.
+fn stats(xs: &[f64]) -> (f64, f64, f64) {
+    let n = xs.len() as f64;
+    let mean = xs.iter().sum::<f64>() / n;
+    let var = xs.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (n - 1.0);
+    (mean, var, (var / n).sqrt())
+}
+
+/// `TRIALS` estimates of one ray with independent per-trial rngs (seeded by ray id and trial).
+fn run(est: Estimator, p: &PackedVolume, r: &Ray, t0: f32, t1: f32, id: u32) -> Vec<(f32, u32)> {
+    let view = p.view();
+    (0..TRIALS)
+        .map(|k| {
+            let (t, n, _) = est(
+                &view,
+                r,
+                t0,
+                t1,
+                Lookup::Nearest,
+                HashRng::for_sample(id, k, 17),
+            );
+            (t, n)
+        })
+        .collect()
+}
+
+#[test]
+fn regular_tracking_equals_chord_length_times_density_in_a_constant_box() {
+    let p = homogeneous();
+    let view = p.view();
+    let mut checked = 0;
+    for i in 0..2000u32 {
+        let u = |k: u32| unit_f32(pcg_hash(i * 8 + k));
+        let r = ray(
+            [u(0) * 96.0 - 32.0, u(1) * 96.0 - 32.0, -20.0],
+            [u(2) * 32.0, u(3) * 32.0, u(4) * 32.0],
+        );
+        let (t0, t1) = clip(&p, &r);
+        if !(t0 < t1) {
+            continue;
+        }
+        let (tau, visited) = regular_tracking_tau(&view, &r, t0, t1);
+        let exact = 0.0625 * (t1 - t0) as f64;
+        assert!(
+            (tau as f64 - exact).abs() <= 1e-5 * exact.max(1.0),
+            "ray {i}: tau {tau}, exact {exact}"
+        );
+        assert!((1..=32 * 3 + 4).contains(&visited), "visited {visited}");
+        checked += 1;
+    }
+    assert!(checked > 1000, "only {checked} rays hit the box");
+}
+
+#[test]
+fn regular_tracking_equals_sum_of_densities_times_lengths_in_two_halves() {
+    // x < 16: a = 0.5, x >= 16: b = 1.5 (both exact in f16). Axis-parallel and oblique rays.
+    let (a, b) = (0.5f64, 1.5f64);
+    let p = packed(&volume(
+        [32, 8, 8],
+        |x, _, _| if x < 16 { 0.5 } else { 1.5 },
+    ));
+    let view = p.view();
+    let axis = ray([-5.0, 3.3, 4.7], [40.0, 3.3, 4.7]);
+    let (t0, t1) = clip(&p, &axis);
+    let (tau, visited) = regular_tracking_tau(&view, &axis, t0, t1);
+    assert_eq!((t0, t1), (5.0, 37.0));
+    assert_eq!(tau, 0.5 * 16.0 + 1.5 * 16.0, "axis-parallel ray");
+    assert_eq!(visited, 32);
+    // A sub-interval starting and ending inside voxels: x from 10.25 to 20.5.
+    let (tau, _) = regular_tracking_tau(&view, &axis, 15.25, 25.5);
+    assert_eq!(tau, (0.5 * 5.75 + 1.5 * 4.5) as f32, "sub-interval");
+    let mut checked = 0;
+    for i in 0..2000u32 {
+        let u = |k: u32| unit_f32(pcg_hash(0x5eed + i * 8 + k));
+        let r = ray(
+            [-10.0, u(0) * 8.0, u(1) * 8.0],
+            [42.0, u(2) * 8.0, u(3) * 8.0],
+        );
+        let (t0, t1) = clip(&p, &r);
+        if !(t0 < t1) {
+            continue;
+        }
+        // Where the ray crosses x = 16, clamped to the clipped interval; La + Lb = t1 - t0.
+        let tc = ((16.0 - r.o.x as f64) / r.d.x as f64).clamp(t0 as f64, t1 as f64);
+        let exact = a * (tc - t0 as f64) + b * (t1 as f64 - tc);
+        let (tau, _) = regular_tracking_tau(&view, &r, t0, t1);
+        assert!(
+            (tau as f64 - exact).abs() <= 2e-5 * exact.max(1.0),
+            "ray {i}: tau {tau}, exact {exact}"
+        );
+        checked += 1;
+    }
+    assert!(checked > 500, "only {checked} rays hit the box");
+}
+
+#[test]
+fn majorant_segments_tile_the_ray_and_bound_every_voxel_they_cross() {
+    let p = piecewise();
+    let view = p.view();
+    for i in 0..500u32 {
+        let u = |k: u32| unit_f32(pcg_hash(0xabc + i * 8 + k));
+        let r = ray(
+            [-8.0, u(0) * 32.0, u(1) * 32.0],
+            [72.0, u(2) * 32.0, u(3) * 32.0],
+        );
+        let (t0, t1) = clip(&p, &r);
+        if !(t0 < t1) {
+            continue;
+        }
+        let mut it = MajorantIter::new(&view, &r, t0, t1);
+        let mut t = t0;
+        while !it.done {
+            let s = it.next_segment(&view);
+            assert_eq!(s.t0, t, "segments must be contiguous");
+            // Every voxel along the segment is below its majorant (sampled densely).
+            for k in 0..=16 {
+                let tk = s.t0 + (s.t1 - s.t0) * k as f32 / 16.0;
+                let mu = view.mu_nearest(r.at(tk));
+                assert!(
+                    mu <= s.sigma_maj,
+                    "mu {mu} > majorant {} at t {tk}",
+                    s.sigma_maj
+                );
+            }
+            t = s.t1;
+        }
+        assert!((t - t1).abs() <= 1e-4 * t1, "ended at {t}, not {t1}");
+    }
+}
+
+/// Rays of one test volume: (name, ray, t0, t1); the last of each set is a sub-interval.
+fn test_rays(name: &str, p: &PackedVolume) -> Vec<(String, Ray, f32, f32)> {
+    let d = p.desc.dims;
+    let (x, y, z) = (d[0] as f32, d[1] as f32, d[2] as f32);
+    let rays = [
+        ("axis", ray([-3.0, 3.5, 3.5], [x + 3.0, 3.5, 3.5])),
+        ("hot", ray([-3.0, 8.5, 8.5], [x + 3.0, 8.5, 8.5])),
+        (
+            "oblique",
+            ray([-3.0, 1.0, 2.0], [x + 3.0, y - 1.5, z - 0.5]),
+        ),
+        (
+            "diagonal",
+            ray([0.3, -1.0, -1.0], [x - 0.7, y + 1.0, z + 1.0]),
+        ),
+    ];
+    let mut out: Vec<_> = rays
+        .iter()
+        .map(|(n, r)| {
+            let (t0, t1) = clip(p, r);
+            assert!(t0 < t1, "{name}/{n} misses the box");
+            (format!("{name}/{n}"), *r, t0, t1)
+        })
+        .collect();
+    // The hot ray from inside brick 0 to inside the last brick along x.
+    let (_, r, t0, t1) = out[1].clone();
+    out.push((format!("{name}/hot-sub"), r, t0 + 5.3, t1 - 9.1));
+    out
+}
+
+#[test]
+fn track_length_and_ratio_tracking_are_unbiased_against_regular_tracking() {
+    // 200k trials per (volume, ray, estimator), 3 volumes x 5 rays x 2 estimators = 30 z-tests
+    // at 4 standard errors. Power check: wherever T >= 1e-3 (all rays but the loose diagonal,
+    // T = 1e-4, ~20 escapes in 200k track-length trials), the test must also reject exp(-1.05 tau),
+    // i.e. a 5% error in the optical depth, so the band is not vacuous.
+    let mut rejected_wrong = 0;
+    let mut total = 0;
+    for (name, p) in [
+        ("homogeneous", homogeneous()),
+        ("piecewise", piecewise()),
+        ("loose", loose()),
+    ] {
+        let view = p.view();
+        for (id, (what, r, t0, t1)) in test_rays(name, &p).into_iter().enumerate() {
+            let (tau, _) = regular_tracking_tau(&view, &r, t0, t1);
+            let reference = (-(tau as f64)).exp();
+            for (est_name, est) in [
+                ("track-length", track_length as Estimator),
+                ("ratio", ratio_tracking as Estimator),
+            ] {
+                let xs: Vec<f64> = run(est, &p, &r, t0, t1, id as u32)
+                    .iter()
+                    .map(|&(t, _)| t as f64)
+                    .collect();
+                let (mean, var, se) = stats(&xs);
+                println!(
+                    "{what:22} {est_name:12} tau {tau:8.5} T {reference:.6} mean {mean:.6} \
+                     se {se:.2e} var {var:.3e} z {:+.2}",
+                    (mean - reference) / se
+                );
+                assert!(
+                    (mean - reference).abs() <= Z * se,
+                    "{what} {est_name}: mean {mean} vs exp(-tau) {reference} (se {se})"
+                );
+                if reference >= 1e-3 {
+                    let wrong = (-1.05 * tau as f64).exp();
+                    if (mean - wrong).abs() > Z * se {
+                        rejected_wrong += 1;
+                    }
+                    total += 1;
+                }
+            }
+        }
+    }
+    assert_eq!(
+        rejected_wrong, total,
+        "the test cannot tell a 5% error in tau"
+    );
+}
+
+#[test]
+fn track_length_is_bernoulli_with_variance_t_times_one_minus_t() {
+    // 200k trials per ray on the piecewise volume. Estimates must be exactly 0 or 1, and the
+    // sample variance s^2 must match T(1 - T) (T = exp(-tau_regular)) within 4 standard errors of
+    // s^2, se(s^2) = sqrt((mu4 - sigma^4) / n) with mu4 = p(1-p)(1 - 3p + 3p^2) for a Bernoulli.
+    let p = piecewise();
+    let view = p.view();
+    for (id, (what, r, t0, t1)) in test_rays("piecewise", &p).into_iter().enumerate() {
+        let (tau, _) = regular_tracking_tau(&view, &r, t0, t1);
+        let t = (-(tau as f64)).exp();
+        let runs = run(track_length, &p, &r, t0, t1, 100 + id as u32);
+        assert!(runs.iter().all(|&(x, _)| x == 0.0 || x == 1.0));
+        let xs: Vec<f64> = runs.iter().map(|&(x, _)| x as f64).collect();
+        let (_, var, _) = stats(&xs);
+        let sigma2 = t * (1.0 - t);
+        let mu4 = sigma2 * (1.0 - 3.0 * t + 3.0 * t * t);
+        let se = ((mu4 - sigma2 * sigma2) / TRIALS as f64).sqrt();
+        println!(
+            "{what:22} T {t:.6} var {var:.6} T(1-T) {sigma2:.6} se {se:.2e} z {:+.2}",
+            (var - sigma2) / se
+        );
+        assert!(
+            (var - sigma2).abs() <= Z * se,
+            "{what}: variance {var} vs T(1-T) {sigma2} (se {se})"
+        );
+    }
+}
+
+#[test]
+fn tentative_collisions_are_poisson_in_the_majorant_optical_depth() {
+    // An empty 32^3 box whose bricks all see a hot voxel 0.5 at (16, 16, 16) through their widened
+    // windows: along y = z = 3.5 mu = 0 but the majorant is 0.5 in both bricks along x, so ratio
+    // tracking always returns 1 and its lookup count is Poisson(0.5 * 32 = 16) if free flights
+    // restart correctly at the brick boundary. 200k trials; mean and variance within 4 se
+    // (se of the variance of a Poisson(l): sqrt((l + 3 l^2 - l^2) / n) = sqrt((l + 2 l^2) / n)).
+    let p = packed(&volume([32; 3], |x, y, z| {
+        if (x, y, z) == (16, 16, 16) {
+            0.5
+        } else {
+            0.0
+        }
+    }));
+    let r = ray([-3.0, 3.5, 3.5], [40.0, 3.5, 3.5]);
+    let (t0, t1) = clip(&p, &r);
+    let lambda = 0.5 * (t1 - t0) as f64;
+    assert_eq!(lambda, 16.0);
+    let runs = run(ratio_tracking, &p, &r, t0, t1, 7);
+    assert!(runs.iter().all(|&(t, _)| t == 1.0));
+    let ns: Vec<f64> = runs.iter().map(|&(_, n)| n as f64).collect();
+    let (mean, var, se) = stats(&ns);
+    let se_var = ((lambda + 2.0 * lambda * lambda) / TRIALS as f64).sqrt();
+    println!(
+        "lookups: mean {mean:.4} (se {se:.4}), var {var:.4} (se {se_var:.4}), lambda {lambda}"
+    );
+    assert!((mean - lambda).abs() <= Z * se, "mean count {mean}");
+    assert!((var - lambda).abs() <= Z * se_var, "count variance {var}");
+}
+
+#[test]
+fn ratio_tracking_stays_finite_in_unit_interval_and_russian_roulette_fires() {
+    // RR only acts below 0.05 and survival multiplies by 4 (< 0.2), and every factor is in [0, 1],
+    // so estimates never exceed 1. On the loose volume's axis ray (mu = 1/8 < majorant 2 all
+    // along it) no factor is 0, so every 0 is a roulette termination.
+    let lumpy = volume([40; 3], |x, y, z| {
+        if pcg_hash(x / 8 + 101 * (y / 8) + 10007 * (z / 8)).is_multiple_of(3) {
+            0.0
+        } else {
+            2.0 * unit_f32(pcg_hash(x + 40 * (y + 40 * z)))
+        }
+    });
+    for lookup in [Lookup::Nearest, Lookup::Stochastic] {
+        let p = pack(&lumpy, 1.0, 16, lookup).unwrap();
+        let view = p.view();
+        for i in 0..20_000u32 {
+            let u = |k: u32| unit_f32(pcg_hash(0x77 + i * 8 + k));
+            let r = ray(
+                [u(0) * 120.0 - 40.0, u(1) * 120.0 - 40.0, -30.0],
+                [u(2) * 40.0, u(3) * 40.0, u(4) * 40.0],
+            );
+            let (t0, t1) = clip(&p, &r);
+            if !(t0 < t1) {
+                continue;
+            }
+            let rng = HashRng::for_sample(i, 0, 3);
+            let (t, _, _) = ratio_tracking(&view, &r, t0, t1, lookup, rng);
+            assert!(t.is_finite() && (0.0..=1.0).contains(&t), "T = {t}");
+        }
+    }
+    let p = loose();
+    let r = ray([-3.0, 3.5, 3.5], [40.0, 3.5, 3.5]);
+    let (t0, t1) = clip(&p, &r);
+    let runs = run(ratio_tracking, &p, &r, t0, t1, 11);
+    let zeros = runs.iter().filter(|&&(t, _)| t == 0.0).count();
+    let scaled = runs.iter().filter(|&&(t, _)| t >= 0.05).count();
+    println!("loose axis ray: {zeros} of {TRIALS} terminated by roulette, {scaled} >= 0.05");
+    assert!(runs
+        .iter()
+        .all(|&(t, _)| t.is_finite() && (0.0..=1.0).contains(&t)));
+    assert!(
+        zeros > TRIALS as usize / 2,
+        "roulette must terminate most rays here"
+    );
+    assert!(scaled > 0, "survivors are scaled up by 1 / (1 - q)");
+}
+
+#[test]
+fn empty_volume_gives_one_without_lookups() {
+    let p = packed(&volume([32; 3], |_, _, _| 0.0));
+    let view = p.view();
+    let r = ray([-3.0, 1.0, 2.0], [35.0, 30.0, 31.0]);
+    let (t0, t1) = clip(&p, &r);
+    for est in [track_length as Estimator, ratio_tracking as Estimator] {
+        let rng = HashRng::for_sample(1, 2, 3);
+        let (t, n, out) = est(&view, &r, t0, t1, Lookup::Nearest, rng);
+        assert_eq!((t, n, out), (1.0, 0, rng), "zero majorants take no sample");
+    }
+    assert_eq!(regular_tracking_tau(&view, &r, t0, t1).0, 0.0);
+}
+
+#[test]
+fn same_rng_state_gives_the_same_result() {
+    let p = piecewise();
+    let view = p.view();
+    let mut differ = 0;
+    for (_, r, t0, t1) in test_rays("piecewise", &p) {
+        for lookup in [Lookup::Nearest, Lookup::Stochastic] {
+            for est in [track_length as Estimator, ratio_tracking as Estimator] {
+                for k in 0..200 {
+                    let rng = HashRng::for_sample(5, k, 9);
+                    let a = est(&view, &r, t0, t1, lookup, rng);
+                    let b = est(&view, &r, t0, t1, lookup, rng);
+                    assert_eq!(a.0.to_bits(), b.0.to_bits());
+                    assert_eq!((a.1, a.2), (b.1, b.2));
+                    assert!(a.1 < MAX_TENTATIVE_COLLISIONS);
+                    if a.1 > 0 {
+                        assert_ne!(a.2, rng, "a lookup draws random numbers");
+                    }
+                    let c = est(
+                        &view,
+                        &r,
+                        t0,
+                        t1,
+                        lookup,
+                        HashRng::for_sample(5, k + 1000, 9),
+                    );
+                    if (a.0.to_bits(), a.1) != (c.0.to_bits(), c.1) {
+                        differ += 1;
+                    }
+                }
+            }
+        }
+    }
+    assert!(
+        differ > 1000,
+        "different seeds must give different results ({differ})"
+    );
+}
