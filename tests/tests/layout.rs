@@ -20,7 +20,7 @@ fn shared_struct_layouts() {
     assert_eq!(size_of::<Complex>(), 8);
     assert_eq!(size_of::<GridDesc>(), 48);
     assert_eq!(size_of::<Brick>(), 16);
-    assert_eq!(size_of::<RenderParams>(), 176);
+    assert_eq!(size_of::<RenderParams>(), 168);
     assert_eq!(size_of::<RenderPass>(), 32);
     assert_eq!(size_of::<PixelSums>(), 16);
     assert_eq!(size_of::<PixelOut>(), 16);
