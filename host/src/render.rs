@@ -195,8 +195,47 @@ fn progress_bar(len: u64, enabled: bool) -> ProgressBar {
     bar
 }
 
-/// Samples per pixel per pass (see [`shared::render::RenderPass`] for why passes exist).
+/// Most samples per pixel per pass (see [`shared::render::RenderPass`] for why passes exist).
 pub const SPP_PER_PASS: u32 = 16;
+/// Loop iterations one invocation may run: lavapipe's gallivm ends a shader after 65535
+/// iterations summed over all its loops; the rest is margin for small fixed loops.
+const LOOP_BUDGET: u64 = 60_000;
+
+/// Upper bound on the loop iterations one primary ray of this estimator can take.
+pub fn loop_iterations_per_ray(params: &RenderParams, desc: &shared::grid::GridDesc) -> u64 {
+    use shared::render::Estimator as E;
+    let bricks = (desc.brick_dims[0] + desc.brick_dims[1] + desc.brick_dims[2] + 3) as u64;
+    let voxels = (desc.dims[0] + desc.dims[1] + desc.dims[2] + 3) as u64;
+    let fixed = 64;
+    fixed
+        + match E::from_u32(params.estimator) {
+            E::Jackknife | E::NaiveMean | E::NaiveSingle => 3 * bricks + 2 * params.n as u64,
+            E::JackknifeAdaptive => {
+                3 * bricks + 2 * shared::optical_depth::MAX_ADAPTIVE_STRATA as u64
+            }
+            E::RegularTracking => voxels,
+            E::BiasedRayMarching => 3 * bricks + shared::ray_marching::MAX_BIASED_SAMPLES as u64,
+            E::UnbiasedRayMarching => {
+                let estimates = shared::ray_marching::MAX_DEGREE as u64 + 1;
+                bricks
+                    + estimates * (2 * bricks + shared::ray_marching::MAX_UNBIASED_SAMPLES as u64)
+                    + 100
+            }
+            E::TrackLength | E::RatioTracking => {
+                2 * bricks + shared::tracking::MAX_TENTATIVE_COLLISIONS as u64
+            }
+        }
+}
+
+/// Samples per pixel per pass so that one invocation stays within the loop budget.
+pub fn spp_per_pass(params: &RenderParams, desc: &shared::grid::GridDesc) -> Result<u32> {
+    let per_ray = loop_iterations_per_ray(params, desc);
+    anyhow::ensure!(
+        per_ray <= LOOP_BUDGET,
+        "one ray of this estimator may need {per_ray} loop iterations, more than the {LOOP_BUDGET} a GPU invocation may run; lower --n or use a smaller volume"
+    );
+    Ok(((LOOP_BUDGET / per_ray) as u32).clamp(1, SPP_PER_PASS))
+}
 
 /// Renders every pixel of `params` on `backend`. Pixels go in row-major order. The work runs in
 /// passes of at most [`SPP_PER_PASS`] samples; within a pass, in chunks for the progress bar.
@@ -211,9 +250,10 @@ pub fn render(
         .checked_mul(params.height)
         .context("image too large")?;
     anyhow::ensure!(params.spp > 0, "--spp must be at least 1");
+    let step = spp_per_pass(params, &vol.desc)?;
     let passes: Vec<(u32, u32)> = (0..params.spp)
-        .step_by(SPP_PER_PASS as usize)
-        .map(|s| (s, (s + SPP_PER_PASS).min(params.spp)))
+        .step_by(step as usize)
+        .map(|s| (s, (s + step).min(params.spp)))
         .collect();
     // About 64 progress updates overall; each chunk is a whole number of workgroups.
     let per_pass = (64 / passes.len() as u32).max(1);

@@ -16,6 +16,10 @@ const P_ZERO: f32 = 0.9;
 const K_FULL: usize = 2;
 /// Continuation constant c: beyond K, degree k is reached with probability min(1, c / k).
 const C_CONT: f32 = 2.0;
+/// Most samples per estimate of biased ray marching (keeps a ray's work bounded on the GPU).
+pub const MAX_BIASED_SAMPLES: u32 = 8192;
+/// Most samples per estimate of unbiased ray marching (up to MAX_DEGREE + 1 estimates per ray).
+pub const MAX_UNBIASED_SAMPLES: u32 = 4096;
 /// Expected evaluation order beyond the pivot, 0.31945 for c = 2, p_Z = 0.9 (Kettunen Eq. 22).
 const EXPECTED_ORDER: f32 = 0.319_45;
 
@@ -97,7 +101,12 @@ pub fn biased_ray_marching(
     if !(prep.f > 0.0) {
         return (1.0, 0, rng);
     }
-    let n = ceil_u32(scale * n_cmf(prep.f) as f32);
+    let want = scale * n_cmf(prep.f) as f32;
+    let n = if want >= MAX_BIASED_SAMPLES as f32 {
+        MAX_BIASED_SAMPLES
+    } else {
+        ceil_u32(want)
+    };
     let (x, samples, rng) = estimate_single(
         vol,
         ray,

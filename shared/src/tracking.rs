@@ -12,10 +12,11 @@ use crate::math;
 use crate::optical_depth::mu_at;
 use crate::rng::HashRng;
 
-/// Most tentative collisions per ray; at the cap the estimate returns what it has. Kept below
-/// 65535 because lavapipe (gallivm) silently ends any shader loop after 65535 iterations, and
-/// the CPU must stop at the same point to stay bit-identical.
-pub const MAX_TENTATIVE_COLLISIONS: u32 = 60_000;
+/// Most tentative collisions per ray; at the cap the estimate returns what it has (1 for
+/// track-length, the running product for ratio tracking). Kept well below 65535 because
+/// lavapipe (gallivm) silently ends a shader after 65535 loop iterations summed over all loops,
+/// and the CPU must stop at the same point to stay bit-identical.
+pub const MAX_TENTATIVE_COLLISIONS: u32 = 50_000;
 
 /// Ratio tracking starts Russian roulette once the running estimate drops below this (pbrt-v4).
 pub const RR_THRESHOLD: f32 = 0.05;

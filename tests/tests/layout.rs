@@ -1,10 +1,10 @@
 //! Pins the byte layout of every struct shared between host, kernels and CPU backend.
 
+use shared::grid::{Brick, GridDesc};
 use shared::launch::Launch;
 use shared::probe::{DepthPair, MathValues, RngDraws, TransmittancePair};
-use shared::rng::Pcg32;
-use shared::grid::{Brick, GridDesc};
 use shared::render::{PixelOut, PixelSums, RenderParams, RenderPass};
+use shared::rng::Pcg32;
 use shared::Complex;
 use std::mem::{align_of, size_of};
 
@@ -25,5 +25,8 @@ fn shared_struct_layouts() {
     assert_eq!(size_of::<PixelSums>(), 16);
     assert_eq!(size_of::<PixelOut>(), 16);
     // The render kernel reads the pass range right after the Launch header in push constants.
-    assert_eq!(std::mem::offset_of!(RenderPass, s_begin), size_of::<Launch>());
+    assert_eq!(
+        std::mem::offset_of!(RenderPass, s_begin),
+        size_of::<Launch>()
+    );
 }

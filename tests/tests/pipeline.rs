@@ -411,3 +411,38 @@ fn gpu_and_cpu_agree_for_every_estimator_and_many_samples_per_pixel() {
         }
     }
 }
+
+#[test]
+fn dense_media_with_long_loops_still_agree_between_gpu_and_cpu() {
+    // Dense volume (optical depths in the hundreds): long tracking and ray-marching loops, passes
+    // sized by host::render::spp_per_pass to stay within lavapipe's 65535-iteration limit.
+    let gpu = Backend::Gpu(Box::new(gpu()));
+    let vol = lumpy(48);
+    let packed = pack(&vol, 40.0, 8, Lookup::Nearest).unwrap();
+    for name in [
+        "track-length",
+        "ratio",
+        "unbiased-rm2",
+        "biased-rm2",
+        "regular",
+    ] {
+        let spec = host::estimators::by_name(name).unwrap();
+        let mut p = params(&vol, 4, 4, 48, Estimator::Jackknife);
+        spec.apply(&mut p);
+        assert!(host::render::spp_per_pass(&p, &packed.desc).unwrap() >= 1);
+        let g = render(&gpu, &packed, &p, false).unwrap();
+        let c = render(&Backend::Cpu, &packed, &p, false).unwrap();
+        let ids: Vec<u32> = (0..g.len() as u32).collect();
+        assert_bytes_equal(&format!("render_cs dense {name}"), &ids, &g, &c);
+        let per_ray = c.iter().map(|px| px.samples as u64).sum::<u64>() as f64 / (16.0 * 48.0);
+        println!("{name}: {per_ray:.1} lookups per ray");
+        if name.ends_with("rm2") {
+            assert!(
+                per_ray > 50.0,
+                "{name}: volume too thin for this test ({per_ray} lookups/ray)"
+            );
+        } else {
+            assert!(per_ray > 1.0, "{name}: the camera must see the volume");
+        }
+    }
+}
