@@ -10,6 +10,7 @@ pub mod grid;
 pub mod half;
 pub mod launch;
 pub mod math;
+pub mod mis;
 pub mod optical_depth;
 pub mod probe;
 pub mod ray_marching;
