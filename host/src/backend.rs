@@ -75,6 +75,17 @@ impl Backend {
         }
     }
 
+    /// Equiangular sampling setup, sample and pdf per configuration.
+    pub fn equiangular(
+        &self,
+        input: &[probe::EquiangularIn],
+    ) -> Result<Vec<probe::EquiangularOut>> {
+        match self {
+            Backend::Cpu => Ok(cpu::map(input, probe::equiangular)),
+            Backend::Gpu(g) => map_on_gpu(g, "equiangular_cs", input),
+        }
+    }
+
     /// Generator outputs for ids 0..count with a user seed.
     pub fn rng_draws(&self, count: u32, seed: u32) -> Result<Vec<RngDraws>> {
         match self {

@@ -24,6 +24,8 @@ pub enum Command {
     Probe(ProbeArgs),
     /// Measure bias, std, RMSE, samples/ray and time of estimators against a reference.
     Eval(EvalArgs),
+    /// Reproduce the paper's statistical experiments (Table 1, Fig. 2-7, App. A).
+    Study(crate::study::StudyArgs),
 }
 
 /// High-resolution lookups.
@@ -33,6 +35,75 @@ pub enum LookupArg {
     Nearest,
     /// Stochastic texture filtering: jitter by up to half a voxel, then nearest (Sec. 4.3).
     Stochastic,
+}
+
+/// Estimate of T(t0) in Eq. 9.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum THatArg {
+    /// Jackknife transmittance (tiny bias).
+    Jackknife,
+    /// Ratio tracking (unbiased).
+    Ratio,
+}
+
+/// Integrator names of `--integrator`.
+pub const INTEGRATORS: &[(&str, shared::integrator::Integrator)] = {
+    use shared::integrator::Integrator as I;
+    &[
+        ("free-flight", I::FreeFlight),
+        ("equiangular", I::Equiangular),
+        ("mis-jackknife", I::MisJackknife),
+        ("mis-naive", I::MisNaive),
+        ("combined-jackknife", I::CombinedJackknife),
+        ("combined-naive", I::CombinedNaive),
+        ("miller", I::Miller),
+        ("mis-power", I::MisPowerJackknife),
+    ]
+};
+
+/// Parses an integrator name.
+pub fn parse_integrator(s: &str) -> Result<shared::integrator::Integrator, String> {
+    INTEGRATORS
+        .iter()
+        .find(|(n, _)| *n == s)
+        .map(|(_, i)| *i)
+        .ok_or_else(|| {
+            let names: Vec<&str> = INTEGRATORS.iter().map(|(n, _)| *n).collect();
+            format!(
+                "unknown integrator {s:?}; choose one of: {}",
+                names.join(", ")
+            )
+        })
+}
+
+/// Name of an integrator.
+pub fn integrator_name(i: shared::integrator::Integrator) -> &'static str {
+    INTEGRATORS
+        .iter()
+        .find(|(_, x)| *x == i)
+        .map(|(n, _)| *n)
+        .unwrap_or("transmittance")
+}
+
+/// Parses "x,y,z,intensity" into a point light.
+fn parse_light(s: &str) -> Result<shared::lights::PointLight, String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|p| {
+            p.trim()
+                .parse::<f32>()
+                .map_err(|_| format!("{p:?} is not a number in {s:?}"))
+        })
+        .collect::<Result<_, _>>()?;
+    if v.len() != 4 || v.iter().any(|x| !x.is_finite()) || v[3] < 0.0 {
+        return Err(format!(
+            "expected x,y,z,intensity (finite, intensity >= 0), got {s:?}"
+        ));
+    }
+    Ok(shared::lights::PointLight {
+        position: shared::vec3::V3::new(v[0], v[1], v[2]),
+        intensity: v[3],
+    })
 }
 
 /// Flags of `host render`.
@@ -67,6 +138,27 @@ pub struct RenderArgs {
     /// CDF step of jackknife-adaptive (the author's default 0.3).
     #[arg(long, default_value_t = 0.3, allow_negative_numbers = true)]
     pub f_delta: f32,
+    /// Render single scattering from point lights with this integrator instead of primary-ray
+    /// transmittance: free-flight, equiangular, mis-jackknife, mis-naive, combined-jackknife,
+    /// combined-naive, miller, mis-power (see README).
+    #[arg(long, value_parser = parse_integrator)]
+    pub integrator: Option<shared::integrator::Integrator>,
+    /// A point light "x,y,z,intensity" in world units (repeat for more; default: two lights
+    /// inside the volume).
+    #[arg(long = "light", value_parser = parse_light, allow_hyphen_values = true)]
+    pub lights: Vec<shared::lights::PointLight>,
+    /// Single-scattering albedo.
+    #[arg(long, default_value_t = 0.8, allow_negative_numbers = true)]
+    pub albedo: f32,
+    /// Henyey-Greenstein anisotropy g in (-1, 1) (0: isotropic).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub hg_g: f32,
+    /// Estimate of T(t0) for the equiangular strategy of Eq. 9: jackknife or ratio (unbiased).
+    #[arg(long, value_enum, default_value_t = THatArg::Jackknife)]
+    pub t_hat: THatArg,
+    /// Multiplier applied before the PNG preview's tone mapping (the EXR stays linear).
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    pub exposure: f32,
     /// Image width in pixels.
     #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
     pub width: u32,
@@ -127,6 +219,23 @@ pub struct EvalArgs {
     /// Comma-separated estimators, or "all" (every one but the reference).
     #[arg(long, default_value = "all")]
     pub estimators: String,
+    /// Evaluate single-scattering integrators instead of transmittance estimators:
+    /// comma-separated names or "all" (see `host render --integrator`). Reference: mis-jackknife
+    /// with ratio-tracking T(t0) at --reference-spp (default 16 x --spp).
+    #[arg(long)]
+    pub integrators: Option<String>,
+    /// Estimate of T(t0) in Eq. 9 for the evaluated integrators.
+    #[arg(long, value_enum, default_value_t = THatArg::Jackknife)]
+    pub t_hat: THatArg,
+    /// A point light "x,y,z,intensity" (repeatable; default: two lights inside the volume).
+    #[arg(long = "light", value_parser = parse_light, allow_hyphen_values = true)]
+    pub lights: Vec<shared::lights::PointLight>,
+    /// Single-scattering albedo.
+    #[arg(long, default_value_t = 0.8, allow_negative_numbers = true)]
+    pub albedo: f32,
+    /// Multiplier before the PNG previews' tone mapping.
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    pub exposure: f32,
     /// Samples per optical depth estimate (N).
     #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub n: u32,

@@ -4,7 +4,7 @@ use crate::backend::Backend;
 use crate::bricks::pack;
 use crate::cli::{EvalArgs, LookupArg, ProbeArgs, RenderArgs};
 use crate::output::{ensure_parent, write_exr, write_json, write_png};
-use crate::render::{make_camera, occupied_world_bounds, render, world_to_index, CameraSpec};
+use crate::render::{make_camera, occupied_world_bounds, world_to_index, CameraSpec};
 use crate::volume::DenseVolume;
 use anyhow::{bail, Context, Result};
 use shared::grid::Lookup;
@@ -27,6 +27,62 @@ pub fn load_volume(spec: &str, grid: Option<&str>, resolution: u32) -> Result<(D
             crate::procedural::NAMES.join(", ")
         ),
     }
+}
+
+/// The lights of `--light`, or two default lights inside the volume's occupied bounds.
+fn scene_lights(args: &RenderArgs, vol: &DenseVolume) -> Result<Vec<shared::lights::PointLight>> {
+    anyhow::ensure!(
+        args.hg_g.is_finite() && args.hg_g > -1.0 && args.hg_g < 1.0,
+        "--hg-g must be in (-1, 1) (got {})",
+        args.hg_g
+    );
+    lights_or_default(&args.lights, args.albedo, args.exposure, vol)
+}
+
+/// Validates light flags; `--light` values or two default lights inside the occupied bounds.
+fn lights_or_default(
+    lights: &[shared::lights::PointLight],
+    albedo: f32,
+    exposure: f32,
+    vol: &DenseVolume,
+) -> Result<Vec<shared::lights::PointLight>> {
+    anyhow::ensure!(
+        albedo.is_finite() && (0.0..=1.0).contains(&albedo),
+        "--albedo must be in [0, 1] (got {albedo})"
+    );
+    anyhow::ensure!(
+        exposure.is_finite() && exposure > 0.0,
+        "--exposure must be > 0 (got {exposure})"
+    );
+    anyhow::ensure!(
+        lights.len() <= shared::lights::MAX_LIGHTS as usize,
+        "--light: at most {} lights (got {})",
+        shared::lights::MAX_LIGHTS,
+        lights.len()
+    );
+    if !lights.is_empty() {
+        return Ok(lights.to_vec());
+    }
+    let (lo, hi) = crate::render::occupied_world_bounds(vol);
+    let at = |f: [f64; 3]| {
+        shared::vec3::V3::new(
+            (lo[0] + f[0] * (hi[0] - lo[0])) as f32,
+            (lo[1] + f[1] * (hi[1] - lo[1])) as f32,
+            (lo[2] + f[2] * (hi[2] - lo[2])) as f32,
+        )
+    };
+    let size = ((hi[0] - lo[0]) + (hi[1] - lo[1]) + (hi[2] - lo[2])) as f32 / 3.0;
+    // Intensity scales with size^2 so images look alike at any world scale.
+    Ok(vec![
+        shared::lights::PointLight {
+            position: at([0.35, 0.55, 0.45]),
+            intensity: 1.5 * size * size,
+        },
+        shared::lights::PointLight {
+            position: at([0.68, 0.4, 0.55]),
+            intensity: 0.8 * size * size,
+        },
+    ])
 }
 
 /// JSON summary of one render (field names are part of the CLI's interface; see README).
@@ -99,8 +155,19 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderSummary> {
         ..Default::default()
     };
     args.estimator.apply(&mut params);
+    let lights = scene_lights(args, &vol)?;
+    if let Some(integrator) = args.integrator {
+        params.integrator = integrator as u32;
+        params.light_count = lights.len() as u32;
+        params.albedo = args.albedo;
+        params.hg_g = args.hg_g;
+        params.t_hat = match args.t_hat {
+            crate::cli::THatArg::Jackknife => shared::integrator::TransmittanceHat::Jackknife,
+            crate::cli::THatArg::Ratio => shared::integrator::TransmittanceHat::Ratio,
+        } as u32;
+    }
     let start = Instant::now();
-    let pixels = render(&backend, &packed, &params, !args.quiet)?;
+    let pixels = crate::render::render_scene(&backend, &packed, &params, &lights, !args.quiet)?;
     let elapsed_ms = start.elapsed().as_secs_f64() * 1e3;
 
     let t: Vec<f32> = pixels.iter().map(|p| p.t_mean).collect();
@@ -110,12 +177,30 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderSummary> {
     ensure_parent(&args.out)?;
     let png = args.out.with_extension("png");
     write_exr(&args.out, args.width, args.height, &t)?;
-    write_png(&png, args.width, args.height, &t)?;
+    let preview: Vec<f32> = if args.integrator.is_some() {
+        // Radiance: exposure, then Reinhard x / (1 + x) so highlights do not clip.
+        t.iter()
+            .map(|&v| {
+                let x = v * args.exposure;
+                x / (1.0 + x)
+            })
+            .collect()
+    } else {
+        t.clone()
+    };
+    write_png(&png, args.width, args.height, &preview)?;
     let summary = RenderSummary {
         backend: backend.kind().into(),
         device: backend.device(),
         volume: vol.name.clone(),
-        estimator: args.estimator.name.into(),
+        estimator: match args.integrator {
+            Some(i) => format!(
+                "{} (integrator; shadow rays: {})",
+                crate::cli::integrator_name(i),
+                args.estimator.name
+            ),
+            None => args.estimator.name.into(),
+        },
         lookup: format!("{:?}", args.lookup).to_lowercase(),
         width: args.width,
         height: args.height,
@@ -220,7 +305,7 @@ fn lookup_of(arg: LookupArg) -> Lookup {
 }
 
 /// `host eval`: the reference and each estimator on pixel-center rays; JSON + images.
-pub fn run_eval(args: &EvalArgs) -> Result<crate::eval::EvalReport> {
+pub fn run_eval(args: &EvalArgs) -> Result<()> {
     anyhow::ensure!(
         args.fov.is_finite() && args.fov > 0.0 && args.fov < 180.0,
         "--fov must be in (0, 180) degrees (got {})",
@@ -261,6 +346,9 @@ pub fn run_eval(args: &EvalArgs) -> Result<crate::eval::EvalReport> {
         pixel_jitter: 0,
         ..Default::default()
     };
+    if let Some(list) = &args.integrators {
+        return run_eval_integrators(args, list, &vol, &packed, &backend, params);
+    }
     let (reference, reference_spp) = match lookup {
         // Deterministic and exact for nearest lookups: one estimate per pixel suffices.
         Lookup::Nearest => (
@@ -291,5 +379,59 @@ pub fn run_eval(args: &EvalArgs) -> Result<crate::eval::EvalReport> {
         .unwrap_or_else(|| args.out_dir.join("eval.json"));
     crate::eval::write_report(&json, &report)?;
     println!("wrote {}", json.display());
-    Ok(report)
+    Ok(())
+}
+
+/// `host eval --integrators`: single scattering against an unbiased high-spp reference.
+fn run_eval_integrators(
+    args: &EvalArgs,
+    list: &str,
+    vol: &DenseVolume,
+    packed: &crate::bricks::PackedVolume,
+    backend: &Backend,
+    mut params: RenderParams,
+) -> Result<()> {
+    let integrators: Vec<(&'static str, shared::integrator::Integrator)> = if list == "all" {
+        crate::cli::INTEGRATORS.to_vec()
+    } else {
+        list.split(',')
+            .map(|n| {
+                let n = n.trim();
+                crate::cli::INTEGRATORS
+                    .iter()
+                    .find(|(name, _)| *name == n)
+                    .copied()
+                    .with_context(|| format!("--integrators: unknown integrator {n:?}"))
+            })
+            .collect::<Result<_>>()?
+    };
+    let lights = lights_or_default(&args.lights, args.albedo, args.exposure, vol)?;
+    params.light_count = lights.len() as u32;
+    params.albedo = args.albedo;
+    params.pixel_jitter = 1;
+    params.t_hat = match args.t_hat {
+        crate::cli::THatArg::Jackknife => shared::integrator::TransmittanceHat::Jackknife,
+        crate::cli::THatArg::Ratio => shared::integrator::TransmittanceHat::Ratio,
+    } as u32;
+    let setup = crate::eval::EvalSetup {
+        backend,
+        volume: packed,
+        volume_name: vol.name.clone(),
+        params,
+        reference: crate::estimators::by_name("jackknife").expect("registered"),
+        reference_spp: args.reference_spp.unwrap_or(16 * args.spp),
+        out_dir: &args.out_dir,
+        bias_scale: args.bias_scale,
+        std_scale: args.std_scale,
+        progress: !args.quiet,
+    };
+    let report = crate::eval::evaluate_integrators(&setup, &lights, &integrators, args.exposure)?;
+    let json = args
+        .json
+        .clone()
+        .unwrap_or_else(|| args.out_dir.join("eval.json"));
+    crate::output::ensure_parent(&json)?;
+    crate::output::write_json(&json, &report)?;
+    println!("wrote {}", json.display());
+    Ok(())
 }

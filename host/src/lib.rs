@@ -16,3 +16,4 @@ pub mod bricks;
 pub mod eval;
 pub mod output;
 pub mod render;
+pub mod study;

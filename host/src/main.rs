@@ -11,7 +11,8 @@ fn main() -> ExitCode {
         None => run_render(&cli.render).map(|_| ()),
         Some(Command::Render(args)) => run_render(args).map(|_| ()),
         Some(Command::Probe(args)) => run_probe(args),
-        Some(Command::Eval(args)) => run_eval(args).map(|_| ()),
+        Some(Command::Eval(args)) => run_eval(args),
+        Some(Command::Study(args)) => host::study::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -7,6 +7,7 @@ use crate::volume::{Affine, DenseVolume};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use shared::camera::{Affine3x4, Camera};
+use shared::lights::PointLight;
 use shared::render::{finish_pixel, render_pixel_pass, PixelOut, PixelSums, RenderParams};
 use shared::vec3::V3;
 
@@ -207,6 +208,15 @@ pub fn loop_iterations_per_ray(params: &RenderParams, desc: &shared::grid::GridD
     let bricks = (desc.brick_dims[0] + desc.brick_dims[1] + desc.brick_dims[2] + 3) as u64;
     let voxels = (desc.dims[0] + desc.dims[1] + desc.dims[2] + 3) as u64;
     let fixed = 64;
+    if params.integrator != 0 {
+        // Delta tracking and ratio tracking, up to four pairs of estimates on the camera ray and
+        // two shadow rays, and two passes over the lights.
+        let tracking = shared::tracking::MAX_TENTATIVE_COLLISIONS as u64;
+        return fixed
+            + 2 * (tracking + bricks)
+            + 6 * (3 * bricks + 2 * params.n as u64)
+            + 2 * shared::lights::MAX_LIGHTS as u64;
+    }
     fixed
         + match E::from_u32(params.estimator) {
             E::Jackknife | E::NaiveMean | E::NaiveSingle => 3 * bricks + 2 * params.n as u64,
@@ -245,6 +255,23 @@ pub fn render(
     params: &RenderParams,
     progress: bool,
 ) -> Result<Vec<PixelOut>> {
+    render_scene(backend, vol, params, &[], progress)
+}
+
+/// [`render`] with point lights, for the single-scattering integrators.
+pub fn render_scene(
+    backend: &Backend,
+    vol: &PackedVolume,
+    params: &RenderParams,
+    lights: &[PointLight],
+    progress: bool,
+) -> Result<Vec<PixelOut>> {
+    anyhow::ensure!(
+        params.light_count as usize <= lights.len()
+            && params.light_count <= shared::lights::MAX_LIGHTS,
+        "at most {} lights",
+        shared::lights::MAX_LIGHTS
+    );
     let count = params
         .width
         .checked_mul(params.height)
@@ -268,7 +295,8 @@ pub fn render(
                 for (c, block) in sums.chunks_mut(chunk as usize).enumerate() {
                     let base = c as u32 * chunk;
                     block.par_iter_mut().enumerate().for_each(|(i, acc)| {
-                        *acc = render_pixel_pass(&view, params, base + i as u32, s0, s1, *acc);
+                        *acc =
+                            render_pixel_pass(&view, params, lights, base + i as u32, s0, s1, *acc);
                     });
                     bar.inc(block.len() as u64 * (s1 - s0) as u64);
                 }
@@ -284,6 +312,7 @@ pub fn render(
                 .context("uploading the bricks")?;
             let p = gpu.upload(bytemuck::bytes_of(params))?;
             let d = gpu.upload(bytemuck::bytes_of(&vol.desc))?;
+            let l = gpu.upload(bytemuck::cast_slice(lights))?;
             let size = count as u64 * std::mem::size_of::<PixelSums>() as u64;
             let output = gpu.buffer(size).context("allocating the image")?;
             for &(s0, s1) in &passes {
@@ -296,6 +325,7 @@ pub fn render(
                         Binding::Resident(&d),
                         Binding::Resident(&voxels),
                         Binding::Resident(&bricks),
+                        Binding::Resident(&l),
                         Binding::Resident(&output),
                     ];
                     gpu.dispatch_range(

@@ -4,6 +4,7 @@
 
 use shared::grid::{Brick, GridDesc, VolumeView};
 use shared::launch::Launch;
+use shared::lights::PointLight;
 use shared::probe::{self, DepthPair, MathValues, RngDraws, TransmittancePair};
 use shared::render::{self, PixelSums, RenderParams, RenderPass};
 use spirv_std::glam::UVec3;
@@ -48,6 +49,7 @@ pub fn rng_draws_cs(
 }
 
 /// One pass of a primary-ray transmittance image: adds samples s_begin..s_end of each pixel.
+#[allow(clippy::too_many_arguments)] // one argument per binding
 #[spirv(compute(threads(64)))]
 pub fn render_cs(
     #[spirv(global_invocation_id)] gid: UVec3,
@@ -56,7 +58,8 @@ pub fn render_cs(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] desc: &[GridDesc],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] voxels: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] bricks: &[Brick],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] sums: &mut [PixelSums],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] lights: &[PointLight],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] sums: &mut [PixelSums],
 ) {
     if let Some(i) = pass.launch.id(gid.x) {
         let vol = VolumeView {
@@ -69,7 +72,28 @@ pub fn render_cs(
         } else {
             sums[i]
         };
-        sums[i] =
-            render::render_pixel_pass(&vol, &params[0], i as u32, pass.s_begin, pass.s_end, prev);
+        sums[i] = render::render_pixel_pass(
+            &vol,
+            &params[0],
+            lights,
+            i as u32,
+            pass.s_begin,
+            pass.s_end,
+            prev,
+        );
+    }
+}
+
+/// Equiangular sampling setup, sample and pdf per configuration (diagnostics).
+#[spirv(compute(threads(64)))]
+pub fn equiangular_cs(
+    #[spirv(global_invocation_id)] gid: UVec3,
+    #[spirv(push_constant)] launch: &Launch,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] input: &[probe::EquiangularIn],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)]
+    output: &mut [probe::EquiangularOut],
+) {
+    if let Some(i) = launch.id(gid.x) {
+        output[i] = probe::equiangular(input[i]);
     }
 }

@@ -229,3 +229,54 @@ fn clamp_unit(v: f32) -> f32 {
         v
     }
 }
+
+/// atan on [-tan(pi/8), tan(pi/8)]: odd Taylor series through x^21 (truncation < 2^-26).
+#[inline]
+fn atan_kernel(x: f32) -> f32 {
+    let z = x * x;
+    // atan x = x - x z q, q = 1/3 - z (1/5 - z (1/7 - ...)), Horner from the inside.
+    let mut p = 1.0 / 21.0;
+    p = 1.0 / 19.0 - z * p;
+    p = 1.0 / 17.0 - z * p;
+    p = 1.0 / 15.0 - z * p;
+    p = 1.0 / 13.0 - z * p;
+    p = 1.0 / 11.0 - z * p;
+    p = 1.0 / 9.0 - z * p;
+    p = 1.0 / 7.0 - z * p;
+    p = 1.0 / 5.0 - z * p;
+    p = 1.0 / 3.0 - z * p;
+    x - (x * z) * p
+}
+
+/// atan(x), built from + - * / and sqrt (reductions atan(x) = pi/2 - atan(1/x) and the half
+/// angle formula); NaN gives NaN.
+pub fn atan(x: f32) -> f32 {
+    if is_nan(x) {
+        return NAN;
+    }
+    let a = abs(x);
+    let (r, offset) = if a > 1.0 { (1.0 / a, 1) } else { (a, 0) };
+    // Half-angle reduction atan r = 2 atan(r / (1 + sqrt(1 + r^2))) for r > tan(pi/8): doubling is
+    // exact. (The textbook pi/4 + atan((r - 1)/(r + 1)) gave different bits on lavapipe: Mesa's
+    // NIR reassociates the constant addition in shaders without NoContraction.)
+    let mut v = if r > 0.414_213_57 {
+        2.0 * atan_kernel(r / (1.0 + crate::camera::sqrt(1.0 + r * r)))
+    } else {
+        atan_kernel(r)
+    };
+    if offset == 1 {
+        v = core::f32::consts::FRAC_PI_2 - v;
+    }
+    if x < 0.0 {
+        -v
+    } else {
+        v
+    }
+}
+
+/// tan x = sin x / cos x with the deterministic sin_cos.
+#[inline]
+pub fn tan(x: f32) -> f32 {
+    let (s, c) = sin_cos(x);
+    s / c
+}

@@ -18,13 +18,23 @@ impl Mobius {
     /// Free-flight MIS weight w1 = mu T / (mu T + p_eq): u0 = v0 = mu, u1 = 0, v1 = p_eq (Eq. 11).
     #[inline]
     pub fn free_flight_weight(mu: f32, p_other: f32) -> Self {
-        Mobius { u0: mu, u1: 0.0, v0: mu, v1: p_other }
+        Mobius {
+            u0: mu,
+            u1: 0.0,
+            v0: mu,
+            v1: p_other,
+        }
     }
 
     /// The other strategy's weight 1 - w1 = p_eq / (mu T + p_eq): u0 = 0, u1 = p_eq (App. D).
     #[inline]
     pub fn other_weight(mu: f32, p_other: f32) -> Self {
-        Mobius { u0: 0.0, u1: p_other, v0: mu, v1: p_other }
+        Mobius {
+            u0: 0.0,
+            u1: p_other,
+            v0: mu,
+            v1: p_other,
+        }
     }
 
     /// g at a complex argument z = X̄ + iS: (u0 e^-z + u1) / (v0 e^-z + v1).
@@ -93,7 +103,12 @@ mod tests {
 
     #[test]
     fn app_f_equals_complex_evaluation() {
-        let g = Mobius { u0: 1.0, u1: 0.0, v0: 1.0, v1: 0.5 };
+        let g = Mobius {
+            u0: 1.0,
+            u1: 0.0,
+            v0: 1.0,
+            v1: 0.5,
+        };
         for &(x0, x1) in &[(0.3f32, 1.7f32), (2.0, 2.0), (0.0, 4.0), (5.0, 1.0)] {
             let z = Complex::new(x_bar(x0, x1), s(x0, x1));
             let want = g.eval_complex(z).re;
@@ -104,7 +119,12 @@ mod tests {
     #[test]
     fn exp_case_reduces_to_eq_4() {
         // g = e^-tau (u0 = 1, u1 = 0, v0 = 0, v1 = 1) gives the jackknife transmittance.
-        let g = Mobius { u0: 1.0, u1: 0.0, v0: 0.0, v1: 1.0 };
+        let g = Mobius {
+            u0: 1.0,
+            u1: 0.0,
+            v0: 0.0,
+            v1: 1.0,
+        };
         for &(x0, x1) in &[(0.3f32, 1.7f32), (2.0, 2.5), (0.0, 4.0)] {
             let k = crate::transmittance::jackknife(x0, x1);
             assert!((g.jackknife(x0, x1) - k).abs() < 1e-7);
@@ -114,7 +134,11 @@ mod tests {
     #[test]
     fn weights_of_a_pair_sum_to_one_exactly_for_equal_inputs_and_in_expectation_form() {
         // w1 + w0 = Re((mu z + p) / (mu z + p)) = 1 up to rounding for any (X0, X1) (App. D).
-        for &(mu, p, x0, x1) in &[(2.0f32, 0.3f32, 0.5f32, 1.5f32), (0.1, 5.0, 3.0, 0.2), (1.0, 1.0, 0.0, 0.0)] {
+        for &(mu, p, x0, x1) in &[
+            (2.0f32, 0.3f32, 0.5f32, 1.5f32),
+            (0.1, 5.0, 3.0, 0.2),
+            (1.0, 1.0, 0.0, 0.0),
+        ] {
             let w1 = Mobius::free_flight_weight(mu, p).jackknife(x0, x1);
             let w0 = Mobius::other_weight(mu, p).jackknife(x0, x1);
             assert!((w0 + w1 - 1.0).abs() < 1e-6, "{w0} + {w1}");

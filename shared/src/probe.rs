@@ -37,9 +37,13 @@ pub struct MathValues {
     pub ln: f32,
     pub sin: f32,
     pub cos: f32,
+    pub atan: f32,
+    pub tan: f32,
+    pub sqrt: f32,
+    pub _pad: f32,
 }
 
-/// exp, ln, sin and cos of x.
+/// exp, ln, sin, cos, atan, tan and sqrt of x.
 #[inline]
 pub fn math_values(x: f32) -> MathValues {
     let (sin, cos) = math::sin_cos(x);
@@ -48,6 +52,10 @@ pub fn math_values(x: f32) -> MathValues {
         ln: math::ln(x),
         sin,
         cos,
+        atan: math::atan(x),
+        tan: math::tan(x),
+        sqrt: crate::camera::sqrt(x),
+        _pad: 0.0,
     }
 }
 
@@ -87,5 +95,46 @@ pub fn rng_draws(id: u32, seed: u32) -> RngDraws {
         pcg32,
         hash,
         pcg3d: rng::pcg3d([id, seed, hash]),
+    }
+}
+
+/// Inputs of the equiangular-sampling probe kernel.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct EquiangularIn {
+    pub o: crate::vec3::V3,
+    pub dir: crate::vec3::V3,
+    pub light: crate::vec3::V3,
+    pub ta: f32,
+    pub tb: f32,
+    pub u: f32,
+}
+
+/// Outputs of the equiangular-sampling probe kernel.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct EquiangularOut {
+    pub tc: f32,
+    pub d: f32,
+    pub theta_a: f32,
+    pub angle: f32,
+    pub t: f32,
+    pub pdf: f32,
+    pub _pad: [f32; 2],
+}
+
+/// Equiangular setup, sample and pdf for one configuration.
+#[inline]
+pub fn equiangular(p: EquiangularIn) -> EquiangularOut {
+    let eq = crate::lights::Equiangular::new(p.o, p.dir, p.light, p.ta, p.tb);
+    let (t, pdf) = eq.sample(p.u);
+    EquiangularOut {
+        tc: eq.tc,
+        d: eq.d,
+        theta_a: eq.theta_a,
+        angle: eq.angle,
+        t,
+        pdf,
+        _pad: [eq.pdf(p.ta + p.u), 0.0],
     }
 }

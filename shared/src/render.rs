@@ -3,6 +3,7 @@
 use crate::camera::{to_index_space, Affine3x4, Camera};
 use crate::dda::clip_to_box;
 use crate::grid::{Lookup, VolumeView};
+use crate::lights::PointLight;
 use crate::math;
 use crate::optical_depth::{
     estimate_pair, estimate_pair_adaptive, estimate_single, prepare, Importance, Jitter,
@@ -94,7 +95,17 @@ pub struct RenderParams {
     /// 1: jitter rays within their pixel (anti-aliasing); 0: every sample uses the pixel center,
     /// so per-pixel statistics measure the transmittance estimator alone (`host eval`).
     pub pixel_jitter: u32,
-    pub _pad: [u32; 3],
+    /// [`crate::integrator::Integrator`] as u32; 0 renders transmittance.
+    pub integrator: u32,
+    /// Number of valid entries in the lights buffer.
+    pub light_count: u32,
+    /// Single-scattering albedo mu_s / mu.
+    pub albedo: f32,
+    /// Henyey-Greenstein anisotropy g (0: isotropic).
+    pub hg_g: f32,
+    /// [`crate::integrator::TransmittanceHat`] as u32.
+    pub t_hat: u32,
+    pub _pad: [u32; 2],
 }
 
 /// Per-pixel result: mean transmittance over spp and the high-resolution lookups taken.
@@ -203,6 +214,7 @@ pub struct RenderPass {
 pub fn render_pixel_pass(
     vol: &VolumeView,
     params: &RenderParams,
+    lights: &[PointLight],
     id: u32,
     s_begin: u32,
     s_end: u32,
@@ -224,7 +236,11 @@ pub fn render_pixel_pass(
         let world = params
             .camera
             .world_ray(x, y, jx, jy, params.width, params.height);
-        let (t, n, _) = ray_transmittance(vol, params, &world, rng);
+        let (t, n, _) = if params.integrator == 0 {
+            ray_transmittance(vol, params, &world, rng)
+        } else {
+            crate::integrator::radiance(vol, params, lights, &world, rng)
+        };
         acc.t_sum += t;
         acc.t2_sum += t * t;
         acc.samples += n;
@@ -244,7 +260,12 @@ pub fn finish_pixel(sums: PixelSums, spp: u32) -> PixelOut {
 }
 
 /// Mean transmittance of pixel `id` over all `spp` samples in one pass (tests, small renders).
-pub fn render_pixel(vol: &VolumeView, params: &RenderParams, id: u32) -> PixelOut {
-    let sums = render_pixel_pass(vol, params, id, 0, params.spp, PixelSums::default());
+pub fn render_pixel(
+    vol: &VolumeView,
+    params: &RenderParams,
+    lights: &[PointLight],
+    id: u32,
+) -> PixelOut {
+    let sums = render_pixel_pass(vol, params, lights, id, 0, params.spp, PixelSums::default());
     finish_pixel(sums, params.spp)
 }

@@ -16,7 +16,7 @@ use crate::rng::HashRng;
 /// track-length, the running product for ratio tracking). Kept well below 65535 because
 /// lavapipe (gallivm) silently ends a shader after 65535 loop iterations summed over all loops,
 /// and the CPU must stop at the same point to stay bit-identical.
-pub const MAX_TENTATIVE_COLLISIONS: u32 = 50_000;
+pub const MAX_TENTATIVE_COLLISIONS: u32 = 20_000;
 
 /// Ratio tracking starts Russian roulette once the running estimate drops below this (pbrt-v4).
 pub const RR_THRESHOLD: f32 = 0.05;

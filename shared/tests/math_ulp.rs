@@ -148,6 +148,11 @@ fn cos_within_4_ulp() {
 }
 
 #[test]
+fn atan_within_4_ulp() {
+    check("atan", &[(-1e30, 1e30)], math::atan, f64::atan, 4.0);
+}
+
+#[test]
 fn special_values() {
     assert!(math::exp(f32::NAN).is_nan());
     assert_eq!(math::exp(f32::INFINITY), f32::INFINITY);

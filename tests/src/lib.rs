@@ -33,6 +33,13 @@ pub fn assert_bytes_equal<I: Debug, O: Pod + Debug>(
     let bad: Vec<usize> = (0..gpu.len())
         .filter(|&i| g[i * size..(i + 1) * size] != c[i * size..(i + 1) * size])
         .collect();
+    if let Ok(f) = std::env::var("JK_DUMP_MISMATCH") {
+        let lines: Vec<String> = bad
+            .iter()
+            .map(|&i| format!("{:?}", inputs.get(i)))
+            .collect();
+        std::fs::write(f, lines.join("\n")).unwrap();
+    }
     let mut msg = format!(
         "{what}: {} of {} outputs differ between GPU and CPU\n",
         bad.len(),

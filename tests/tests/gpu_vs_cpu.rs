@@ -123,10 +123,15 @@ fn launches_larger_than_one_dispatch_are_split_correctly() {
     // 65535 workgroups x 64 = 4,194,240 ids per dispatch; go past it so the host must split.
     let gpu = Backend::Gpu(Box::new(gpu()));
     let n = 65_535 * 64 + 1000;
-    let xs: Vec<f32> = (0..n).map(|i| i as f32 * 1e-3 - 100.0).collect();
-    let g = gpu.math_values(&xs).unwrap();
-    let c = Backend::Cpu.math_values(&xs).unwrap();
-    assert_bytes_equal("math_values_cs (split)", &xs, &g, &c);
+    let pairs: Vec<DepthPair> = (0..n)
+        .map(|i| DepthPair {
+            x0: i as f32 * 1e-5,
+            x1: (n - i) as f32 * 1e-5,
+        })
+        .collect();
+    let g = gpu.transmittance_pairs(&pairs).unwrap();
+    let c = Backend::Cpu.transmittance_pairs(&pairs).unwrap();
+    assert_bytes_equal("transmittance_pair_cs (split)", &pairs, &g, &c);
 }
 
 #[test]
@@ -137,4 +142,32 @@ fn buffers_over_the_device_limit_are_refused_clearly() {
         Ok(_) => {} // a device with a larger limit runs it; nothing to check here
         Err(e) => assert!(format!("{e:#}").contains("maxStorageBufferRange"), "{e:#}"),
     }
+}
+
+#[test]
+fn equiangular_sampling_is_bit_identical() {
+    let gpu = Backend::Gpu(Box::new(gpu()));
+    let r = random_floats(12 * 200_000, 21);
+    let inputs: Vec<probe::EquiangularIn> = r
+        .as_chunks::<12>()
+        .0
+        .iter()
+        .map(|c| {
+            // Only the realistic-depth half of random_floats: odd indices are in [0, 64).
+            let v = |i: usize| c[i | 1] / 32.0 - 1.0;
+            let dir = shared::vec3::V3::new(v(2), v(3), v(4));
+            let len = (dir.dot(dir)).sqrt().max(1e-3);
+            probe::EquiangularIn {
+                o: shared::vec3::V3::new(v(0) * 2.0, v(1) * 2.0, -2.0),
+                dir: dir * (1.0 / len),
+                light: shared::vec3::V3::new(v(5), v(6), v(7)),
+                ta: 0.5 + v(8).abs(),
+                tb: 2.0 + v(9).abs() * 2.0,
+                u: (v(10) + 1.0) * 0.5,
+            }
+        })
+        .collect();
+    let g = gpu.equiangular(&inputs).unwrap();
+    let c = Backend::Cpu.equiangular(&inputs).unwrap();
+    assert_bytes_equal("equiangular_cs", &inputs, &g, &c);
 }

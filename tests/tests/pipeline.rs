@@ -68,7 +68,7 @@ fn params(vol: &DenseVolume, w: u32, h: u32, spp: u32, estimator: Estimator) -> 
         rm_scale: 1.0,
         f_delta: 0.3,
         pixel_jitter: 1,
-        _pad: [0; 3],
+        ..Default::default()
     }
 }
 

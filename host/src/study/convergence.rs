@@ -1,0 +1,180 @@
+//! `host study convergence`: RMSE of optical depth estimates against the sample count N for the
+//! midpoint rule, uniform jittered, stratified jittered and i.i.d. sampling (Fig. 5).
+
+use super::plot::{Figure, Legend, LinePanel, Series, Style, BLUE, GREEN, GREY, ORANGE, PURPLE};
+use super::profile::{Profile, Sampling};
+use super::rng::sub_seed;
+use super::stats::{log_log_slope, run_chunked, Moments};
+use anyhow::Result;
+use indicatif::ProgressBar;
+use plotters::coord::Shift;
+use plotters::prelude::{DrawingArea, DrawingBackend};
+use serde::Serialize;
+
+/// About `points` sample counts from 1 to `max_n`, evenly spaced in log N, rounded, distinct.
+pub fn sample_counts(max_n: usize, points: usize) -> Vec<usize> {
+    let mut ns: Vec<usize> = (0..points)
+        .map(|i| {
+            (max_n as f64)
+                .powf(i as f64 / (points - 1).max(1) as f64)
+                .round() as usize
+        })
+        .collect();
+    ns.dedup();
+    ns
+}
+
+/// RMSE over N for one sampling scheme, and the fitted log-log slopes below and above N = 100.
+#[derive(Clone, Debug, Serialize)]
+pub struct Curve {
+    pub sampling: Sampling,
+    /// (N, RMSE): for the midpoint rule the absolute error of its single deterministic estimate.
+    pub rmse: Vec<(usize, f64)>,
+    pub slope_up_to_100: f64,
+    pub slope_from_100: f64,
+}
+
+/// Runs `trials` estimates per (sampling, N) and measures the RMSE about the exact tau.
+pub fn measure(
+    profile: &Profile,
+    samplings: &[Sampling],
+    ns: &[usize],
+    trials: u64,
+    seed: u64,
+    bar: &ProgressBar,
+) -> Vec<Curve> {
+    let tau = profile.tau();
+    samplings
+        .iter()
+        .enumerate()
+        .map(|(k, &sampling)| {
+            let rmse: Vec<(usize, f64)> = ns
+                .iter()
+                .map(|&n| {
+                    let trials = if sampling == Sampling::Midpoint {
+                        1
+                    } else {
+                        trials
+                    };
+                    let key = (k as u64) << 32 | n as u64;
+                    let m = run_chunked(
+                        trials,
+                        sub_seed(seed, key),
+                        bar,
+                        &Moments::new(tau),
+                        |acc, rng, count| {
+                            let mut scratch = Vec::new();
+                            for _ in 0..count {
+                                acc.push(sampling.estimate(profile, n, rng, &mut scratch));
+                            }
+                        },
+                    );
+                    (n, m.rms_about_centre())
+                })
+                .collect();
+            let fit = |keep: &dyn Fn(usize) -> bool| {
+                let pts: Vec<(f64, f64)> = rmse
+                    .iter()
+                    .filter(|&&(n, e)| keep(n) && e > 0.0)
+                    .map(|&(n, e)| (n as f64, e))
+                    .collect();
+                if pts.len() < 2 {
+                    f64::NAN
+                } else {
+                    log_log_slope(&pts)
+                }
+            };
+            Curve {
+                sampling,
+                slope_up_to_100: fit(&|n| n <= 100),
+                slope_from_100: fit(&|n| n >= 100),
+                rmse,
+            }
+        })
+        .collect()
+}
+
+/// Fig. 5: log-log RMSE over N with N^-1/2 and N^-1 guides.
+pub struct ConvergenceFigure {
+    pub profile: String,
+    pub tau: f64,
+    pub curves: Vec<Curve>,
+}
+
+impl Figure for ConvergenceFigure {
+    fn size(&self) -> (u32, u32) {
+        (720, 520)
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<()> {
+        let positive = || {
+            self.curves
+                .iter()
+                .flat_map(|c| c.rmse.iter().map(|p| p.1))
+                .filter(|&e| e > 0.0)
+        };
+        let y_min = positive().fold(f64::INFINITY, f64::min) * 0.5;
+        let y_max = positive().fold(0.0, f64::max) * 2.0;
+        let n_max = self
+            .curves
+            .iter()
+            .flat_map(|c| c.rmse.iter().map(|p| p.0))
+            .max()
+            .unwrap_or(1) as f64;
+        let mut panel = LinePanel::new(
+            &format!(
+                "RMSE of optical depth estimates, profile {} (τ = {:.3})",
+                self.profile, self.tau
+            ),
+            "sample count N",
+            "RMSE",
+            (1.0, n_max),
+            (y_min, y_max),
+        );
+        panel.log_x = true;
+        panel.log_y = true;
+        panel.legend = Legend::LowerLeft;
+        for c in &self.curves {
+            let color = match c.sampling {
+                Sampling::Midpoint => PURPLE,
+                Sampling::Uniform => ORANGE,
+                Sampling::Stratified => BLUE,
+                Sampling::Iid => GREEN,
+            };
+            let pts: Vec<(f64, f64)> = c
+                .rmse
+                .iter()
+                .filter(|p| p.1 > 0.0)
+                .map(|&(n, e)| (n as f64, e))
+                .collect();
+            let label = format!(
+                "{} (slope {:.2} / {:.2})",
+                c.sampling.label(),
+                c.slope_up_to_100,
+                c.slope_from_100
+            );
+            panel
+                .series
+                .push(Series::new(&label, color, Style::Line, pts.clone()));
+            panel
+                .series
+                .push(Series::new("", color, Style::Markers(3), pts));
+        }
+        // Guides through the i.i.d. curve's first point: N^-1/2 and N^-1.
+        if let Some(&(_, e1)) = self
+            .curves
+            .iter()
+            .find(|c| c.sampling == Sampling::Iid)
+            .and_then(|c| c.rmse.first())
+        {
+            let guide = |p: f64| vec![(1.0, e1), (n_max, e1 * n_max.powf(-p))];
+            panel
+                .series
+                .push(Series::new("N^-1/2, N^-1", GREY, Style::Dashed, guide(0.5)));
+            panel
+                .series
+                .push(Series::new("", GREY, Style::Dashed, guide(1.0)));
+        }
+        panel.draw(root)
+    }
+}

@@ -1,0 +1,44 @@
+//! The output flags of every study and the files they name.
+
+use anyhow::Result;
+use clap::Args;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// `--seed`, `--json`, `--plot`, `--quiet` of every study.
+#[derive(Args, Debug, Clone)]
+pub struct Output {
+    /// Seed of the random numbers; results are bit-identical for any thread count.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Also write the numbers as JSON to this file.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Plot file, `.png` or `.svg` [default: out/study_<name>.png].
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// Hide the progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+impl Output {
+    /// Writes the JSON (if asked for) and the plot, and says where they went.
+    pub fn write<T: Serialize>(
+        &self,
+        name: &str,
+        report: &T,
+        figure: &impl super::plot::Figure,
+    ) -> Result<()> {
+        if let Some(path) = &self.json {
+            crate::output::ensure_parent(path)?;
+            crate::output::write_json(path, report)?;
+            println!("wrote {}", path.display());
+        }
+        let default = PathBuf::from(format!("out/study_{name}.png"));
+        let plot: &Path = self.plot.as_deref().unwrap_or(&default);
+        super::plot::save(plot, figure)?;
+        println!("wrote {}", plot.display());
+        Ok(())
+    }
+}
