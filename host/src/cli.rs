@@ -106,9 +106,9 @@ fn parse_light(s: &str) -> Result<shared::lights::PointLight, String> {
     })
 }
 
-/// Flags of `host render`.
+/// The volume and the camera, shared by `host render` and `host eval`.
 #[derive(Args, Debug, Clone)]
-pub struct RenderArgs {
+pub struct SceneArgs {
     /// Embedded volume (cloud, explosion, constant) or a .vdb / .nvdb file.
     #[arg(long, default_value = "cloud")]
     pub volume: String,
@@ -124,6 +124,22 @@ pub struct RenderArgs {
     /// Voxels per super-voxel (brick) along each axis.
     #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(2..=256))]
     pub brick_size: u32,
+    /// Camera position x,y,z in world units (default: framing the volume from the front).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub camera: Option<[f32; 3]>,
+    /// Point the camera looks at, x,y,z (default: the volume's center).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub look_at: Option<[f32; 3]>,
+    /// Vertical field of view in degrees.
+    #[arg(long, default_value_t = 40.0, allow_negative_numbers = true)]
+    pub fov: f32,
+}
+
+/// Flags of `host render`.
+#[derive(Args, Debug, Clone)]
+pub struct RenderArgs {
+    #[command(flatten)]
+    pub scene: SceneArgs,
     /// How the high-resolution volume is read.
     #[arg(long, value_enum, default_value_t = LookupArg::Stochastic)]
     pub lookup: LookupArg,
@@ -180,15 +196,6 @@ pub struct RenderArgs {
     /// Also write a JSON summary here.
     #[arg(long)]
     pub json: Option<PathBuf>,
-    /// Camera position x,y,z in world units (default: framing the volume from the front).
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-    pub camera: Option<[f32; 3]>,
-    /// Point the camera looks at, x,y,z (default: the volume's center).
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-    pub look_at: Option<[f32; 3]>,
-    /// Vertical field of view in degrees.
-    #[arg(long, default_value_t = 40.0, allow_negative_numbers = true)]
-    pub fov: f32,
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
@@ -197,21 +204,8 @@ pub struct RenderArgs {
 /// Flags of `host eval`.
 #[derive(Args, Debug, Clone)]
 pub struct EvalArgs {
-    /// Embedded volume (cloud, explosion, constant) or a .vdb / .nvdb file.
-    #[arg(long, default_value = "cloud")]
-    pub volume: String,
-    /// Grid to read from a file.
-    #[arg(long)]
-    pub grid: Option<String>,
-    /// Voxels per axis of an embedded volume.
-    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(8..=1024))]
-    pub resolution: u32,
-    /// Extinction per unit of stored density (default: the embedded volume's own, 1 for files).
-    #[arg(long, allow_negative_numbers = true)]
-    pub density_scale: Option<f32>,
-    /// Voxels per super-voxel (brick) along each axis.
-    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(2..=256))]
-    pub brick_size: u32,
+    #[command(flatten)]
+    pub scene: SceneArgs,
     /// Lookups: nearest (reference = regular tracking, exact) or stochastic (reference = ratio
     /// tracking at --reference-spp, unbiased but noisy).
     #[arg(long, value_enum, default_value_t = LookupArg::Nearest)]
@@ -272,15 +266,6 @@ pub struct EvalArgs {
     /// std mapped to full colour in the std PNGs.
     #[arg(long, default_value_t = 0.5)]
     pub std_scale: f32,
-    /// Camera position x,y,z.
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-    pub camera: Option<[f32; 3]>,
-    /// Point looked at, x,y,z.
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-    pub look_at: Option<[f32; 3]>,
-    /// Vertical field of view in degrees.
-    #[arg(long, default_value_t = 40.0, allow_negative_numbers = true)]
-    pub fov: f32,
     /// No progress bars.
     #[arg(long, short)]
     pub quiet: bool,

@@ -110,19 +110,9 @@ pub struct RenderSummary {
 
 /// `host render`: loads, packs, renders, writes EXR + PNG (+ JSON), prints a summary.
 pub fn run_render(args: &RenderArgs) -> Result<RenderSummary> {
-    anyhow::ensure!(
-        args.fov.is_finite() && args.fov > 0.0 && args.fov < 180.0,
-        "--fov must be in (0, 180) degrees (got {})",
-        args.fov
-    );
     let t_load = Instant::now();
-    let (vol, default_scale) = load_volume(&args.volume, args.grid.as_deref(), args.resolution)?;
-    let density_scale = args.density_scale.unwrap_or(default_scale);
-    let lookup = match args.lookup {
-        LookupArg::Nearest => Lookup::Nearest,
-        LookupArg::Stochastic => Lookup::Stochastic,
-    };
-    let packed = pack(&vol, density_scale, args.brick_size, lookup)?;
+    let scene = prepare_scene(&args.scene, lookup_of(args.lookup), args.width, args.height)?;
+    let (vol, packed, density_scale) = (&scene.volume, &scene.packed, scene.density_scale);
     let load_ms = t_load.elapsed().as_secs_f64() * 1e3;
     let backend = Backend::open(args.backend)?;
     if !args.quiet {
@@ -133,18 +123,13 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderSummary> {
             vol.dims[1],
             vol.dims[2],
             packed.bricks.len(),
-            args.brick_size
+            args.scene.brick_size
         );
         eprintln!("backend: {} ({})", backend.kind(), backend.device());
     }
-    let spec = CameraSpec {
-        position: args.camera,
-        look_at: args.look_at,
-        fov_deg: args.fov,
-    };
     let mut params = RenderParams {
-        camera: make_camera(&spec, occupied_world_bounds(&vol), args.width, args.height)?,
-        world_to_index: world_to_index(&vol.index_to_world)?,
+        camera: scene.camera,
+        world_to_index: scene.world_to_index,
         width: args.width,
         height: args.height,
         spp: args.spp,
@@ -155,7 +140,7 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderSummary> {
         ..Default::default()
     };
     args.estimator.apply(&mut params);
-    let lights = scene_lights(args, &vol)?;
+    let lights = scene_lights(args, vol)?;
     if let Some(integrator) = args.integrator {
         params.integrator = integrator as u32;
         params.light_count = lights.len() as u32;
@@ -167,7 +152,7 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderSummary> {
         } as u32;
     }
     let start = Instant::now();
-    let pixels = crate::render::render_scene(&backend, &packed, &params, &lights, !args.quiet)?;
+    let pixels = crate::render::render_scene(&backend, packed, &params, &lights, !args.quiet)?;
     let elapsed_ms = start.elapsed().as_secs_f64() * 1e3;
 
     let t: Vec<f32> = pixels.iter().map(|p| p.t_mean).collect();
@@ -208,7 +193,7 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderSummary> {
         seed: args.seed,
         n: args.n,
         density_scale,
-        brick_size: args.brick_size,
+        brick_size: args.scene.brick_size,
         elapsed_ms,
         mean_samples_per_ray: samples / rays,
         mean_t,
@@ -297,6 +282,46 @@ pub fn run_probe(args: &ProbeArgs) -> Result<()> {
     Ok(())
 }
 
+/// A loaded and packed volume with the camera framing it.
+pub struct Scene {
+    pub volume: DenseVolume,
+    pub packed: crate::bricks::PackedVolume,
+    pub density_scale: f32,
+    pub camera: shared::camera::Camera,
+    pub world_to_index: shared::camera::Affine3x4,
+}
+
+/// Loads the volume of `--volume`, packs it and sets up the camera for a `w` x `h` image.
+pub fn prepare_scene(
+    args: &crate::cli::SceneArgs,
+    lookup: Lookup,
+    w: u32,
+    h: u32,
+) -> Result<Scene> {
+    anyhow::ensure!(
+        args.fov.is_finite() && args.fov > 0.0 && args.fov < 180.0,
+        "--fov must be in (0, 180) degrees (got {})",
+        args.fov
+    );
+    let (volume, default_scale) = load_volume(&args.volume, args.grid.as_deref(), args.resolution)?;
+    let density_scale = args.density_scale.unwrap_or(default_scale);
+    let packed = pack(&volume, density_scale, args.brick_size, lookup)?;
+    let spec = CameraSpec {
+        position: args.camera,
+        look_at: args.look_at,
+        fov_deg: args.fov,
+    };
+    let camera = make_camera(&spec, occupied_world_bounds(&volume), w, h)?;
+    let world_to_index = world_to_index(&volume.index_to_world)?;
+    Ok(Scene {
+        volume,
+        packed,
+        density_scale,
+        camera,
+        world_to_index,
+    })
+}
+
 fn lookup_of(arg: LookupArg) -> Lookup {
     match arg {
         LookupArg::Nearest => Lookup::Nearest,
@@ -306,37 +331,17 @@ fn lookup_of(arg: LookupArg) -> Lookup {
 
 /// `host eval`: the reference and each estimator on pixel-center rays; JSON + images.
 pub fn run_eval(args: &EvalArgs) -> Result<()> {
-    anyhow::ensure!(
-        args.fov.is_finite() && args.fov > 0.0 && args.fov < 180.0,
-        "--fov must be in (0, 180) degrees (got {})",
-        args.fov
-    );
-    anyhow::ensure!(
-        args.f_delta.is_finite() && args.f_delta > 0.0,
-        "--f-delta must be finite and > 0 (got {})",
-        args.f_delta
-    );
-    anyhow::ensure!(
-        args.bias_scale > 0.0 && args.std_scale > 0.0,
-        "--bias-scale and --std-scale must be > 0"
-    );
     let estimators = crate::eval::parse_list(&args.estimators)?;
-    let (vol, default_scale) = load_volume(&args.volume, args.grid.as_deref(), args.resolution)?;
-    let density_scale = args.density_scale.unwrap_or(default_scale);
     let lookup = lookup_of(args.lookup);
-    let packed = pack(&vol, density_scale, args.brick_size, lookup)?;
+    let scene = prepare_scene(&args.scene, lookup, args.width, args.height)?;
+    let (vol, packed) = (&scene.volume, &scene.packed);
     let backend = Backend::open(args.backend)?;
     if !args.quiet {
         eprintln!("backend: {} ({})", backend.kind(), backend.device());
     }
-    let spec = CameraSpec {
-        position: args.camera,
-        look_at: args.look_at,
-        fov_deg: args.fov,
-    };
     let params = RenderParams {
-        camera: make_camera(&spec, occupied_world_bounds(&vol), args.width, args.height)?,
-        world_to_index: world_to_index(&vol.index_to_world)?,
+        camera: scene.camera,
+        world_to_index: scene.world_to_index,
         width: args.width,
         height: args.height,
         spp: args.spp,
@@ -347,7 +352,7 @@ pub fn run_eval(args: &EvalArgs) -> Result<()> {
         ..Default::default()
     };
     if let Some(list) = &args.integrators {
-        return run_eval_integrators(args, list, &vol, &packed, &backend, params);
+        return run_eval_integrators(args, list, vol, packed, &backend, params);
     }
     let (reference, reference_spp) = match lookup {
         // Deterministic and exact for nearest lookups: one estimate per pixel suffices.
@@ -362,7 +367,7 @@ pub fn run_eval(args: &EvalArgs) -> Result<()> {
     };
     let setup = crate::eval::EvalSetup {
         backend: &backend,
-        volume: &packed,
+        volume: packed,
         volume_name: vol.name.clone(),
         params,
         reference,
