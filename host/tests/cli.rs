@@ -249,3 +249,20 @@ fn render_reads_openvdb_and_nanovdb_files_with_identical_results() {
     }
     assert!(pngs[0] == pngs[1], ".vdb and .nvdb renders differ");
 }
+
+#[test]
+fn running_without_flags_renders_the_embedded_cloud() {
+    // What `cargo run -p host --release` does: the default cloud, default size, out/render.*.
+    let dir = tempfile::tempdir().unwrap();
+    let out = host().current_dir(dir.path()).output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("jackknife 512x512 spp 4"), "{stdout}");
+    let png = image::open(dir.path().join("out/render.png")).unwrap();
+    assert_eq!((png.width(), png.height()), (512, 512));
+    assert!(dir.path().join("out/render.exr").metadata().unwrap().len() > 0);
+}
