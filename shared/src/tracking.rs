@@ -165,6 +165,7 @@ impl MajorantSampler {
 /// Track-length estimator (delta tracking, Novák et al. 2014; pbrt-v4): 0 at the first real
 /// collision (accepted with probability mu / sigma_maj), 1 if the flight escapes past t1.
 /// Returns (T, high-resolution lookups, rng).
+#[inline]
 pub fn track_length(
     vol: &VolumeView,
     ray: &Ray,
@@ -173,30 +174,12 @@ pub fn track_length(
     lookup: Lookup,
     rng: HashRng,
 ) -> (f32, u32, HashRng) {
-    let mut sampler = MajorantSampler::new(vol, ray, t0, t1);
-    let mut rng = rng;
-    let mut transmittance = 1.0f32;
-    let mut lookups = 0u32;
-    while !sampler.done && lookups < MAX_TENTATIVE_COLLISIONS {
-        let (c, r) = sampler.next_collision(vol, rng);
-        rng = r;
-        if c.found {
-            let key = [rng.state, lookups, JITTER_SALT];
-            let mu = mu_at(vol, ray.at(c.t), lookup, key);
-            lookups += 1;
-            let (u, r) = rng.next_f32();
-            rng = r;
-            if u < mu / c.sigma_maj {
-                transmittance = 0.0;
-                sampler.done = true;
-            }
-        }
-    }
-    (transmittance, lookups, rng)
+    track(vol, ray, t0, t1, lookup, rng, false)
 }
 
 /// Ratio tracking (Novák et al. 2014; pbrt-v4): product of (1 - mu / sigma_maj) over tentative
 /// collisions, with pbrt-v4's Russian roulette below [`RR_THRESHOLD`]. Returns (T, lookups, rng).
+#[inline]
 pub fn ratio_tracking(
     vol: &VolumeView,
     ray: &Ray,
@@ -204,6 +187,21 @@ pub fn ratio_tracking(
     t1: f32,
     lookup: Lookup,
     rng: HashRng,
+) -> (f32, u32, HashRng) {
+    track(vol, ray, t0, t1, lookup, rng, true)
+}
+
+/// The shared loop over tentative collisions (pbrt-v4's `SampleT_maj` with a callback): each
+/// collision reads mu once, then updates the estimate as ratio tracking (`ratio`) or as the
+/// track-length estimator, which stops at the first real collision.
+fn track(
+    vol: &VolumeView,
+    ray: &Ray,
+    t0: f32,
+    t1: f32,
+    lookup: Lookup,
+    rng: HashRng,
+    ratio: bool,
 ) -> (f32, u32, HashRng) {
     let mut sampler = MajorantSampler::new(vol, ray, t0, t1);
     let mut rng = rng;
@@ -216,9 +214,20 @@ pub fn ratio_tracking(
             let key = [rng.state, lookups, JITTER_SALT];
             let mu = mu_at(vol, ray.at(c.t), lookup, key);
             lookups += 1;
-            let (t, r, stop) = ratio_step(transmittance, mu, c.sigma_maj, rng);
-            transmittance = t;
-            rng = r;
+            let stop = if ratio {
+                let (t, r, stop) = ratio_step(transmittance, mu, c.sigma_maj, rng);
+                transmittance = t;
+                rng = r;
+                stop
+            } else {
+                let (u, r) = rng.next_f32();
+                rng = r;
+                let real = u < mu / c.sigma_maj;
+                if real {
+                    transmittance = 0.0;
+                }
+                real
+            };
             if stop {
                 sampler.done = true;
             }
