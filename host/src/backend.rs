@@ -44,6 +44,39 @@ impl Backend {
     }
 
     /// "cpu" or "gpu".
+    /// [`Backend::open`] for rendering `volume`: a volume whose voxel or brick array exceeds the
+    /// GPU's largest storage buffer makes `auto` fall back to the CPU with a warning and a forced
+    /// `--backend gpu` fail with advice (volumes are not split across buffers).
+    pub fn open_for(choice: BackendChoice, volume: &crate::bricks::PackedVolume) -> Result<Self> {
+        let backend = Self::open(choice)?;
+        let Backend::Gpu(gpu) = &backend else {
+            return Ok(backend);
+        };
+        let limit = gpu.max_buffer_bytes();
+        let largest = (std::mem::size_of_val(volume.voxels.as_slice()) as u64)
+            .max(std::mem::size_of_val(volume.bricks.as_slice()) as u64);
+        if largest <= limit {
+            return Ok(backend);
+        }
+        let d = volume.desc.dims;
+        let why = format!(
+            "the {}x{}x{} volume needs a {largest}-byte storage buffer, more than this GPU's \
+             maxStorageBufferRange of {limit} bytes ({})",
+            d[0],
+            d[1],
+            d[2],
+            gpu.description()
+        );
+        if choice == BackendChoice::Gpu {
+            anyhow::bail!(
+                "--backend gpu: {why}; use --backend cpu, or a smaller volume (--resolution for \
+                 embedded volumes; crop or resample a file)"
+            );
+        }
+        eprintln!("warning: {why}; falling back to the CPU backend");
+        Ok(Backend::Cpu)
+    }
+
     pub fn kind(&self) -> &'static str {
         match self {
             Backend::Cpu => "cpu",

@@ -115,14 +115,17 @@ pub struct SceneArgs {
     /// Grid to read from a file (default: "density", else the first float grid).
     #[arg(long)]
     pub grid: Option<String>,
+    /// Set negative densities of a volume file to 0 (with a warning) instead of refusing it.
+    #[arg(long)]
+    pub clamp_negative: bool,
     /// Voxels per axis of an embedded volume.
-    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(8..=1024))]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 256, value_parser = clap::value_parser!(u32).range(8..=1024))]
     pub resolution: u32,
     /// Extinction per unit of stored density (default: the embedded volume's own, 1 for files).
     #[arg(long, allow_negative_numbers = true)]
     pub density_scale: Option<f32>,
     /// Voxels per super-voxel (brick) along each axis.
-    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(2..=256))]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 16, value_parser = clap::value_parser!(u32).range(2..=256))]
     pub brick_size: u32,
     /// Camera position x,y,z in world units (default: framing the volume from the front).
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
@@ -149,10 +152,10 @@ pub struct RenderArgs {
     #[arg(long, default_value = "jackknife", value_parser = crate::estimators::parse)]
     pub estimator: &'static crate::estimators::EstimatorSpec,
     /// Samples per optical depth estimate (N; two estimates per ray).
-    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub n: u32,
     /// CDF step of jackknife-adaptive (the author's default 0.3).
-    #[arg(long, default_value_t = 0.3, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 0.3, allow_negative_numbers = true, value_parser = parse_positive)]
     pub f_delta: f32,
     /// Render single scattering from point lights with this integrator instead of primary-ray
     /// transmittance: free-flight, equiangular, mis-jackknife, mis-naive, combined-jackknife,
@@ -176,16 +179,16 @@ pub struct RenderArgs {
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub exposure: f32,
     /// Image width in pixels.
-    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
     pub width: u32,
     /// Image height in pixels.
-    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
     pub height: u32,
     /// Primary rays (transmittance estimates) per pixel.
-    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
     pub spp: u32,
     /// Seed; the same seed gives the same image on every backend.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
     pub seed: u32,
     /// Where kernels run: auto (GPU if a Vulkan driver exists, else CPU), gpu, or cpu.
     #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
@@ -231,25 +234,25 @@ pub struct EvalArgs {
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub exposure: f32,
     /// Samples per optical depth estimate (N).
-    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub n: u32,
     /// CDF step of jackknife-adaptive.
-    #[arg(long, default_value_t = 0.3, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 0.3, allow_negative_numbers = true, value_parser = parse_positive)]
     pub f_delta: f32,
     /// Image width.
-    #[arg(long, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=16384))]
     pub width: u32,
     /// Image height.
-    #[arg(long, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=16384))]
     pub height: u32,
     /// Estimates per pixel (all along the pixel center's ray).
-    #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(2..=1 << 20))]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(2..=1 << 20))]
     pub spp: u32,
     /// Estimates per pixel of the reference when it is stochastic (default 4 x --spp).
     #[arg(long)]
     pub reference_spp: Option<u32>,
     /// Seed.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
     pub seed: u32,
     /// Where kernels run.
     #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
@@ -278,7 +281,7 @@ pub struct ProbeArgs {
     #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
     pub backend: BackendChoice,
     /// Number of (X0, X1) pairs.
-    #[arg(long, default_value_t = 1 << 20, value_parser = clap::value_parser!(u32).range(1..=1 << 26))]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1 << 20, value_parser = clap::value_parser!(u32).range(1..=1 << 26))]
     pub count: u32,
     /// True optical depth tau of the simulated estimates.
     #[arg(long, default_value_t = 2.0, allow_negative_numbers = true)]
@@ -287,11 +290,20 @@ pub struct ProbeArgs {
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub sigma: f32,
     /// Seed.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
     pub seed: u32,
 }
 
 /// Parses "x,y,z" into three finite floats.
+/// A finite number > 0.
+fn parse_positive(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        Ok(v) => Err(format!("must be a finite number > 0 (got {v})")),
+        Err(e) => Err(format!("not a number: {e}")),
+    }
+}
+
 fn parse_vec3(s: &str) -> Result<[f32; 3], String> {
     let parts: Vec<&str> = s.split(',').map(str::trim).collect();
     if parts.len() != 3 {

@@ -14,13 +14,27 @@ use std::path::Path;
 use std::time::Instant;
 
 /// An embedded volume by name or a volume file by path, with its default density scale.
-pub fn load_volume(spec: &str, grid: Option<&str>, resolution: u32) -> Result<(DenseVolume, f32)> {
+pub fn load_volume(scene: &crate::cli::SceneArgs) -> Result<(DenseVolume, f32)> {
+    let spec = scene.volume.as_str();
     let path = Path::new(spec);
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
     if path.exists() || ext.eq_ignore_ascii_case("vdb") || ext.eq_ignore_ascii_case("nvdb") {
-        return Ok((crate::io::load_volume(path, grid)?, 1.0));
+        let options = crate::io::LoadOptions {
+            grid: scene.grid.as_deref(),
+            clamp_negative: scene.clamp_negative,
+            ..Default::default()
+        };
+        let loaded = crate::io::load_volume_with(path, &options)?;
+        if loaded.clamped_negative > 0 {
+            eprintln!(
+                "warning: --clamp-negative set {} negative densities of {} to 0",
+                loaded.clamped_negative,
+                path.display()
+            );
+        }
+        return Ok((loaded.volume, 1.0));
     }
-    match crate::procedural::by_name(spec, resolution) {
+    match crate::procedural::by_name(spec, scene.resolution) {
         Some(v) => Ok((v, crate::procedural::default_density_scale(spec))),
         None => bail!(
             "--volume {spec:?} is neither a file nor an embedded volume; embedded volumes: {}",
@@ -114,7 +128,7 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderSummary> {
     let scene = prepare_scene(&args.scene, lookup_of(args.lookup), args.width, args.height)?;
     let (vol, packed, density_scale) = (&scene.volume, &scene.packed, scene.density_scale);
     let load_ms = t_load.elapsed().as_secs_f64() * 1e3;
-    let backend = Backend::open(args.backend)?;
+    let backend = Backend::open_for(args.backend, packed)?;
     if !args.quiet {
         eprintln!(
             "volume {} {}x{}x{} (density scale {density_scale}, {} bricks of {}^3), prepared in {load_ms:.0} ms",
@@ -303,7 +317,7 @@ pub fn prepare_scene(
         "--fov must be in (0, 180) degrees (got {})",
         args.fov
     );
-    let (volume, default_scale) = load_volume(&args.volume, args.grid.as_deref(), args.resolution)?;
+    let (volume, default_scale) = load_volume(args)?;
     let density_scale = args.density_scale.unwrap_or(default_scale);
     let packed = pack(&volume, density_scale, args.brick_size, lookup)?;
     let spec = CameraSpec {
@@ -335,7 +349,7 @@ pub fn run_eval(args: &EvalArgs) -> Result<()> {
     let lookup = lookup_of(args.lookup);
     let scene = prepare_scene(&args.scene, lookup, args.width, args.height)?;
     let (vol, packed) = (&scene.volume, &scene.packed);
-    let backend = Backend::open(args.backend)?;
+    let backend = Backend::open_for(args.backend, packed)?;
     if !args.quiet {
         eprintln!("backend: {} ({})", backend.kind(), backend.device());
     }

@@ -7,11 +7,13 @@ pub mod commands;
 pub mod cpu;
 pub mod estimators;
 pub mod gpu;
-pub mod io;
 pub mod procedural;
-pub mod volume;
 
 pub use backend::{Backend, BackendChoice};
+/// Volume loaders (`.vdb`, `.nvdb`), re-exported from the `volume-io` crate.
+pub use volume_io as io;
+/// Dense volumes, re-exported from the `volume-io` crate.
+pub use volume_io::dense as volume;
 pub mod bricks;
 pub mod eval;
 pub mod output;

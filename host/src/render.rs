@@ -313,36 +313,45 @@ pub fn render_scene(
             let p = gpu.upload(bytemuck::bytes_of(params))?;
             let d = gpu.upload(bytemuck::bytes_of(&vol.desc))?;
             let l = gpu.upload(bytemuck::cast_slice(lights))?;
-            let size = count as u64 * std::mem::size_of::<PixelSums>() as u64;
-            let output = gpu.buffer(size).context("allocating the image")?;
-            for &(s0, s1) in &passes {
-                let extra = [s0, s1, 0, 0];
-                let mut start = 0;
-                while start < count {
-                    let end = (start + chunk).min(count);
-                    let mut bindings = [
-                        Binding::Resident(&p),
-                        Binding::Resident(&d),
-                        Binding::Resident(&voxels),
-                        Binding::Resident(&bricks),
-                        Binding::Resident(&l),
-                        Binding::Resident(&output),
-                    ];
-                    gpu.dispatch_range(
-                        "render_cs",
-                        start..end,
-                        count,
-                        params.seed,
-                        bytemuck::cast_slice(&extra),
-                        &mut bindings,
-                    )
-                    .context("GPU kernel render_cs")?;
-                    bar.inc((end - start) as u64 * (s1 - s0) as u64);
-                    start = end;
-                }
-            }
+            // Tiles of whole workgroups, each small enough for one storage buffer.
+            let sums_size = std::mem::size_of::<PixelSums>() as u64;
+            let tile = (gpu.max_buffer_bytes() / sums_size / 64 * 64).clamp(64, count as u64);
+            let tile = tile as u32;
             let mut sums = vec![PixelSums::default(); count as usize];
-            output.read(bytemuck::cast_slice_mut(&mut sums));
+            for tile_start in (0..count).step_by(tile as usize) {
+                let tile_end = tile_start.saturating_add(tile).min(count);
+                let output = gpu
+                    .buffer(u64::from(tile_end - tile_start) * sums_size)
+                    .context("allocating the image")?;
+                for &(s0, s1) in &passes {
+                    let extra = [s0, s1, tile_start, 0];
+                    let mut start = tile_start;
+                    while start < tile_end {
+                        let end = start.saturating_add(chunk).min(tile_end);
+                        let mut bindings = [
+                            Binding::Resident(&p),
+                            Binding::Resident(&d),
+                            Binding::Resident(&voxels),
+                            Binding::Resident(&bricks),
+                            Binding::Resident(&l),
+                            Binding::Resident(&output),
+                        ];
+                        gpu.dispatch_range(
+                            "render_cs",
+                            start..end,
+                            count,
+                            params.seed,
+                            bytemuck::cast_slice(&extra),
+                            &mut bindings,
+                        )
+                        .context("GPU kernel render_cs")?;
+                        bar.inc((end - start) as u64 * (s1 - s0) as u64);
+                        start = end;
+                    }
+                }
+                let slice = &mut sums[tile_start as usize..tile_end as usize];
+                output.read(bytemuck::cast_slice_mut(slice));
+            }
             sums
         }
     };

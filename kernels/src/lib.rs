@@ -67,12 +67,13 @@ pub fn render_cs(
             voxels,
             bricks,
         };
+        let slot = i - pass.sums_base as usize;
         let prev = if pass.s_begin == 0 {
             PixelSums::default()
         } else {
-            sums[i]
+            sums[slot]
         };
-        sums[i] = render::render_pixel_pass(
+        sums[slot] = render::render_pixel_pass(
             &vol,
             &params[0],
             lights,

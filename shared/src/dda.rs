@@ -22,9 +22,14 @@ impl Ray {
 }
 
 /// Clips [t_lo, t_hi] to the box [0, hi] (slab test). Returns (t_enter, t_exit); the ray misses
-/// when `!(t_enter < t_exit)`. Axis-parallel rays are handled without 0 * inf.
+/// when `!(t_enter < t_exit)`. Axis-parallel rays are handled without 0 * inf. Degenerate input
+/// misses: a zero, infinite or NaN direction, a non-finite origin, or a NaN or empty range
+/// (`t_hi` may be +inf).
 #[inline]
 pub fn clip_to_box(ray: &Ray, hi: V3, t_lo: f32, t_hi: f32) -> (f32, f32) {
+    if !is_usable(ray) || !(t_lo < t_hi) {
+        return (1.0, 0.0);
+    }
     let mut t0 = t_lo;
     let mut t1 = t_hi;
     let mut axis = 0;
@@ -51,6 +56,15 @@ pub fn clip_to_box(ray: &Ray, hi: V3, t_lo: f32, t_hi: f32) -> (f32, f32) {
         axis += 1;
     }
     (t0, t1)
+}
+
+/// Whether a ray has a finite origin and a finite, non-zero direction (false for any NaN).
+#[inline]
+#[allow(clippy::manual_range_contains)] // two plain compares, the same on every backend
+pub fn is_usable(ray: &Ray) -> bool {
+    let finite = |v: f32| v >= -f32::MAX && v <= f32::MAX;
+    let len2 = ray.d.dot(ray.d);
+    finite(ray.o.x) && finite(ray.o.y) && finite(ray.o.z) && len2 > 0.0 && finite(len2)
 }
 
 /// One cell crossed by the ray: parameter range [t0, t1] and cell coordinates.

@@ -206,7 +206,10 @@ pub struct RenderPass {
     pub s_begin: u32,
     /// One past the last sample index of this pass.
     pub s_end: u32,
-    pub _pad: [u32; 2],
+    /// Pixel id held by element 0 of the sums buffer: images larger than one storage buffer
+    /// are rendered tile by tile, each tile into its own buffer.
+    pub sums_base: u32,
+    pub _pad: u32,
 }
 
 /// Adds samples s_begin..s_end of pixel `id` (row-major) to `prev`: one pass of a render.

@@ -124,9 +124,19 @@ impl Gpu {
         Ok(b)
     }
 
+    /// The largest storage buffer in bytes: the device's maxStorageBufferRange, or less if the
+    /// environment variable `JK_GPU_MAX_BUFFER_BYTES` says so (to exercise tiling in tests).
+    pub fn max_buffer_bytes(&self) -> u64 {
+        let device = u64::from(self.owner.limits.max_storage_buffer_range);
+        let forced = std::env::var("JK_GPU_MAX_BUFFER_BYTES")
+            .ok()
+            .and_then(|v| v.parse::<u64>().ok());
+        forced.map_or(device, |f| f.clamp(64, device))
+    }
+
     /// An uninitialised storage buffer of `size` bytes (checked against the device limit).
     pub fn buffer(&self, size: u64) -> Result<Buffer, GpuError> {
-        let limit = self.owner.limits.max_storage_buffer_range as u64;
+        let limit = self.max_buffer_bytes();
         if size > limit {
             return Err(GpuError::TooLarge { size, limit });
         }

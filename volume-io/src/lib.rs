@@ -1,5 +1,5 @@
-//! Volume file loaders: a scalar grid of an OpenVDB (`.vdb`) or NanoVDB (`.nvdb`) file, made
-//! dense over its active voxels' bounding box.
+//! Dense extinction volumes (`dense`) and their file loaders: a scalar grid of an OpenVDB (`.vdb`)
+//! or NanoVDB (`.nvdb`) file, made dense over its active voxels' bounding box.
 //!
 //! Index conventions: OpenVDB and NanoVDB put voxel centers at integer index coordinates (voxel
 //! `c` covers `[c - 0.5, c + 0.5]`), while [`DenseVolume`] voxel `i` covers `[i, i + 1)`. Dense
@@ -11,11 +11,12 @@
 
 mod blosc;
 mod bytes;
+pub mod dense;
 mod nanovdb;
 mod openvdb;
 
-use crate::volume::{Affine, DenseVolume};
 use anyhow::{anyhow, bail, ensure, Context, Result};
+pub use dense::{Affine, DenseVolume};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::Path;
 
@@ -33,14 +34,54 @@ pub fn load_volume(path: &Path, grid: Option<&str>) -> Result<DenseVolume> {
 
 /// [`load_volume`] refusing dense grids of more than `max_voxels` (at most [`MAX_DENSE_VOXELS`]).
 pub fn load_volume_capped(path: &Path, grid: Option<&str>, max_voxels: u64) -> Result<DenseVolume> {
+    let options = LoadOptions {
+        grid,
+        max_voxels,
+        ..LoadOptions::default()
+    };
+    Ok(load_volume_with(path, &options)?.volume)
+}
+
+/// How a volume file is loaded.
+#[derive(Clone, Copy, Debug)]
+pub struct LoadOptions<'a> {
+    /// The grid to read (default: "density", else the file's first float grid).
+    pub grid: Option<&'a str>,
+    /// Largest dense grid to build, in voxels (at most [`MAX_DENSE_VOXELS`]).
+    pub max_voxels: u64,
+    /// Set negative densities to 0 instead of refusing the file.
+    pub clamp_negative: bool,
+}
+
+impl Default for LoadOptions<'_> {
+    fn default() -> Self {
+        LoadOptions {
+            grid: None,
+            max_voxels: MAX_DENSE_VOXELS,
+            clamp_negative: false,
+        }
+    }
+}
+
+/// A loaded volume and what loading changed.
+#[derive(Clone, Debug)]
+pub struct LoadedVolume {
+    pub volume: DenseVolume,
+    /// How many negative densities [`LoadOptions::clamp_negative`] set to 0.
+    pub clamped_negative: u64,
+}
+
+/// Loads a `.vdb` or `.nvdb` file as [`LoadOptions`] say. Every error names the file.
+pub fn load_volume_with(path: &Path, options: &LoadOptions) -> Result<LoadedVolume> {
     let format = Format::of(path)?;
-    let cap = max_voxels.min(MAX_DENSE_VOXELS);
+    let cap = options.max_voxels.min(MAX_DENSE_VOXELS);
+    let grid = options.grid;
     let loaded = guarded(|| match format {
         Format::OpenVdb => openvdb::load(&read_file(path)?, grid, cap),
         Format::NanoVdb => nanovdb::load(path, grid, cap),
     })
     .with_context(|| format!("cannot load {} file {}", format.name(), path.display()))?;
-    loaded.into_volume(path)
+    loaded.into_volume(path, options.clamp_negative)
 }
 
 /// The volume file formats, by extension.
@@ -168,6 +209,33 @@ impl LinearMap {
             .all(|v| v.is_finite())
     }
 
+    /// Refuses maps that cannot be inverted in f32: non-finite, singular or nearly so.
+    fn check_invertible(&self) -> Result<()> {
+        let f32_ok = self
+            .m
+            .iter()
+            .flatten()
+            .chain(&self.t)
+            .all(|&v| (v as f32).is_finite());
+        ensure!(
+            f32_ok,
+            "its entries are not finite in f32: the file is corrupt"
+        );
+        let m = &self.m;
+        let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+        let column_norms: f64 = (0..3)
+            .map(|c| (0..3).map(|r| m[r][c] * m[r][c]).sum::<f64>().sqrt())
+            .product();
+        ensure!(
+            column_norms > 0.0 && (det / column_norms).abs() > 1e-6 && det.abs() > 1e-30,
+            "the transform is singular (a voxel size of 0, or collapsed axes; determinant {det:e}); \
+             fix the grid's transform"
+        );
+        Ok(())
+    }
+
     /// The dense grid's affine map, whose voxel (0,0,0) is file voxel `min` (see the module doc).
     fn dense_affine(&self, min: [i32; 3]) -> Affine {
         let shift: [f64; 3] = std::array::from_fn(|a| f64::from(min[a]) - 0.5);
@@ -186,17 +254,45 @@ struct Loaded {
 }
 
 impl Loaded {
-    /// The validated [`DenseVolume`], named after the file.
-    fn into_volume(self, path: &Path) -> Result<DenseVolume> {
+    /// The validated [`DenseVolume`], named after the file; negative densities set to 0 if
+    /// `clamp_negative`, else refused like NaN and infinities, naming the voxel's file index.
+    fn into_volume(mut self, path: &Path, clamp_negative: bool) -> Result<LoadedVolume> {
         let name = path.display().to_string();
+        self.map
+            .check_invertible()
+            .with_context(|| format!("cannot load {name}: the grid transform is unusable"))?;
+        let mut clamped_negative = 0;
+        if clamp_negative {
+            for v in self.dense.values.iter_mut().filter(|v| **v < 0.0) {
+                *v = 0.0;
+                clamped_negative += 1;
+            }
+        }
+        let values = &self.dense.values;
+        if let Some(i) = values.iter().position(|v| !v.is_finite() || *v < 0.0) {
+            let ijk = self.dense.file_index(i);
+            let value = values[i];
+            let advice = if value < 0.0 {
+                "densities must be >= 0: fix the grid, or pass --clamp-negative to set negative \
+                 values to 0"
+            } else {
+                "densities must be finite: fix the grid (replace NaN/inf in the tool that wrote it)"
+            };
+            bail!(
+                "cannot load {name}: voxel ({}, {}, {}) (file index coordinates) has density \
+                 {value}; {advice}",
+                ijk[0],
+                ijk[1],
+                ijk[2]
+            );
+        }
         let Dense {
             min, dims, values, ..
         } = self.dense;
-        DenseVolume::new(name, dims, values, self.map.dense_affine(min)).with_context(|| {
-            format!(
-                "{} is not a density grid: use a fog volume with values >= 0",
-                path.display()
-            )
+        let volume = DenseVolume::new(name, dims, values, self.map.dense_affine(min))?;
+        Ok(LoadedVolume {
+            volume,
+            clamped_negative,
         })
     }
 }
@@ -304,6 +400,13 @@ impl Dense {
             index = index * self.dims[a] as usize + local as usize;
         }
         Some(index)
+    }
+
+    /// The file index of `values[i]`.
+    fn file_index(&self, i: usize) -> [i64; 3] {
+        let d = self.dims.map(|v| v as usize);
+        let local = [i % d[0], i / d[0] % d[1], i / (d[0] * d[1])];
+        std::array::from_fn(|a| i64::from(self.min[a]) + local[a] as i64)
     }
 
     /// Sets file voxel `ijk` (ignored outside the grid).

@@ -6,20 +6,90 @@ use anyhow::{ensure, Context, Result};
 use nanovdb_rs::{GridType, NvdbFile, ValidatedFloatTreeCache};
 use std::path::Path;
 
-/// `"NanoVDB0"` as a little-endian u64, the first field of every grid.
+/// `"NanoVDB0"` as a little-endian u64: the first field of every segment header and grid.
 const GRID_MAGIC: u64 = 0x3042_4456_6f6e_614e;
 /// The NanoVDB major version whose memory layout `nanovdb-rs` reads.
 const MAJOR_VERSION: u32 = 32;
 
+/// Bytes of a segment header: magic u64, version u32, grid count u16, codec u16.
+const SEGMENT_HEADER_BYTES: u64 = 16;
+/// Fixed bytes of a grid's file metadata, before its name.
+const META_FIXED_BYTES: u64 = 176;
+/// zlib's largest expansion: a deflate stream never decompresses to more than ~1032x its size.
+const ZLIB_MAX_RATIO: u64 = 1032;
+
 /// Loads grid `grid` (or the default) of the `.nvdb` file at `path`, refusing dense grids of
 /// more than `cap` voxels.
 pub fn load(path: &Path, grid: Option<&str>, cap: u64) -> Result<Loaded> {
-    std::fs::metadata(path)
-        .with_context(|| format!("cannot read {}: check the path", path.display()))?;
+    preflight(&super::read_file(path)?)?;
     let file = NvdbFile::open(path).map_err(explain)?;
     let entries: Vec<GridEntry> = file.grids().iter().map(entry).collect();
     let chosen = &file.grids()[select_grid(&entries, grid)?];
     load_grid(chosen, cap).with_context(|| format!("grid '{}'", chosen.name()))
+}
+
+/// Walks the file's segments and grid metadata as `nanovdb-rs` will, refusing what would make it
+/// index past the end of the file or decompress more than the file can hold: the crate trusts
+/// these sizes.
+fn preflight(bytes: &[u8]) -> Result<()> {
+    let len = bytes.len() as u64;
+    let field = |at: u64, n: u64, what: &str| -> Result<&[u8]> {
+        let end = at.checked_add(n).filter(|&e| e <= len);
+        let end = end.with_context(|| {
+            format!(
+                "the file is truncated: {what} at byte {at} needs {n} bytes, the file has {len}"
+            )
+        })?;
+        Ok(&bytes[at as usize..end as usize])
+    };
+    let u64_at = |b: &[u8], i: usize| u64::from_le_bytes(b[i..i + 8].try_into().expect("8 bytes"));
+    ensure!(len > 0, "the file is empty");
+    let mut cursor = 0u64;
+    while cursor < len {
+        let head = field(cursor, SEGMENT_HEADER_BYTES, "a segment header")?;
+        ensure!(
+            u64_at(head, 0) == GRID_MAGIC,
+            "not a NanoVDB file: bad magic number at byte {cursor} (expected \"NanoVDB0\")"
+        );
+        let grid_count = u16::from_le_bytes([head[12], head[13]]);
+        let codec = u16::from_le_bytes([head[14], head[15]]);
+        ensure!(
+            grid_count > 0,
+            "a segment at byte {cursor} lists no grids: the file is corrupt"
+        );
+        cursor += SEGMENT_HEADER_BYTES;
+        let mut grid_sizes = Vec::with_capacity(usize::from(grid_count));
+        for _ in 0..grid_count {
+            let meta = field(cursor, META_FIXED_BYTES, "grid metadata")?;
+            grid_sizes.push(u64_at(meta, 0));
+            let name_size = u64::from(u32::from_le_bytes(meta[136..140].try_into().expect("4")));
+            cursor += META_FIXED_BYTES;
+            field(cursor, name_size, "a grid name")?;
+            cursor += name_size;
+        }
+        for grid_size in grid_sizes {
+            match codec {
+                0 => {
+                    field(cursor, grid_size, "a grid")?;
+                    cursor += grid_size;
+                }
+                1 => {
+                    let compressed = u64_at(field(cursor, 8, "a compressed grid's size")?, 0);
+                    cursor += 8;
+                    field(cursor, compressed, "a compressed grid")?;
+                    ensure!(
+                        grid_size / ZLIB_MAX_RATIO <= compressed,
+                        "a grid claims {grid_size} bytes from {compressed} compressed bytes, more \
+                         than zlib can produce: the file is corrupt"
+                    );
+                    cursor += compressed;
+                }
+                // The crate reports unsupported codecs itself, with our advice.
+                _ => return Ok(()),
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Adds advice to the crate's errors.

@@ -3,9 +3,9 @@
 //! own accessors report (the `.expected` sidecars) and the analytic pattern the fixtures hold;
 //! broken, unsupported and missing files must give errors that name the file.
 
-use host::io::{load_volume, load_volume_capped};
-use host::volume::DenseVolume;
 use std::path::{Path, PathBuf};
+use volume_io::DenseVolume;
+use volume_io::{load_volume, load_volume_capped};
 
 /// Path of a checked-in fixture.
 fn fixture(name: &str) -> PathBuf {
@@ -140,7 +140,7 @@ fn assert_pattern(v: &DenseVolume, half: bool, what: &str) {
     assert_eq!(v.dims, [20, 12, 9], "{what}");
     assert_eq!(
         v.index_to_world,
-        host::volume::Affine::scale_translate([1.0; 3], [-4.5, 2.5, -5.5]),
+        volume_io::Affine::scale_translate([1.0; 3], [-4.5, 2.5, -5.5]),
         "{what}"
     );
     for k in 0..9 {
@@ -193,7 +193,7 @@ fn transforms_place_dense_voxels_where_openvdb_does() {
     );
     // Voxel size (0.5, 0.25, 2), translation (1.5, -2, 3), bbox min (2, -1, 7): the dense
     // corner is file index (1.5, -1.5, 6.5).
-    let want = host::volume::Affine::scale_translate([0.5, 0.25, 2.0], [2.25, -2.375, 16.0]);
+    let want = volume_io::Affine::scale_translate([0.5, 0.25, 2.0], [2.25, -2.375, 16.0]);
     assert_eq!(v.index_to_world, want);
 
     // Scale (0.1, 0.2, 0.3), then a quarter turn about z, then translation (10, 20, 30).

@@ -1,0 +1,206 @@
+//! The `host` binary on bad input and at limits: every malformed volume file exits with a clear
+//! error (never a panic), bad flag values name the flag, images larger than a GPU buffer are
+//! tiled, volumes larger than one are refused or fall back, and a seed fixes the image bytes
+//! across runs, thread counts and backends.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn host() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_host"))
+}
+
+fn malformed_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/fixtures/malformed")
+}
+
+fn text(out: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    )
+}
+
+/// `host render` of a tiny image (of a 48^3 volume unless `extra` sets `--resolution`) with
+/// `extra` flags into `dir`; returns the output.
+fn render(dir: &Path, extra: &[&str], env: &[(&str, &str)]) -> Output {
+    let mut cmd = host();
+    cmd.arg("render");
+    if !extra.contains(&"--resolution") {
+        cmd.args(["--resolution", "48"]);
+    }
+    cmd.args([
+        "--width", "33", "--height", "21", "--spp", "3", "--quiet", "--out",
+    ])
+    .arg(dir.join("r.exr"))
+    .arg("--json")
+    .arg(dir.join("r.json"))
+    .args(extra);
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    cmd.output().unwrap()
+}
+
+#[test]
+fn every_malformed_file_is_a_clean_cli_error() {
+    let manifest = std::fs::read_to_string(malformed_dir().join("EXPECTED")).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let mut checked = 0;
+    for line in manifest.lines().filter(|l| !l.starts_with('#')) {
+        let mut cols = line.split('\t');
+        let (name, grid) = (cols.next().unwrap(), cols.next().unwrap());
+        let path = malformed_dir().join(name);
+        let mut args = vec!["--backend", "cpu", "--volume", path.to_str().unwrap()];
+        if grid != "-" {
+            args.extend(["--grid", grid]);
+        }
+        let out = render(dir.path(), &args, &[]);
+        let all = text(&out);
+        assert_eq!(out.status.code(), Some(1), "{name}: {all}");
+        assert!(!all.contains("panicked"), "{name}: {all}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.starts_with("error: ") && err.contains(name),
+            "{name}: {err}"
+        );
+        checked += 1;
+    }
+    assert!(checked >= 40, "{checked} files");
+}
+
+#[test]
+fn clamp_negative_renders_with_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = malformed_dir().join("negative_density.vdb");
+    let base = ["--backend", "cpu", "--volume", file.to_str().unwrap()];
+    let out = render(dir.path(), &base, &[]);
+    assert!(!out.status.success());
+    assert!(text(&out).contains("--clamp-negative"), "{}", text(&out));
+    let out = render(
+        dir.path(),
+        &[&base[..], &["--clamp-negative"]].concat(),
+        &[],
+    );
+    assert!(out.status.success(), "{}", text(&out));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("warning: --clamp-negative set 1 negative densities"),
+        "{err}"
+    );
+}
+
+#[test]
+fn bad_flag_values_name_the_flag() {
+    let dir = tempfile::tempdir().unwrap();
+    for (extra, needle) in [
+        (&["--spp", "-1"][..], "--spp"),
+        (&["--spp", "1.5"], "--spp"),
+        (&["--height", "0"], "--height"),
+        (&["--width", "100000"], "--width"),
+        (&["--n", "0"], "--n"),
+        (&["--brick-size", "1"], "--brick-size"),
+        (&["--resolution", "4"], "--resolution"),
+        (&["--seed", "-3"], "--seed"),
+        (&["--lookup", "trilinear"], "--lookup"),
+        (&["--backend", "tpu"], "--backend"),
+        (&["--integrator", "magic"], "--integrator"),
+        (&["--albedo", "2"], "--albedo"),
+        (&["--hg-g", "1"], "--hg-g"),
+        (&["--exposure", "0"], "--exposure"),
+        (&["--light", "1,2"], "--light"),
+        (&["--camera", "nan,0,0"], "--camera"),
+        (&["--fov", "nan"], "--fov"),
+        (&["--density-scale", "inf"], "--density-scale"),
+        (&["--f-delta", "0"], "--f-delta"),
+        (&["--volume", "missing.vdb"], "missing.vdb"),
+        (&["--camera", "0,0,0", "--look-at", "0,0,0"], "--look-at"),
+    ] {
+        let out = render(dir.path(), &[&["--backend", "cpu"], extra].concat(), &[]);
+        let all = text(&out);
+        assert!(!out.status.success(), "{extra:?} succeeded: {all}");
+        assert!(
+            all.contains(needle),
+            "{extra:?} does not name {needle}: {all}"
+        );
+        assert!(!all.contains("panicked"), "{extra:?}: {all}");
+    }
+}
+
+#[test]
+fn same_seed_gives_identical_exr_across_runs_threads_and_backends() {
+    for extra in [
+        &["--volume", "explosion", "--seed", "12"][..],
+        &["--integrator", "mis-jackknife", "--seed", "5"],
+        &["--estimator", "ratio", "--lookup", "nearest", "--seed", "1"],
+    ] {
+        let mut files = Vec::new();
+        for (backend, threads) in [
+            ("cpu", "1"),
+            ("cpu", "2"),
+            ("cpu", "3"),
+            ("cpu", "2"),
+            ("gpu", "1"),
+        ] {
+            let dir = tempfile::tempdir().unwrap();
+            let args = [&["--backend", backend][..], extra].concat();
+            let out = render(dir.path(), &args, &[("RAYON_NUM_THREADS", threads)]);
+            assert!(out.status.success(), "{extra:?} {backend}: {}", text(&out));
+            let exr = std::fs::read(dir.path().join("r.exr")).unwrap();
+            files.push((format!("{backend} x{threads}"), exr));
+        }
+        for (label, bytes) in &files[1..] {
+            assert!(
+                *bytes == files[0].1,
+                "{extra:?}: {label} differs from {}",
+                files[0].0
+            );
+        }
+    }
+    // A different seed must change the image (the comparison above can fail).
+    let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    for (dir, seed) in [(&a, "1"), (&b, "2")] {
+        let out = render(dir.path(), &["--backend", "cpu", "--seed", seed], &[]);
+        assert!(out.status.success());
+    }
+    let read = |d: &tempfile::TempDir| std::fs::read(d.path().join("r.exr")).unwrap();
+    assert!(read(&a) != read(&b), "seeds 1 and 2 gave the same image");
+}
+
+#[test]
+fn images_larger_than_a_gpu_buffer_are_tiled_with_identical_results() {
+    let (whole, tiled) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let args = ["--backend", "gpu", "--seed", "4", "--resolution", "8"];
+    let out = render(whole.path(), &args, &[]);
+    assert!(out.status.success(), "{}", text(&out));
+    // 1024 bytes hold 64 pixels' sums, so the 693-pixel image takes 11 tiles; the 8^3 volume's
+    // f16 voxels (1 KiB) still fit.
+    let out = render(tiled.path(), &args, &[("JK_GPU_MAX_BUFFER_BYTES", "1024")]);
+    assert!(out.status.success(), "{}", text(&out));
+    let read = |d: &tempfile::TempDir| std::fs::read(d.path().join("r.exr")).unwrap();
+    assert!(read(&whole) == read(&tiled), "tiled GPU image differs");
+}
+
+#[test]
+fn volumes_larger_than_a_gpu_buffer_are_refused_or_fall_back_to_the_cpu() {
+    let dir = tempfile::tempdir().unwrap();
+    let cap = [("JK_GPU_MAX_BUFFER_BYTES", "4096")];
+    let out = render(dir.path(), &["--backend", "gpu"], &cap);
+    let all = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{all}");
+    assert!(
+        all.contains("maxStorageBufferRange") && all.contains("--backend cpu"),
+        "{all}"
+    );
+    let out = render(dir.path(), &["--backend", "auto"], &cap);
+    assert!(out.status.success(), "{}", text(&out));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("warning:") && err.contains("falling back to the CPU backend"),
+        "{err}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("r.json")).unwrap()).unwrap();
+    assert_eq!(json["backend"], "cpu");
+}
