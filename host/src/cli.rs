@@ -86,7 +86,7 @@ pub fn integrator_name(i: shared::integrator::Integrator) -> &'static str {
 }
 
 /// Parses "x,y,z,intensity" into a point light.
-fn parse_light(s: &str) -> Result<shared::lights::PointLight, String> {
+pub fn parse_light(s: &str) -> Result<shared::lights::PointLight, String> {
     let v: Vec<f32> = s
         .split(',')
         .map(|p| {
@@ -296,7 +296,7 @@ pub struct ProbeArgs {
 
 /// Parses "x,y,z" into three finite floats.
 /// A finite number > 0.
-fn parse_positive(s: &str) -> Result<f32, String> {
+pub fn parse_positive(s: &str) -> Result<f32, String> {
     match s.trim().parse::<f32>() {
         Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
         Ok(v) => Err(format!("must be a finite number > 0 (got {v})")),
@@ -304,7 +304,7 @@ fn parse_positive(s: &str) -> Result<f32, String> {
     }
 }
 
-fn parse_vec3(s: &str) -> Result<[f32; 3], String> {
+pub fn parse_vec3(s: &str) -> Result<[f32; 3], String> {
     let parts: Vec<&str> = s.split(',').map(str::trim).collect();
     if parts.len() != 3 {
         return Err(format!(

@@ -350,15 +350,45 @@ impl DenseBuilder {
             .bounds
             .context("the grid has no active voxels (it is empty); pick another grid")?;
         let dims = dense_dims(lo, hi, cap)?;
-        let count = dims.iter().map(|&d| d as usize).product();
+        let count: usize = dims.iter().map(|&d| d as usize).product();
+        let bytes = count as u64 * 4;
+        let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
+        if let Some(available) = available_memory() {
+            ensure!(
+                bytes <= available,
+                "its dense {}x{}x{} grid needs {:.1} GiB, more than the {:.1} GiB of memory \
+                 available; crop the volume to the region of interest or resample it coarser",
+                dims[0],
+                dims[1],
+                dims[2],
+                gib(bytes),
+                gib(available)
+            );
+        }
+        let mut values = Vec::new();
+        values.try_reserve_exact(count).map_err(|_| {
+            anyhow!(
+                "cannot allocate {:.1} GiB for its dense grid; crop or resample the volume",
+                gib(bytes)
+            )
+        })?;
+        values.resize(count, background);
         let min = lo.map(|v| v as i32);
         Ok(Dense {
             min,
             dims,
-            values: vec![background; count],
+            values,
             background,
         })
     }
+}
+
+/// The memory the OS says is available (Linux: MemAvailable of /proc/meminfo), if known.
+fn available_memory() -> Option<u64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    kib.checked_mul(1024)
 }
 
 /// Voxel counts of the inclusive box `lo..=hi`, if its dense grid has at most `cap` voxels.
