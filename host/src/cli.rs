@@ -26,6 +26,9 @@ pub enum Command {
     Eval(EvalArgs),
     /// Reproduce the paper's statistical experiments (Table 1, Fig. 2-7, App. A).
     Study(crate::study::StudyArgs),
+    /// Time every estimator on the same rays (CPU and/or GPU), with work-normalized variance and
+    /// an optional sweep over volume resolution and image size.
+    Bench(crate::bench::BenchArgs),
 }
 
 /// High-resolution lookups.

@@ -336,7 +336,7 @@ pub fn prepare_scene(
     })
 }
 
-fn lookup_of(arg: LookupArg) -> Lookup {
+pub fn lookup_of(arg: LookupArg) -> Lookup {
     match arg {
         LookupArg::Nearest => Lookup::Nearest,
         LookupArg::Stochastic => Lookup::Stochastic,

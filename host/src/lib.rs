@@ -2,6 +2,7 @@
 //! the operations both run from the same `shared` code.
 
 pub mod backend;
+pub mod bench;
 pub mod cli;
 pub mod commands;
 pub mod cpu;

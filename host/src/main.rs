@@ -13,6 +13,7 @@ fn main() -> ExitCode {
         Some(Command::Probe(args)) => run_probe(args),
         Some(Command::Eval(args)) => run_eval(args),
         Some(Command::Study(args)) => host::study::run(args),
+        Some(Command::Bench(args)) => host::bench::run(args).map(|_| ()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

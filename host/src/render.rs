@@ -266,6 +266,56 @@ pub fn render_scene(
     lights: &[PointLight],
     progress: bool,
 ) -> Result<Vec<PixelOut>> {
+    let resident = Resident::new(backend, vol)?;
+    render_resident(&resident, params, lights, progress)
+}
+
+/// A volume made ready for rendering on one backend: on a GPU its voxels and bricks are uploaded
+/// once, and the image buffers of the last render are kept for the next one of the same size,
+/// so repeated frames (`host bench`) allocate nothing.
+pub struct Resident<'a> {
+    backend: &'a Backend,
+    vol: &'a PackedVolume,
+    gpu: Option<GpuVolume>,
+}
+
+/// The device buffers of a [`Resident`] volume.
+struct GpuVolume {
+    voxels: crate::gpu::Buffer,
+    bricks: crate::gpu::Buffer,
+    desc: crate::gpu::Buffer,
+    /// Image tile buffers by size in bytes, reused across frames.
+    tiles: std::sync::Mutex<Vec<crate::gpu::Buffer>>,
+}
+
+impl<'a> Resident<'a> {
+    /// Uploads `vol` if `backend` is a GPU.
+    pub fn new(backend: &'a Backend, vol: &'a PackedVolume) -> Result<Self> {
+        let gpu = match backend {
+            Backend::Cpu => None,
+            Backend::Gpu(gpu) => Some(GpuVolume {
+                voxels: gpu
+                    .upload(bytemuck::cast_slice(&vol.voxels))
+                    .context("uploading the volume")?,
+                bricks: gpu
+                    .upload(bytemuck::cast_slice(&vol.bricks))
+                    .context("uploading the bricks")?,
+                desc: gpu.upload(bytemuck::bytes_of(&vol.desc))?,
+                tiles: std::sync::Mutex::new(Vec::new()),
+            }),
+        };
+        Ok(Resident { backend, vol, gpu })
+    }
+}
+
+/// [`render_scene`] of a [`Resident`] volume.
+pub fn render_resident(
+    resident: &Resident,
+    params: &RenderParams,
+    lights: &[PointLight],
+    progress: bool,
+) -> Result<Vec<PixelOut>> {
+    let (backend, vol) = (resident.backend, resident.vol);
     anyhow::ensure!(
         params.light_count as usize <= lights.len()
             && params.light_count <= shared::lights::MAX_LIGHTS,
@@ -304,25 +354,33 @@ pub fn render_scene(
             sums
         }
         Backend::Gpu(gpu) => {
-            let voxels = gpu
-                .upload(bytemuck::cast_slice(&vol.voxels))
-                .context("uploading the volume")?;
-            let bricks = gpu
-                .upload(bytemuck::cast_slice(&vol.bricks))
-                .context("uploading the bricks")?;
+            let dev = resident
+                .gpu
+                .as_ref()
+                .context("internal: a GPU render of a volume made resident on the CPU")?;
+            let (voxels, bricks, d) = (&dev.voxels, &dev.bricks, &dev.desc);
             let p = gpu.upload(bytemuck::bytes_of(params))?;
-            let d = gpu.upload(bytemuck::bytes_of(&vol.desc))?;
             let l = gpu.upload(bytemuck::cast_slice(lights))?;
+            let mut tiles = dev
+                .tiles
+                .lock()
+                .map_err(|_| anyhow::anyhow!("internal: poisoned tile cache"))?;
             // Tiles of whole workgroups, each small enough for one storage buffer.
             let sums_size = std::mem::size_of::<PixelSums>() as u64;
             let tile = (gpu.max_buffer_bytes() / sums_size / 64 * 64).clamp(64, count as u64);
             let tile = tile as u32;
+            let tile_count = count.div_ceil(tile) as usize;
+            let tile_bytes = u64::from(tile) * sums_size;
+            if tiles.len() != tile_count || tiles.iter().any(|b| b.size() != tile_bytes) {
+                tiles.clear();
+                for _ in 0..tile_count {
+                    tiles.push(gpu.buffer(tile_bytes).context("allocating the image")?);
+                }
+            }
             let mut sums = vec![PixelSums::default(); count as usize];
-            for tile_start in (0..count).step_by(tile as usize) {
+            for (k, tile_start) in (0..count).step_by(tile as usize).enumerate() {
                 let tile_end = tile_start.saturating_add(tile).min(count);
-                let output = gpu
-                    .buffer(u64::from(tile_end - tile_start) * sums_size)
-                    .context("allocating the image")?;
+                let output = &tiles[k];
                 for &(s0, s1) in &passes {
                     let extra = [s0, s1, tile_start, 0];
                     let mut start = tile_start;
@@ -330,11 +388,11 @@ pub fn render_scene(
                         let end = start.saturating_add(chunk).min(tile_end);
                         let mut bindings = [
                             Binding::Resident(&p),
-                            Binding::Resident(&d),
-                            Binding::Resident(&voxels),
-                            Binding::Resident(&bricks),
+                            Binding::Resident(d),
+                            Binding::Resident(voxels),
+                            Binding::Resident(bricks),
                             Binding::Resident(&l),
-                            Binding::Resident(&output),
+                            Binding::Resident(output),
                         ];
                         gpu.dispatch_range(
                             "render_cs",

@@ -13,6 +13,8 @@ pub struct DeviceOwner {
     pub(crate) queue_family: u32,
     pub(crate) memory: vk::PhysicalDeviceMemoryProperties,
     pub(crate) limits: vk::PhysicalDeviceLimits,
+    /// Valid bits of the compute queue's timestamps (0: no timestamp queries).
+    pub(crate) timestamp_bits: u32,
     /// Human-readable device name, driver and type, e.g. "llvmpipe (LLVM 15.0.6, 256 bits) [cpu]".
     pub(crate) description: String,
 }
@@ -116,6 +118,7 @@ impl DeviceOwner {
             .position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE))
             .ok_or_else(|| GpuError::Unsupported(description.clone(), "a compute queue"))?
             as u32;
+        let timestamp_bits = families[queue_family as usize].timestamp_valid_bits;
 
         let mut have12 = vk::PhysicalDeviceVulkan12Features::default();
         let mut have = vk::PhysicalDeviceFeatures2::default().push_next(&mut have12);
@@ -155,6 +158,7 @@ impl DeviceOwner {
             queue_family,
             memory,
             limits: props.limits,
+            timestamp_bits,
             description,
         })
     }

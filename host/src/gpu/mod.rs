@@ -51,6 +51,8 @@ pub struct Gpu {
     module: vk::ShaderModule,
     pipelines: Mutex<HashMap<String, Arc<Pipeline>>>,
     submitter: Mutex<Submitter>,
+    /// Kernel time measured by timestamp queries since the last [`Gpu::take_kernel_ns`].
+    kernel_ns: std::sync::atomic::AtomicU64,
 }
 
 impl Gpu {
@@ -76,6 +78,7 @@ impl Gpu {
             module,
             pipelines: Mutex::new(HashMap::new()),
             submitter: Mutex::new(submitter),
+            kernel_ns: std::sync::atomic::AtomicU64::new(0),
         })
     }
 
@@ -122,6 +125,17 @@ impl Gpu {
         let mut b = self.buffer(data.len() as u64)?;
         b.write(data);
         Ok(b)
+    }
+
+    /// Kernel time (ns) measured by timestamp queries since the last call, or `None` if the
+    /// device's compute queue has no timestamps.
+    pub fn take_kernel_ns(&self) -> Option<u64> {
+        let ns = self.kernel_ns.swap(0, std::sync::atomic::Ordering::Relaxed);
+        self.owner_has_timestamps().then_some(ns)
+    }
+
+    fn owner_has_timestamps(&self) -> bool {
+        self.owner.timestamp_bits > 0
     }
 
     /// The largest storage buffer in bytes: the device's maxStorageBufferRange, or less if the
@@ -247,6 +261,10 @@ impl Gpu {
                 .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
             d.begin_command_buffer(sub.cmd, &begin)
                 .map_err(|e| GpuError::Vulkan("vkBeginCommandBuffer", e))?;
+            if let Some(q) = sub.timestamps {
+                d.cmd_reset_query_pool(sub.cmd, q, 0, 2);
+                d.cmd_write_timestamp(sub.cmd, vk::PipelineStageFlags::TOP_OF_PIPE, q, 0);
+            }
             d.cmd_bind_pipeline(sub.cmd, vk::PipelineBindPoint::COMPUTE, pipeline.pipeline);
             d.cmd_bind_descriptor_sets(
                 sub.cmd,
@@ -279,6 +297,9 @@ impl Gpu {
                 d.cmd_dispatch(sub.cmd, n.div_ceil(WORKGROUP_SIZE), 1, 1);
                 offset += n;
             }
+            if let Some(q) = sub.timestamps {
+                d.cmd_write_timestamp(sub.cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, q, 1);
+            }
             let barrier = [vk::MemoryBarrier::default()
                 .src_access_mask(vk::AccessFlags::SHADER_WRITE)
                 .dst_access_mask(vk::AccessFlags::HOST_READ)];
@@ -301,6 +322,24 @@ impl Gpu {
                 .map_err(|e| lost_or(e, entry, "vkQueueSubmit"))?;
             d.wait_for_fences(&[sub.fence], true, u64::MAX)
                 .map_err(|e| lost_or(e, entry, "vkWaitForFences"))?;
+            if let Some(q) = sub.timestamps {
+                let mut ticks = [0u64; 2];
+                let read =
+                    d.get_query_pool_results(q, 0, &mut ticks, vk::QueryResultFlags::TYPE_64);
+                if read.is_ok() {
+                    let bits = self.owner.timestamp_bits;
+                    let mask = if bits >= 64 {
+                        u64::MAX
+                    } else {
+                        (1u64 << bits) - 1
+                    };
+                    let delta = ticks[1].wrapping_sub(ticks[0]) & mask;
+                    let period = f64::from(self.owner.limits.timestamp_period);
+                    let ns = (delta as f64 * period) as u64;
+                    self.kernel_ns
+                        .fetch_add(ns, std::sync::atomic::Ordering::Relaxed);
+                }
+            }
         }
         for (b, f) in bindings.iter_mut().zip(&fresh) {
             if let (Binding::Output(out), Some(f)) = (b, f) {

@@ -91,7 +91,12 @@ impl Buffer {
         unsafe { std::ptr::copy_nonoverlapping(data.as_ptr(), self.mapped, data.len()) };
     }
 
-    /// Copies the start of the buffer into `out`.
+    /// Size in bytes.
+    pub fn size(&self) -> u64 {
+        self.size
+    }
+
+    /// Copies the first `out.len()` bytes of the buffer into `out`.
     pub fn read(&self, out: &mut [u8]) {
         assert!(
             out.len() as u64 <= self.size,
@@ -218,6 +223,8 @@ pub struct Submitter {
     pub(crate) cmd: vk::CommandBuffer,
     pub(crate) descriptors: vk::DescriptorPool,
     pub(crate) fence: vk::Fence,
+    /// Two timestamps around each submission's dispatches, if the queue supports them.
+    pub(crate) timestamps: Option<vk::QueryPool>,
 }
 
 /// Most storage buffers one dispatch can bind.
@@ -254,12 +261,21 @@ impl Submitter {
             let fence = device
                 .create_fence(&vk::FenceCreateInfo::default(), None)
                 .map_err(|e| GpuError::Vulkan("vkCreateFence", e))?;
+            let timestamps = if owner.timestamp_bits > 0 {
+                let info = vk::QueryPoolCreateInfo::default()
+                    .query_type(vk::QueryType::TIMESTAMP)
+                    .query_count(2);
+                device.create_query_pool(&info, None).ok()
+            } else {
+                None
+            };
             Ok(Submitter {
                 owner: owner.clone(),
                 pool,
                 cmd,
                 descriptors,
                 fence,
+                timestamps,
             })
         }
     }
@@ -270,6 +286,9 @@ impl Drop for Submitter {
         // SAFETY: the last submit was waited for; objects are not in use.
         unsafe {
             let d = &self.owner.device;
+            if let Some(q) = self.timestamps {
+                d.destroy_query_pool(q, None);
+            }
             d.destroy_fence(self.fence, None);
             d.destroy_descriptor_pool(self.descriptors, None);
             d.destroy_command_pool(self.pool, None);

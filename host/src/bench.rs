@@ -1,0 +1,693 @@
+//! `host bench`: every transmittance estimator on the same rays, timed on the CPU and/or GPU,
+//! with work-normalized variance, the goal ratios, and a sweep over volume resolution
+//! and image size.
+
+use crate::backend::{Backend, BackendChoice};
+use crate::bricks::PackedVolume;
+use crate::cli::{LookupArg, SceneArgs};
+use crate::estimators::EstimatorSpec;
+use crate::render::{render_resident, Resident};
+use crate::study::plot::{self, Figure, Legend, LinePanel, Series, Style};
+use anyhow::{bail, Context, Result};
+use clap::{Args, ValueEnum};
+use serde::Serialize;
+use shared::render::{PixelOut, RenderParams};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Where `host bench` runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum BenchBackend {
+    Cpu,
+    Gpu,
+    /// The CPU, then the GPU (skipped with a warning if there is none).
+    Both,
+}
+
+/// Flags of `host bench`.
+#[derive(Args, Debug, Clone)]
+pub struct BenchArgs {
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// How the high-resolution volume is read.
+    #[arg(long, value_enum, default_value_t = LookupArg::Stochastic)]
+    pub lookup: LookupArg,
+    /// Comma-separated estimators, or "all".
+    #[arg(
+        long,
+        default_value = "jackknife,naive-m1,biased-rm,unbiased-rm,track-length,ratio"
+    )]
+    pub estimators: String,
+    /// Backends to time.
+    #[arg(long, value_enum, default_value_t = BenchBackend::Both)]
+    pub backend: BenchBackend,
+    /// Image width.
+    #[arg(long, allow_negative_numbers = true, default_value_t = 256, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub width: u32,
+    /// Image height.
+    #[arg(long, allow_negative_numbers = true, default_value_t = 256, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub height: u32,
+    /// Estimates per pixel per frame.
+    #[arg(long, allow_negative_numbers = true, default_value_t = 8, value_parser = clap::value_parser!(u32).range(2..=4096))]
+    pub spp: u32,
+    /// Samples per optical depth estimate (N).
+    #[arg(long, allow_negative_numbers = true, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub n: u32,
+    /// Seed (every frame of an estimator renders the same rays and samples).
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
+    pub seed: u32,
+    /// Timed frames per estimator.
+    #[arg(long, allow_negative_numbers = true, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    pub reps: u32,
+    /// Untimed frames per estimator first (pipeline compilation, caches).
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1, value_parser = clap::value_parser!(u32).range(0..=100))]
+    pub warmup: u32,
+    /// Also sweep the embedded volume's resolution and the image size.
+    #[arg(long)]
+    pub sweep: bool,
+    /// Volume resolutions of the sweep.
+    #[arg(long, default_value = "64,128,256,512")]
+    pub sweep_resolutions: String,
+    /// Image sizes (square) of the sweep.
+    #[arg(long, default_value = "64,128,256,512")]
+    pub sweep_sizes: String,
+    /// Estimators of the sweep.
+    #[arg(long, default_value = "jackknife,track-length,ratio,unbiased-rm")]
+    pub sweep_estimators: String,
+    /// Plot of the sweep (.png or .svg).
+    #[arg(long, default_value = "out/bench_sweep.png")]
+    pub plot: PathBuf,
+    /// Write every number as JSON.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// No progress lines.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Timing and quality of one estimator on one backend.
+#[derive(Clone, Debug, Serialize)]
+pub struct Row {
+    pub backend: String,
+    pub device: String,
+    pub estimator: String,
+    /// Wall time per frame (submit to result on the host), median and minimum over the reps.
+    pub frame_ms_median: f64,
+    pub frame_ms_min: f64,
+    pub frame_ms: Vec<f64>,
+    /// GPU kernel time per frame from timestamp queries (median), if the device has them.
+    pub kernel_ms_median: Option<f64>,
+    /// Primary rays (estimates) per second at the median frame time.
+    pub rays_per_s: f64,
+    /// Wall time per estimate, ns.
+    pub ns_per_ray: f64,
+    /// High-resolution lookups per estimate.
+    pub samples_per_ray: f64,
+    /// Variance of one estimate, averaged over pixels (unbiased per-pixel sample variance).
+    pub variance: f64,
+    /// `variance * ns_per_ray`: the variance of a fixed time budget's mean, up to a constant
+    /// (lower is better).
+    pub work_normalized_variance: f64,
+}
+
+/// One of the goals, checked on one backend.
+#[derive(Clone, Debug, Serialize)]
+pub struct Goal {
+    pub backend: String,
+    pub what: String,
+    pub ratio: f64,
+    pub target: f64,
+    pub met: bool,
+}
+
+/// One point of the sweep.
+#[derive(Clone, Debug, Serialize)]
+pub struct SweepPoint {
+    pub backend: String,
+    pub estimator: String,
+    /// Voxels per axis of the volume.
+    pub resolution: u32,
+    /// Image width = height.
+    pub size: u32,
+    pub frame_ms_median: f64,
+    pub ns_per_ray: f64,
+    pub samples_per_ray: f64,
+    /// Why the point is missing (e.g. the volume exceeds a GPU buffer), if it is.
+    pub skipped: Option<String>,
+}
+
+/// Everything `host bench` measured.
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchReport {
+    pub volume: String,
+    pub lookup: String,
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub n: u32,
+    pub seed: u32,
+    pub reps: u32,
+    pub threads: usize,
+    pub rows: Vec<Row>,
+    pub goals: Vec<Goal>,
+    pub sweep_resolution: Vec<SweepPoint>,
+    pub sweep_size: Vec<SweepPoint>,
+}
+
+/// Parses a comma-separated list of estimator names ("all": every one).
+fn estimators(list: &str, flag: &str) -> Result<Vec<&'static EstimatorSpec>> {
+    crate::eval::parse_list(list).with_context(|| format!("{flag}"))
+}
+
+/// Parses a comma-separated list of positive integers.
+fn numbers(list: &str, flag: &str, range: std::ops::RangeInclusive<u32>) -> Result<Vec<u32>> {
+    list.split(',')
+        .map(|s| {
+            let v: u32 = s
+                .trim()
+                .parse()
+                .with_context(|| format!("{flag}: {s:?} is not a whole number"))?;
+            anyhow::ensure!(
+                range.contains(&v),
+                "{flag}: {v} is outside {}..={}",
+                range.start(),
+                range.end()
+            );
+            Ok(v)
+        })
+        .collect()
+}
+
+/// The backends to time, each opened once.
+fn backends(choice: BenchBackend) -> Result<Vec<Backend>> {
+    let mut out = Vec::new();
+    if choice != BenchBackend::Gpu {
+        out.push(Backend::Cpu);
+    }
+    match choice {
+        BenchBackend::Cpu => {}
+        BenchBackend::Gpu => out.push(Backend::open(BackendChoice::Gpu)?),
+        BenchBackend::Both => match Backend::open(BackendChoice::Gpu) {
+            Ok(b) => out.push(b),
+            Err(e) => eprintln!("warning: {e:#}; timing the CPU only"),
+        },
+    }
+    Ok(out)
+}
+
+/// Kernel time since the last call, if `backend` is a GPU with timestamps.
+fn kernel_ns(backend: &Backend) -> Option<u64> {
+    match backend {
+        Backend::Gpu(g) => g.take_kernel_ns(),
+        Backend::Cpu => None,
+    }
+}
+
+/// Median of a non-empty list.
+fn median(v: &[f64]) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let m = s.len() / 2;
+    if s.len() % 2 == 1 {
+        s[m]
+    } else {
+        0.5 * (s[m - 1] + s[m])
+    }
+}
+
+/// Why `backend` cannot hold `vol`, if it cannot.
+fn does_not_fit(backend: &Backend, vol: &PackedVolume) -> Option<String> {
+    let Backend::Gpu(g) = backend else {
+        return None;
+    };
+    let bytes = std::mem::size_of_val(vol.voxels.as_slice()) as u64;
+    (bytes > g.max_buffer_bytes()).then(|| {
+        format!(
+            "{bytes}-byte voxel buffer exceeds maxStorageBufferRange ({})",
+            g.max_buffer_bytes()
+        )
+    })
+}
+
+/// Frames of one estimator: `warmup` untimed, `reps` timed. Every frame must give the same
+/// pixels (same seed); returns the pixels, wall times and kernel times in ms.
+fn frames(
+    resident: &Resident,
+    backend: &Backend,
+    params: &RenderParams,
+    warmup: u32,
+    reps: u32,
+) -> Result<(Vec<PixelOut>, Vec<f64>, Vec<f64>)> {
+    for _ in 0..warmup {
+        render_resident(resident, params, &[], false)?;
+    }
+    let (mut wall, mut kernel) = (Vec::new(), Vec::new());
+    let mut first: Option<Vec<PixelOut>> = None;
+    for _ in 0..reps {
+        kernel_ns(backend);
+        let start = Instant::now();
+        let pixels = render_resident(resident, params, &[], false)?;
+        wall.push(start.elapsed().as_secs_f64() * 1e3);
+        if let Some(ns) = kernel_ns(backend) {
+            kernel.push(ns as f64 * 1e-6);
+        }
+        match &first {
+            None => first = Some(pixels),
+            Some(f) => anyhow::ensure!(
+                bytemuck::cast_slice::<PixelOut, u8>(f)
+                    == bytemuck::cast_slice::<PixelOut, u8>(&pixels),
+                "internal: two frames with the same seed differ on {}",
+                backend.kind()
+            ),
+        }
+    }
+    Ok((first.expect("reps >= 1"), wall, kernel))
+}
+
+/// Mean per-pixel variance of one estimate and mean lookups per estimate.
+fn quality(pixels: &[PixelOut], spp: u32) -> (f64, f64) {
+    let n = pixels.len().max(1) as f64;
+    let bessel = spp as f64 / (spp as f64 - 1.0);
+    let var = pixels
+        .iter()
+        .map(|p| {
+            let m = p.t_mean as f64;
+            ((p.t2_mean as f64 - m * m) * bessel).max(0.0)
+        })
+        .sum::<f64>()
+        / n;
+    let samples = pixels.iter().map(|p| p.samples as f64).sum::<f64>() / (n * spp as f64);
+    (var, samples)
+}
+
+/// `host bench`.
+pub fn run(args: &BenchArgs) -> Result<BenchReport> {
+    let lookup = crate::commands::lookup_of(args.lookup);
+    let specs = estimators(&args.estimators, "--estimators")?;
+    let scene = crate::commands::prepare_scene(&args.scene, lookup, args.width, args.height)?;
+    let backends = backends(args.backend)?;
+    let base = RenderParams {
+        camera: scene.camera,
+        world_to_index: scene.world_to_index,
+        width: args.width,
+        height: args.height,
+        spp: args.spp,
+        seed: args.seed,
+        n: args.n,
+        f_delta: 0.3,
+        pixel_jitter: 1,
+        ..Default::default()
+    };
+    let rays = f64::from(args.width) * f64::from(args.height) * f64::from(args.spp);
+    if !args.quiet {
+        eprintln!(
+            "bench: {} {}x{}x{}, {}x{} px, {} spp, {} reps (+{} warm-up), {} CPU threads",
+            scene.volume.name,
+            scene.volume.dims[0],
+            scene.volume.dims[1],
+            scene.volume.dims[2],
+            args.width,
+            args.height,
+            args.spp,
+            args.reps,
+            args.warmup,
+            rayon::current_num_threads()
+        );
+    }
+    let mut rows = Vec::new();
+    for backend in &backends {
+        if let Some(why) = does_not_fit(backend, &scene.packed) {
+            eprintln!("warning: skipping {}: {why}", backend.device());
+            continue;
+        }
+        let resident = Resident::new(backend, &scene.packed)?;
+        for spec in &specs {
+            let mut params = base;
+            spec.apply(&mut params);
+            let (pixels, wall, kernel) =
+                frames(&resident, backend, &params, args.warmup, args.reps)
+                    .with_context(|| format!("{} on {}", spec.name, backend.kind()))?;
+            let (variance, samples_per_ray) = quality(&pixels, args.spp);
+            let med = median(&wall);
+            let ns_per_ray = med * 1e6 / rays;
+            let row = Row {
+                backend: backend.kind().into(),
+                device: backend.device(),
+                estimator: spec.name.into(),
+                frame_ms_median: med,
+                frame_ms_min: wall.iter().copied().fold(f64::INFINITY, f64::min),
+                frame_ms: wall,
+                kernel_ms_median: (!kernel.is_empty()).then(|| median(&kernel)),
+                rays_per_s: rays / (med * 1e-3),
+                ns_per_ray,
+                samples_per_ray,
+                variance,
+                work_normalized_variance: variance * ns_per_ray,
+            };
+            if !args.quiet {
+                eprintln!(
+                    "  {:<4} {:<20} {:9.1} ms/frame  {:7.1} ns/ray  {:6.2} lookups/ray  var {:.5}",
+                    row.backend,
+                    row.estimator,
+                    row.frame_ms_median,
+                    row.ns_per_ray,
+                    row.samples_per_ray,
+                    row.variance
+                );
+            }
+            rows.push(row);
+        }
+    }
+    let goals = goals(&rows);
+    let (sweep_resolution, sweep_size) = if args.sweep {
+        sweep(args, &backends, base)?
+    } else {
+        (Vec::new(), Vec::new())
+    };
+    let report = BenchReport {
+        volume: scene.volume.name.clone(),
+        lookup: format!("{:?}", args.lookup).to_lowercase(),
+        width: args.width,
+        height: args.height,
+        spp: args.spp,
+        n: args.n,
+        seed: args.seed,
+        reps: args.reps,
+        threads: rayon::current_num_threads(),
+        rows,
+        goals,
+        sweep_resolution,
+        sweep_size,
+    };
+    print_report(&report);
+    if args.sweep {
+        plot::save(&args.plot, &SweepFigure(&report))?;
+        println!("sweep plot: {}", args.plot.display());
+    }
+    if let Some(path) = &args.json {
+        crate::output::write_json(path, &report)?;
+    }
+    Ok(report)
+}
+
+/// The goal ratios on each backend, where both estimators were timed.
+fn goals(rows: &[Row]) -> Vec<Goal> {
+    let find = |backend: &str, name: &str| {
+        rows.iter()
+            .find(|r| r.backend == backend && r.estimator == name)
+    };
+    let mut out = Vec::new();
+    for backend in ["cpu", "gpu"] {
+        let Some(jk) = find(backend, "jackknife") else {
+            continue;
+        };
+        let time = |other: &str, target: f64| {
+            find(backend, other).map(|o| {
+                (
+                    format!("time jackknife / {other}"),
+                    jk.ns_per_ray / o.ns_per_ray,
+                    target,
+                )
+            })
+        };
+        let wnv = find(backend, "track-length").map(|o| {
+            (
+                "std^2*time jackknife / track-length".to_string(),
+                jk.work_normalized_variance / o.work_normalized_variance,
+                0.3,
+            )
+        });
+        for (what, ratio, target) in [
+            time("track-length", 1.2),
+            time("ratio", 0.4),
+            time("unbiased-rm", 0.3),
+            wnv,
+        ]
+        .into_iter()
+        .flatten()
+        {
+            out.push(Goal {
+                backend: backend.into(),
+                what,
+                ratio,
+                target,
+                met: ratio <= target,
+            });
+        }
+    }
+    out
+}
+
+/// Times the sweep estimators over volume resolutions (image fixed) and image sizes (volume
+/// fixed at `--resolution`).
+fn sweep(
+    args: &BenchArgs,
+    backends: &[Backend],
+    base: RenderParams,
+) -> Result<(Vec<SweepPoint>, Vec<SweepPoint>)> {
+    let name = args.scene.volume.as_str();
+    if !crate::procedural::NAMES.contains(&name) {
+        bail!(
+            "--sweep needs an embedded volume (--volume {}), not {name:?}",
+            crate::procedural::NAMES.join("|")
+        );
+    }
+    let specs = estimators(&args.sweep_estimators, "--sweep-estimators")?;
+    let resolutions = numbers(&args.sweep_resolutions, "--sweep-resolutions", 8..=1024)?;
+    let sizes = numbers(&args.sweep_sizes, "--sweep-sizes", 1..=16384)?;
+    let lookup = crate::commands::lookup_of(args.lookup);
+    let mut by_resolution = Vec::new();
+    let mut by_size = Vec::new();
+    let cases: Vec<(u32, u32, bool)> = resolutions
+        .iter()
+        .map(|&r| (r, args.width, true))
+        .chain(sizes.iter().map(|&s| (args.scene.resolution, s, false)))
+        .collect();
+    let mut cached: Option<(u32, crate::commands::Scene)> = None;
+    for (resolution, size, is_resolution) in cases {
+        if cached.as_ref().is_none_or(|(r, _)| *r != resolution) {
+            let mut scene_args = args.scene.clone();
+            scene_args.resolution = resolution;
+            let t = Instant::now();
+            let scene = crate::commands::prepare_scene(&scene_args, lookup, size, size)?;
+            if !args.quiet {
+                eprintln!(
+                    "sweep: {name} {resolution}^3 prepared in {:.1} s",
+                    t.elapsed().as_secs_f64()
+                );
+            }
+            cached = Some((resolution, scene));
+        }
+        let scene = &cached.as_ref().expect("just set").1;
+        let params = RenderParams {
+            // The camera frames the volume the same way at every resolution (same world box).
+            camera: crate::render::make_camera(
+                &crate::render::CameraSpec {
+                    position: args.scene.camera,
+                    look_at: args.scene.look_at,
+                    fov_deg: args.scene.fov,
+                },
+                crate::render::occupied_world_bounds(&scene.volume),
+                size,
+                size,
+            )?,
+            world_to_index: scene.world_to_index,
+            width: size,
+            height: size,
+            ..base
+        };
+        let rays = f64::from(size) * f64::from(size) * f64::from(args.spp);
+        for backend in backends {
+            let skipped = does_not_fit(backend, &scene.packed);
+            let resident = match &skipped {
+                None => Some(Resident::new(backend, &scene.packed)?),
+                Some(_) => None,
+            };
+            for spec in &specs {
+                let mut p = params;
+                spec.apply(&mut p);
+                let mut point = SweepPoint {
+                    backend: backend.kind().into(),
+                    estimator: spec.name.into(),
+                    resolution,
+                    size,
+                    frame_ms_median: f64::NAN,
+                    ns_per_ray: f64::NAN,
+                    samples_per_ray: f64::NAN,
+                    skipped: skipped.clone(),
+                };
+                if let Some(resident) = &resident {
+                    let reps = args.reps.min(3);
+                    let (pixels, wall, _) = frames(resident, backend, &p, 1, reps)?;
+                    point.frame_ms_median = median(&wall);
+                    point.ns_per_ray = point.frame_ms_median * 1e6 / rays;
+                    point.samples_per_ray = quality(&pixels, args.spp).1;
+                }
+                if !args.quiet {
+                    eprintln!(
+                        "  {:<4} {:<14} {resolution:>4}^3 {size:>5}^2 {:9.1} ms {:8.1} ns/ray {}",
+                        point.backend,
+                        point.estimator,
+                        point.frame_ms_median,
+                        point.ns_per_ray,
+                        point.skipped.as_deref().unwrap_or("")
+                    );
+                }
+                if is_resolution {
+                    by_resolution.push(point);
+                } else {
+                    by_size.push(point);
+                }
+            }
+        }
+    }
+    Ok((by_resolution, by_size))
+}
+
+/// Prints the table, the goals and the sweep's flatness.
+fn print_report(r: &BenchReport) {
+    println!(
+        "{} | {}x{} px, {} spp, N = {}, {} lookups, {} reps, {} CPU threads",
+        r.volume, r.width, r.height, r.spp, r.n, r.lookup, r.reps, r.threads
+    );
+    println!(
+        "{:<4} {:<20} {:>10} {:>10} {:>10} {:>11} {:>9} {:>9} {:>11}",
+        "", "estimator", "ms median", "ms min", "kernel ms", "Mrays/s", "lookups", "var", "var*ns"
+    );
+    for row in &r.rows {
+        println!(
+            "{:<4} {:<20} {:>10.1} {:>10.1} {:>10} {:>11.3} {:>9.2} {:>9.5} {:>11.4}",
+            row.backend,
+            row.estimator,
+            row.frame_ms_median,
+            row.frame_ms_min,
+            row.kernel_ms_median
+                .map_or("-".to_string(), |k| format!("{k:.1}")),
+            row.rays_per_s * 1e-6,
+            row.samples_per_ray,
+            row.variance,
+            row.work_normalized_variance
+        );
+    }
+    for g in &r.goals {
+        println!(
+            "goal {:<4} {:<40} {:>6.2} (target <= {:.1}) {}",
+            g.backend,
+            g.what,
+            g.ratio,
+            g.target,
+            if g.met { "met" } else { "MISSED" }
+        );
+    }
+    for backend in ["cpu", "gpu"] {
+        let pts: Vec<&SweepPoint> = r
+            .sweep_resolution
+            .iter()
+            .filter(|p| p.backend == backend && p.estimator == "jackknife" && p.skipped.is_none())
+            .collect();
+        if pts.len() >= 2 {
+            let ns: Vec<f64> = pts.iter().map(|p| p.ns_per_ray).collect();
+            let (lo, hi) = (
+                ns.iter().copied().fold(f64::INFINITY, f64::min),
+                ns.iter().copied().fold(0.0, f64::max),
+            );
+            let mid = 0.5 * (lo + hi);
+            println!(
+                "sweep {backend}: jackknife ns/ray over {}^3..{}^3: {lo:.1}..{hi:.1} (±{:.0}% around the midpoint; goal ±30%)",
+                pts[0].resolution,
+                pts[pts.len() - 1].resolution,
+                100.0 * (hi - lo) / (2.0 * mid)
+            );
+        }
+    }
+}
+
+/// Two panels: ns per ray against volume resolution and against image size.
+struct SweepFigure<'a>(&'a BenchReport);
+
+impl Figure for SweepFigure<'_> {
+    fn size(&self) -> (u32, u32) {
+        (1200, 500)
+    }
+
+    fn draw<DB: plotters::prelude::DrawingBackend>(
+        &self,
+        root: &plotters::prelude::DrawingArea<DB, plotters::coord::Shift>,
+    ) -> Result<()> {
+        use plot::Drawn;
+        let panels = root.split_evenly((1, 2));
+        let r = self.0;
+        for (area, (points, x_of, x_label, title)) in panels.iter().zip([
+            (
+                &r.sweep_resolution,
+                (|p: &SweepPoint| p.resolution as f64) as fn(&SweepPoint) -> f64,
+                "voxels per axis",
+                format!("cost per ray vs volume resolution ({}^2 px)", r.width),
+            ),
+            (
+                &r.sweep_size,
+                |p: &SweepPoint| p.size as f64,
+                "image width = height (px)",
+                "cost per ray vs image size".to_string(),
+            ),
+        ]) {
+            let valid: Vec<&SweepPoint> =
+                points.iter().filter(|p| p.ns_per_ray.is_finite()).collect();
+            if valid.is_empty() {
+                continue;
+            }
+            let xs = valid.iter().map(|p| x_of(p));
+            let (x0, x1) = xs.fold((f64::INFINITY, 0.0f64), |(a, b), x| (a.min(x), b.max(x)));
+            let ys = valid.iter().map(|p| p.ns_per_ray);
+            let (y0, y1) = ys.fold((f64::INFINITY, 0.0f64), |(a, b), y| (a.min(y), b.max(y)));
+            let mut panel = LinePanel::new(
+                &title,
+                x_label,
+                "wall time per ray (ns)",
+                (x0 / 1.2, x1 * 1.2),
+                (y0 / 1.5, y1 * 1.5),
+            );
+            panel.log_x = true;
+            panel.log_y = true;
+            panel.legend = Legend::UpperRight;
+            let colors = [
+                plot::BLUE,
+                plot::ORANGE,
+                plot::GREEN,
+                plot::RED,
+                plot::PURPLE,
+            ];
+            let mut names: Vec<&str> = valid.iter().map(|p| p.estimator.as_str()).collect();
+            names.dedup();
+            names.sort();
+            names.dedup();
+            for backend in ["cpu", "gpu"] {
+                for (k, name) in names.iter().enumerate() {
+                    let pts: Vec<(f64, f64)> = valid
+                        .iter()
+                        .filter(|p| p.backend == backend && p.estimator == *name)
+                        .map(|p| (x_of(p), p.ns_per_ray))
+                        .collect();
+                    if pts.is_empty() {
+                        continue;
+                    }
+                    let color = colors[k % colors.len()];
+                    let style = if backend == "cpu" {
+                        Style::Line
+                    } else {
+                        Style::Dashed
+                    };
+                    let label = format!("{name} ({backend})");
+                    panel
+                        .series
+                        .push(Series::new(&label, color, style, pts.clone()));
+                    panel
+                        .series
+                        .push(Series::new("", color, Style::Markers(3), pts));
+                }
+            }
+            panel.draw(area)?;
+        }
+        root.present().drawn()
+    }
+}
