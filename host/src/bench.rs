@@ -156,7 +156,7 @@ pub struct BenchReport {
 
 /// Parses a comma-separated list of estimator names ("all": every one).
 fn estimators(list: &str, flag: &str) -> Result<Vec<&'static EstimatorSpec>> {
-    crate::eval::parse_list(list).with_context(|| format!("{flag}"))
+    crate::eval::parse_list(list).with_context(|| flag.to_string())
 }
 
 /// Parses a comma-separated list of positive integers.
