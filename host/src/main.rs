@@ -13,6 +13,7 @@ fn main() -> ExitCode {
         Some(Command::Probe(args)) => run_probe(args),
         Some(Command::Eval(args)) => run_eval(args),
         Some(Command::Study(args)) => host::study::run(args),
+        Some(Command::Report(args)) => host::report::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
