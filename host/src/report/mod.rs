@@ -124,9 +124,10 @@ pub fn run(args: &ReportArgs) -> Result<()> {
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let mut used = Vec::new();
     let mut sources: Vec<(String, PathBuf)> = Vec::new();
-    // Check every --from-eval first: a typo should not cost the evaluations.
+    // Read every --from-eval first: a typo should not cost the evaluations.
     for path in &args.from_eval {
         let json = eval_json_path(path)?;
+        load(&json)?;
         let id = unique_id(&slug(&label_of(&json)), &mut used);
         sources.push((id, json));
     }
@@ -674,7 +675,7 @@ fn integrator_set(
             id: "render",
             label: "render",
             caption: format!(
-                "radiance L, {} spp, shown as x / (1 + x) of x = {} L, sRGB-encoded",
+                "radiance L, {} spp, shown as x / (1 + x) with x = {} x L, sRGB-encoded",
                 r.spp, r.exposure
             ),
             colour_map: None,
