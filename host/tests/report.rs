@@ -467,14 +467,26 @@ fn report_opens_in_headless_chromium() {
         .enable_all()
         .build()
         .unwrap();
-    let result: R<()> = rt.block_on(async {
+    let local = tokio::task::LocalSet::new();
+    let result: R<()> = local.block_on(&rt, async {
         let client = ClientBuilder::new(hyper_util::client::legacy::connect::HttpConnector::new())
             .capabilities(caps.as_object().unwrap().clone())
             .connect(&format!("http://127.0.0.1:{}/", driver.port))
             .await?;
-        let result = drive(&client, &index, &report, &artifact).await;
+        // A failed assertion must still end the browser session (else Chromium outlives the
+        // test): run the checks as a task, whose panic comes back as a JoinError.
+        let (c, i, r, a) = (
+            client.clone(),
+            index.clone(),
+            report.clone(),
+            artifact.clone(),
+        );
+        let outcome = tokio::task::spawn_local(async move { drive(&c, &i, &r, &a).await }).await;
         client.close().await?;
-        result
+        match outcome {
+            Ok(result) => result,
+            Err(e) => std::panic::resume_unwind(e.into_panic()),
+        }
     });
     if let Err(e) = result {
         panic!(
@@ -489,7 +501,6 @@ fn report_opens_in_headless_chromium() {
         "{:?}",
         shot.dimensions()
     );
-    // Keep the chromedriver log of a failure; clean up after success.
     drop(driver);
 }
 
