@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Runs every test of the workspace on a fresh Debian machine: installs the apt packages the GPU
-# tests need (lavapipe, the Vulkan loader, a C++ compiler for SPIRV-Tools) and the pinned Rust
-# toolchain, then `cargo test --workspace --release`. Extra arguments go to `cargo test`.
+# tests need (lavapipe, the Vulkan loader, a C++ compiler for SPIRV-Tools), the browser of the
+# `host report` test (chromium and chromedriver) and the pinned Rust toolchain, then
+# `cargo test --workspace --release`. Extra arguments go to `cargo test`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -10,6 +11,10 @@ missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
+# host/tests/report.rs opens the HTML viewer in headless Chromium through chromedriver.
+if [ ! -x /usr/bin/chromium ] || [ ! -x /usr/bin/chromedriver ]; then
+  missing+=(chromium chromium-driver)
+fi
 if ((${#missing[@]})); then
   echo "test.sh: installing ${missing[*]}"
   sudo=""

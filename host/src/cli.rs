@@ -29,6 +29,9 @@ pub enum Command {
     /// Time every estimator on the same rays (CPU and/or GPU), with work-normalized variance and
     /// an optional sweep over volume resolution and image size.
     Bench(crate::bench::BenchArgs),
+    /// Write a static HTML viewer comparing estimators (side by side, slider, insets, numbers)
+    /// from new `host eval` runs or existing eval output directories.
+    Report(ReportArgs),
 }
 
 /// High-resolution lookups.
@@ -270,6 +273,64 @@ pub struct EvalArgs {
     #[arg(long, default_value_t = 0.05)]
     pub bias_scale: f32,
     /// std mapped to full colour in the std PNGs.
+    #[arg(long, default_value_t = 0.5)]
+    pub std_scale: f32,
+    /// No progress bars.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// Flags of `host report`.
+#[derive(Args, Debug, Clone)]
+pub struct ReportArgs {
+    /// Directory for index.html and one subdirectory of images per evaluation.
+    #[arg(long, short, default_value = "out/report")]
+    pub out: PathBuf,
+    /// Comma-separated volumes to evaluate now (embedded names or files; default: cloud unless
+    /// --from-eval is given).
+    #[arg(long)]
+    pub volumes: Option<String>,
+    /// Comma-separated estimators for the new evaluations, or "all".
+    #[arg(long, default_value = "all")]
+    pub estimators: String,
+    /// Also evaluate these single-scattering integrators (comma-separated or "all") per volume.
+    #[arg(long)]
+    pub integrators: Option<String>,
+    /// Reuse an existing `host eval` output: a directory holding eval.json, or the JSON file
+    /// (repeatable; transmittance or --integrators evaluations).
+    #[arg(long = "from-eval", value_name = "DIR")]
+    pub from_eval: Vec<PathBuf>,
+    /// Voxels per axis of an embedded volume.
+    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(8..=1024))]
+    pub resolution: u32,
+    /// Lookups of the new evaluations (see `host eval --lookup`).
+    #[arg(long, value_enum, default_value_t = LookupArg::Nearest)]
+    pub lookup: LookupArg,
+    /// Samples per optical depth estimate (N).
+    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub n: u32,
+    /// Image width.
+    #[arg(long, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub width: u32,
+    /// Image height.
+    #[arg(long, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub height: u32,
+    /// Estimates per pixel of the transmittance evaluations.
+    #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(2..=1 << 20))]
+    pub spp: u32,
+    /// Samples per pixel of the integrator evaluations (reference: 16 x this).
+    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(2..=1 << 20))]
+    pub integrator_spp: u32,
+    /// Seed.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
+    /// Where kernels run.
+    #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
+    pub backend: BackendChoice,
+    /// |bias| mapped to full colour in the bias images.
+    #[arg(long, default_value_t = 0.05)]
+    pub bias_scale: f32,
+    /// std mapped to full colour in the std images.
     #[arg(long, default_value_t = 0.5)]
     pub std_scale: f32,
     /// No progress bars.

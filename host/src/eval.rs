@@ -12,7 +12,7 @@ use std::path::Path;
 use std::time::Instant;
 
 /// Statistics of one estimator over the pixels whose reference transmittance is below 1.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct EstimatorReport {
     pub name: String,
     pub about: String,
@@ -37,10 +37,75 @@ pub struct EstimatorReport {
     pub std_exr: String,
     pub std_png: String,
     pub mean_exr: String,
+    /// The mean image as a PNG preview (sRGB, like `reference_png`).
+    pub mean_png: String,
+}
+
+/// A false-colour map of the bias or std PNGs: values in [`min`, `max`] (clamped outside),
+/// with colour stops sampled from the exact function that wrote the PNGs (linear in between).
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct ColourMap {
+    pub name: String,
+    pub min: f64,
+    pub max: f64,
+    pub stops: Vec<ColourStop>,
+}
+
+/// One stop of a [`ColourMap`]: the 8-bit sRGB colour the PNG writer gives `value`.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct ColourStop {
+    pub value: f64,
+    pub rgb: [u8; 3],
+}
+
+/// The f64 with the shortest decimal form of an f32 (0.05f32 -> 0.05, not 0.0500000007...).
+fn short(v: f32) -> f64 {
+    v.to_string().parse().unwrap_or(v as f64)
+}
+
+/// Stops of a colour map, sampled at 25 values from `min` to `max`: the bias and std maps are
+/// piecewise linear with kinks at multiples of 1/24 of the range (0, 1/3, 1/2, 2/3), so these
+/// stops reproduce them up to rounding.
+pub fn colour_map(name: &str, min: f32, max: f32, f: impl Fn(f32) -> [u8; 3]) -> ColourMap {
+    let stops = (0..=24)
+        .map(|k| {
+            let value = min + (max - min) * k as f32 / 24.0;
+            ColourStop {
+                value: short(value),
+                rgb: f(value),
+            }
+        })
+        .collect();
+    ColourMap {
+        name: name.into(),
+        min: short(min),
+        max: short(max),
+        stops,
+    }
+}
+
+/// The colour map of the bias PNGs for `--bias-scale`.
+pub fn bias_colour_map(scale: f32) -> ColourMap {
+    colour_map(
+        "diverging: blue (under) - white (0) - red (over)",
+        -scale,
+        scale,
+        |v| diverging(v, scale),
+    )
+}
+
+/// The colour map of the std PNGs for `--std-scale`.
+pub fn std_colour_map(scale: f32) -> ColourMap {
+    colour_map(
+        "sequential: black (0) - orange - yellow - white",
+        0.0,
+        scale,
+        |v| sequential(v, scale),
+    )
 }
 
 /// The whole evaluation, as written to `--json`.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct EvalReport {
     pub volume: String,
     pub backend: String,
@@ -53,6 +118,13 @@ pub struct EvalReport {
     pub lookup: String,
     pub reference: String,
     pub evaluated_pixels: usize,
+    /// The reference transmittance: linear EXR and sRGB PNG.
+    pub reference_exr: String,
+    pub reference_png: String,
+    /// Colour map of every `bias_png` (`--bias-scale`).
+    pub bias_colour_map: ColourMap,
+    /// Colour map of every `std_png` (`--std-scale`).
+    pub std_colour_map: ColourMap,
     pub estimators: Vec<EstimatorReport>,
 }
 
@@ -133,8 +205,12 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
     let reference = render(setup.backend, setup.volume, &ref_params, setup.progress)
         .context("rendering the reference")?;
     let ref_t: Vec<f32> = reference.iter().map(|p| p.t_mean).collect();
-    write_exr(&setup.out_dir.join("reference.exr"), w, h, &ref_t)?;
-    crate::output::write_png(&setup.out_dir.join("reference.png"), w, h, &ref_t)?;
+    let (reference_exr, reference_png) = (
+        setup.out_dir.join("reference.exr"),
+        setup.out_dir.join("reference.png"),
+    );
+    write_exr(&reference_exr, w, h, &ref_t)?;
+    crate::output::write_png(&reference_png, w, h, &ref_t)?;
     let mask: Vec<bool> = ref_t.iter().map(|&t| t < 1.0).collect();
     let count = mask.iter().filter(|&&m| m).count().max(1);
 
@@ -163,6 +239,7 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
         let file = |suffix: &str| format!("{}_{suffix}", stem.display());
         let mean_t: Vec<f32> = pixels.iter().map(|p| p.t_mean).collect();
         write_exr(Path::new(&file("mean.exr")), w, h, &mean_t)?;
+        crate::output::write_png(Path::new(&file("mean.png")), w, h, &mean_t)?;
         write_exr(Path::new(&file("bias.exr")), w, h, &bias)?;
         write_exr(Path::new(&file("std.exr")), w, h, &std)?;
         write_false_colour(Path::new(&file("bias.png")), w, h, &bias, |v| {
@@ -187,6 +264,7 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
             std_exr: file("std.exr"),
             std_png: file("std.png"),
             mean_exr: file("mean.exr"),
+            mean_png: file("mean.png"),
         };
         println!(
             "{:<20} bias {:+.5}  |bias| {:.5} (noise floor {:.5})  std {:.4}  rmse {:.4}  samples/ray {:7.2}  {:8.1} ms",
@@ -221,6 +299,10 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
             setup.reference.name, setup.reference_spp, setup.reference.about
         ),
         evaluated_pixels: count,
+        reference_exr: reference_exr.display().to_string(),
+        reference_png: reference_png.display().to_string(),
+        bias_colour_map: bias_colour_map(setup.bias_scale),
+        std_colour_map: std_colour_map(setup.std_scale),
         estimators: reports,
     })
 }
@@ -252,7 +334,7 @@ pub fn write_report(path: &Path, report: &EvalReport) -> Result<()> {
 }
 
 /// Statistics of one integrator against the reference radiance image.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct IntegratorReport {
     pub name: String,
     /// Mean over pixels of |L - L_ref| / ((L + L_ref) / 2 + 0.01) (Fig. 12's SMAPE).
@@ -273,7 +355,7 @@ pub struct IntegratorReport {
 }
 
 /// The integrator evaluation, as written to `--json`.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct IntegratorEvalReport {
     pub volume: String,
     pub backend: String,
@@ -284,6 +366,11 @@ pub struct IntegratorEvalReport {
     pub seed: u32,
     pub lights: usize,
     pub reference: String,
+    /// The reference radiance: linear EXR and PNG (tone-mapped like every `png`).
+    pub reference_exr: String,
+    pub reference_png: String,
+    /// The PNGs show x / (1 + x) of x = `exposure` * radiance, sRGB-encoded.
+    pub exposure: f32,
     pub integrators: Vec<IntegratorReport>,
 }
 
@@ -323,8 +410,12 @@ pub fn evaluate_integrators(
     )
     .context("rendering the reference")?;
     let ref_l: Vec<f32> = reference.iter().map(|p| p.t_mean).collect();
-    write_exr(&setup.out_dir.join("reference.exr"), w, h, &ref_l)?;
-    crate::output::write_png(&setup.out_dir.join("reference.png"), w, h, &tone(&ref_l))?;
+    let (reference_exr, reference_png) = (
+        setup.out_dir.join("reference.exr"),
+        setup.out_dir.join("reference.png"),
+    );
+    write_exr(&reference_exr, w, h, &ref_l)?;
+    crate::output::write_png(&reference_png, w, h, &tone(&ref_l))?;
     let n = ref_l.len() as f64;
     let mut reports = Vec::new();
     for &(name, integrator) in integrators {
@@ -383,6 +474,9 @@ pub fn evaluate_integrators(
             "mis-jackknife with ratio-tracking T(t0) (unbiased up to the shadow-ray estimator shared by all) at {} spp, independent seed",
             setup.reference_spp
         ),
+        reference_exr: reference_exr.display().to_string(),
+        reference_png: reference_png.display().to_string(),
+        exposure,
         integrators: reports,
     })
 }

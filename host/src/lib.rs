@@ -19,4 +19,5 @@ pub mod bricks;
 pub mod eval;
 pub mod output;
 pub mod render;
+pub mod report;
 pub mod study;

@@ -14,6 +14,7 @@ fn main() -> ExitCode {
         Some(Command::Eval(args)) => run_eval(args),
         Some(Command::Study(args)) => host::study::run(args),
         Some(Command::Bench(args)) => host::bench::run(args).map(|_| ()),
+        Some(Command::Report(args)) => host::report::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -30,7 +30,7 @@ pub fn write_exr(path: &Path, w: u32, h: u32, values: &[f32]) -> Result<()> {
 }
 
 /// sRGB encoding of a linear value in [0, 1].
-fn srgb8(v: f32) -> u8 {
+pub fn srgb8(v: f32) -> u8 {
     let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
     let s = if v <= 0.003_130_8 {
         12.92 * v

@@ -1,0 +1,736 @@
+//! `host report`: a static, self-contained HTML viewer of `host eval` results, like the paper's
+//! interactive supplemental: estimators side by side or under a slider, render / bias / std
+//! images with colour bars, magnified insets and the numbers table.
+//!
+//! Every number and colour of the page comes from the eval JSON (or from the code that wrote the
+//! images); the HTML template (`viewer.html`) holds only layout and behaviour. The data goes into
+//! the page as a JSON literal, the images stay files referenced by relative paths, so the report
+//! opens from `file://` without a server or network.
+
+use crate::cli::{EvalArgs, ReportArgs};
+use crate::eval::{ColourMap, EvalReport, IntegratorEvalReport};
+use anyhow::{bail, Context, Result};
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// The viewer: layout, style and script; [`DATA_MARKER`] is replaced by the data.
+const TEMPLATE: &str = include_str!("viewer.html");
+/// Placeholder of the data inside `<script type="application/json">` in [`TEMPLATE`].
+const DATA_MARKER: &str = "__REPORT_DATA__";
+
+/// Everything the page shows.
+#[derive(Serialize, Debug)]
+pub struct ViewerData {
+    pub title: String,
+    pub generator: String,
+    pub sets: Vec<Set>,
+}
+
+/// One evaluation (a volume's estimators, or its integrators): one tab of the viewer.
+#[derive(Serialize, Debug)]
+pub struct Set {
+    /// Directory of its files inside the report, also its id in the page's URL hash.
+    pub id: String,
+    pub label: String,
+    /// "estimators" or "integrators".
+    pub kind: &'static str,
+    /// Relative link to the eval JSON inside the report.
+    pub json: String,
+    /// (label, value) lines describing the evaluation.
+    pub facts: Vec<[String; 2]>,
+    pub width: u32,
+    pub height: u32,
+    pub modes: Vec<Mode>,
+    /// The reference first, then each evaluated estimator or integrator.
+    pub entries: Vec<Entry>,
+    pub columns: Vec<Column>,
+}
+
+/// An image kind of a set: "render", "bias", "std".
+#[derive(Serialize, Debug)]
+pub struct Mode {
+    pub id: &'static str,
+    pub label: &'static str,
+    /// What the pixels mean, shown under the colour bar.
+    pub caption: String,
+    /// Value -> colour of the PNGs, when it is a bounded map.
+    pub colour_map: Option<ColourMap>,
+}
+
+/// The reference or one estimator / integrator.
+#[derive(Serialize, Debug)]
+pub struct Entry {
+    pub name: String,
+    pub about: String,
+    pub reference: bool,
+    pub unbiased: Option<bool>,
+    /// Mode id -> its PNG and EXR (relative URLs); the reference has a render only.
+    pub images: BTreeMap<&'static str, Image>,
+    /// Column key -> value.
+    pub values: BTreeMap<&'static str, f64>,
+}
+
+/// A tone-mapped or false-colour PNG and the linear EXR it shows.
+#[derive(Serialize, Debug)]
+pub struct Image {
+    pub png: String,
+    pub exr: String,
+}
+
+/// A column of the numbers table.
+#[derive(Serialize, Debug, Clone)]
+pub struct Column {
+    pub key: &'static str,
+    pub label: &'static str,
+    /// Tooltip: the definition.
+    pub title: &'static str,
+    /// Decimals shown.
+    pub digits: u32,
+    /// Show a + on non-negative values.
+    pub signed: bool,
+    /// Which value is best: "min", "absmin", or "" (not marked).
+    pub best: &'static str,
+}
+
+const fn column(
+    key: &'static str,
+    label: &'static str,
+    title: &'static str,
+    digits: u32,
+    signed: bool,
+    best: &'static str,
+) -> Column {
+    Column {
+        key,
+        label,
+        title,
+        digits,
+        signed,
+        best,
+    }
+}
+
+/// `host report`: runs or loads the evaluations, copies their files, writes index.html.
+pub fn run(args: &ReportArgs) -> Result<()> {
+    anyhow::ensure!(
+        args.bias_scale.is_finite()
+            && args.bias_scale > 0.0
+            && args.std_scale.is_finite()
+            && args.std_scale > 0.0,
+        "--bias-scale and --std-scale must be finite and > 0"
+    );
+    let out = &args.out;
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let mut used = Vec::new();
+    let mut sources: Vec<(String, PathBuf)> = Vec::new();
+    // Read every --from-eval first: a typo should not cost the evaluations.
+    for path in &args.from_eval {
+        let json = eval_json_path(path)?;
+        load(&json)?;
+        let id = unique_id(&slug(&label_of(&json)), &mut used);
+        sources.push((id, json));
+    }
+    let volumes = match (&args.volumes, args.from_eval.is_empty()) {
+        (Some(list), _) => list.split(',').map(|v| v.trim().to_string()).collect(),
+        (None, true) => vec!["cloud".to_string()],
+        (None, false) => Vec::new(),
+    };
+    if !volumes.is_empty() {
+        crate::eval::parse_list(&args.estimators)?;
+    }
+    for volume in &volumes {
+        anyhow::ensure!(!volume.is_empty(), "--volumes: empty volume name");
+        let base = slug(&volume_label(volume));
+        let id = unique_id(&base, &mut used);
+        let dir = out.join(&id);
+        let mut eval = eval_args(args, volume, dir.clone())?;
+        crate::commands::run_eval(&eval).with_context(|| format!("evaluating {volume}"))?;
+        sources.push((id, dir.join("eval.json")));
+        if let Some(list) = &args.integrators {
+            let id = unique_id(&format!("{base}-integrators"), &mut used);
+            let dir = out.join(&id);
+            eval.integrators = Some(list.clone());
+            eval.spp = args.integrator_spp;
+            eval.reference_spp = Some(16 * args.integrator_spp);
+            eval.out_dir = dir.clone();
+            crate::commands::run_eval(&eval)
+                .with_context(|| format!("evaluating the integrators on {volume}"))?;
+            sources.push((id, dir.join("eval.json")));
+        }
+    }
+    let mut sets = Vec::new();
+    for (id, json) in &sources {
+        sets.push(import(json, out, id)?);
+    }
+    let data = ViewerData {
+        title: "Jackknife transmittance: comparison viewer".into(),
+        generator: format!(
+            "host report {} (jackknife transmittance, Peters 2025)",
+            env!("CARGO_PKG_VERSION")
+        ),
+        sets,
+    };
+    let html = render_html(&data)?;
+    let index = out.join("index.html");
+    std::fs::write(&index, html).with_context(|| format!("writing {}", index.display()))?;
+    println!("wrote {}", index.display());
+    Ok(())
+}
+
+/// `host eval` flags for one volume of the report (defaults of `host eval` for the rest).
+fn eval_args(args: &ReportArgs, volume: &str, out_dir: PathBuf) -> Result<EvalArgs> {
+    #[derive(clap::Parser)]
+    struct Defaults {
+        #[command(flatten)]
+        eval: EvalArgs,
+    }
+    let mut e = <Defaults as clap::Parser>::try_parse_from(["host-eval"])
+        .context("default flags of host eval")?
+        .eval;
+    e.scene.volume = volume.into();
+    e.scene.resolution = args.resolution;
+    e.lookup = args.lookup;
+    e.estimators = args.estimators.clone();
+    e.n = args.n;
+    e.width = args.width;
+    e.height = args.height;
+    e.spp = args.spp;
+    e.seed = args.seed;
+    e.backend = args.backend;
+    e.out_dir = out_dir;
+    e.json = None;
+    e.bias_scale = args.bias_scale;
+    e.std_scale = args.std_scale;
+    e.quiet = args.quiet;
+    Ok(e)
+}
+
+/// The eval JSON of a `--from-eval` argument: the file itself, or eval.json in the directory.
+fn eval_json_path(path: &Path) -> Result<PathBuf> {
+    if path.is_dir() {
+        let json = path.join("eval.json");
+        anyhow::ensure!(
+            json.is_file(),
+            "--from-eval {}: the directory has no eval.json (is it a `host eval --out-dir`?)",
+            path.display()
+        );
+        Ok(json)
+    } else if path.is_file() {
+        Ok(path.to_path_buf())
+    } else {
+        bail!("--from-eval {}: no such file or directory", path.display())
+    }
+}
+
+/// Name of an evaluation from its JSON path: the directory's name for eval.json.
+fn label_of(json: &Path) -> String {
+    let stem = json.file_stem().and_then(|s| s.to_str()).unwrap_or("eval");
+    if stem == "eval" {
+        if let Some(dir) = json
+            .canonicalize()
+            .ok()
+            .and_then(|p| p.parent().map(Path::to_path_buf))
+            .and_then(|d| d.file_name().map(|n| n.to_string_lossy().into_owned()))
+        {
+            return dir;
+        }
+    }
+    stem.to_string()
+}
+
+/// Directory name of a `--volumes` entry: the embedded name, or a file's stem.
+fn volume_label(volume: &str) -> String {
+    let path = Path::new(volume);
+    if path.exists() {
+        if let Some(stem) = path.file_stem() {
+            return stem.to_string_lossy().into_owned();
+        }
+    }
+    volume.to_string()
+}
+
+/// Lower-case letters, digits, '-' and '_' only (safe in paths, URLs and the hash).
+fn slug(s: &str) -> String {
+    let mut out: String = s
+        .chars()
+        .map(|c| {
+            let c = c.to_ascii_lowercase();
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '-'
+            }
+        })
+        .collect();
+    out = out.trim_matches('-').to_string();
+    if out.is_empty() {
+        "eval".into()
+    } else {
+        out
+    }
+}
+
+fn unique_id(base: &str, used: &mut Vec<String>) -> String {
+    let mut id = base.to_string();
+    let mut k = 2;
+    while used.contains(&id) {
+        id = format!("{base}-{k}");
+        k += 1;
+    }
+    used.push(id.clone());
+    id
+}
+
+/// A loaded eval JSON.
+enum Loaded {
+    Estimators(EvalReport),
+    Integrators(IntegratorEvalReport),
+}
+
+/// Reads and parses an eval JSON; errors name the file.
+fn load(json: &Path) -> Result<Loaded> {
+    let text =
+        std::fs::read_to_string(json).with_context(|| format!("reading {}", json.display()))?;
+    let value: serde_json::Value = serde_json::from_str(&text)
+        .with_context(|| format!("{}: not valid JSON", json.display()))?;
+    let stale = "(written by an older `host eval`? run it again)";
+    if value.get("integrators").is_some() {
+        serde_json::from_value(value)
+            .map(Loaded::Integrators)
+            .with_context(|| {
+                format!(
+                    "{}: not a `host eval --integrators` report {stale}",
+                    json.display()
+                )
+            })
+    } else if value.get("estimators").is_some() {
+        serde_json::from_value(value)
+            .map(Loaded::Estimators)
+            .with_context(|| format!("{}: not a `host eval` report {stale}", json.display()))
+    } else {
+        bail!(
+            "{}: not a `host eval` report (no \"estimators\" or \"integrators\")",
+            json.display()
+        )
+    }
+}
+
+/// Copies the files of one evaluation into `out/id/` (unless they are there already) and
+/// makes its [`Set`].
+fn import(json: &Path, out: &Path, id: &str) -> Result<Set> {
+    let loaded = load(json)?;
+    let src_dir = json
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let dest_dir = out.join(id);
+    std::fs::create_dir_all(&dest_dir)
+        .with_context(|| format!("creating {}", dest_dir.display()))?;
+    let mut files = Files {
+        json,
+        src_dir,
+        dest_dir: &dest_dir,
+        id,
+    };
+    let json_link = files.copy_named(json, "eval.json")?;
+    Ok(match loaded {
+        Loaded::Estimators(r) => estimator_set(&r, &mut files, id, json_link)?,
+        Loaded::Integrators(r) => integrator_set(&r, &mut files, id, json_link)?,
+    })
+}
+
+/// Where an evaluation's files are and where they go.
+struct Files<'a> {
+    json: &'a Path,
+    src_dir: &'a Path,
+    dest_dir: &'a Path,
+    id: &'a str,
+}
+
+impl Files<'_> {
+    /// Finds a file named in the JSON (beside the JSON, else at the path as written), copies it
+    /// into the report and returns its URL relative to index.html.
+    fn copy(&mut self, stored: &str) -> Result<String> {
+        let path = Path::new(stored);
+        let name = path
+            .file_name()
+            .with_context(|| format!("{}: {stored:?} is not a file name", self.json.display()))?;
+        let beside = self.src_dir.join(name);
+        let found = if beside.is_file() {
+            beside
+        } else if path.is_file() {
+            path.to_path_buf()
+        } else {
+            bail!(
+                "{}: {stored} not found (neither at that path nor in {})",
+                self.json.display(),
+                self.src_dir.display()
+            )
+        };
+        self.copy_named(&found, &name.to_string_lossy())
+    }
+
+    fn copy_named(&mut self, from: &Path, name: &str) -> Result<String> {
+        let to = self.dest_dir.join(name);
+        let same = match (from.canonicalize(), to.canonicalize()) {
+            (Ok(a), Ok(b)) => a == b,
+            _ => false,
+        };
+        if !same {
+            std::fs::copy(from, &to)
+                .with_context(|| format!("copying {} to {}", from.display(), to.display()))?;
+        }
+        Ok(format!("{}/{}", url_escape(self.id), url_escape(name)))
+    }
+
+    fn image(&mut self, png: &str, exr: &str) -> Result<Image> {
+        Ok(Image {
+            png: self.copy(png)?,
+            exr: self.copy(exr)?,
+        })
+    }
+}
+
+/// Percent-encodes everything but unreserved characters (one path segment).
+fn url_escape(s: &str) -> String {
+    let mut out = String::new();
+    for b in s.bytes() {
+        if b.is_ascii_alphanumeric() || b"-_.~".contains(&b) {
+            out.push(b as char);
+        } else {
+            out.push_str(&format!("%{b:02X}"));
+        }
+    }
+    out
+}
+
+/// The grey ramp of the transmittance PNGs: T in [0, 1], sRGB-encoded (`output::write_png`).
+fn transmittance_map() -> ColourMap {
+    crate::eval::colour_map("transmittance, sRGB-encoded", 0.0, 1.0, |v| {
+        let s = crate::output::srgb8(v);
+        [s, s, s]
+    })
+}
+
+const ESTIMATOR_COLUMNS: &[Column] = &[
+    column(
+        "mean_bias",
+        "bias",
+        "mean over pixels of (pixel mean - reference)",
+        5,
+        true,
+        "absmin",
+    ),
+    column(
+        "mean_abs_bias",
+        "|bias|",
+        "mean over pixels of |pixel mean - reference|; includes the Monte Carlo noise of the mean, compare with the noise floor",
+        5,
+        false,
+        "min",
+    ),
+    column(
+        "abs_bias_noise_floor",
+        "noise floor",
+        "mean of std * sqrt(2 / (pi spp)): the |bias| an unbiased estimator with this std would show",
+        5,
+        false,
+        "",
+    ),
+    column(
+        "mean_std",
+        "std",
+        "mean per-pixel standard deviation of one estimate",
+        4,
+        false,
+        "min",
+    ),
+    column(
+        "rmse",
+        "RMSE",
+        "sqrt(mean of bias^2 + std^2): the error of one estimate",
+        4,
+        false,
+        "min",
+    ),
+    column(
+        "mean_samples_per_ray",
+        "samples/ray",
+        "high-resolution lookups per ray",
+        2,
+        false,
+        "min",
+    ),
+    column(
+        "elapsed_ms",
+        "time (ms)",
+        "time to render all spp of the image",
+        0,
+        false,
+        "min",
+    ),
+];
+
+const INTEGRATOR_COLUMNS: &[Column] = &[
+    column(
+        "smape",
+        "SMAPE",
+        "mean over pixels of |L - L_ref| / ((L + L_ref) / 2 + 0.01) (Fig. 12)",
+        4,
+        false,
+        "min",
+    ),
+    column(
+        "mean_bias",
+        "bias",
+        "mean over pixels of (L - L_ref)",
+        5,
+        true,
+        "absmin",
+    ),
+    column(
+        "mean_abs_error",
+        "|error|",
+        "mean over pixels of |L - L_ref|",
+        5,
+        false,
+        "min",
+    ),
+    column(
+        "mean_radiance",
+        "mean L",
+        "mean radiance of the image",
+        5,
+        false,
+        "",
+    ),
+    column(
+        "mean_samples_per_ray",
+        "lookups/ray",
+        "high-resolution lookups per camera ray",
+        2,
+        false,
+        "min",
+    ),
+    column(
+        "ms_per_frame",
+        "ms/spp",
+        "time per sample per pixel (one frame)",
+        1,
+        false,
+        "min",
+    ),
+    column(
+        "elapsed_ms",
+        "time (ms)",
+        "time to render all spp of the image",
+        0,
+        false,
+        "min",
+    ),
+];
+
+fn common_facts(
+    volume: &str,
+    backend: &str,
+    device: &str,
+    w: u32,
+    h: u32,
+    spp: u32,
+) -> Vec<[String; 2]> {
+    vec![
+        ["volume".into(), volume.into()],
+        ["backend".into(), format!("{backend}: {device}")],
+        ["image".into(), format!("{w} x {h}")],
+        ["spp".into(), spp.to_string()],
+    ]
+}
+
+fn estimator_set(r: &EvalReport, files: &mut Files, id: &str, json: String) -> Result<Set> {
+    let mut facts = common_facts(&r.volume, &r.backend, &r.device, r.width, r.height, r.spp);
+    facts.extend([
+        ["N".into(), r.n.to_string()],
+        ["lookup".into(), r.lookup.clone()],
+        ["seed".into(), r.seed.to_string()],
+        ["reference".into(), r.reference.clone()],
+        [
+            "statistics over".into(),
+            format!(
+                "{} pixels (reference transmittance below 1)",
+                r.evaluated_pixels
+            ),
+        ],
+    ]);
+    let mut entries = vec![Entry {
+        name: "reference".into(),
+        about: r.reference.clone(),
+        reference: true,
+        unbiased: None,
+        images: BTreeMap::from([("render", files.image(&r.reference_png, &r.reference_exr)?)]),
+        values: BTreeMap::new(),
+    }];
+    for e in &r.estimators {
+        entries.push(Entry {
+            name: e.name.clone(),
+            about: e.about.clone(),
+            reference: false,
+            unbiased: Some(e.unbiased),
+            images: BTreeMap::from([
+                ("render", files.image(&e.mean_png, &e.mean_exr)?),
+                ("bias", files.image(&e.bias_png, &e.bias_exr)?),
+                ("std", files.image(&e.std_png, &e.std_exr)?),
+            ]),
+            values: BTreeMap::from([
+                ("mean_bias", e.mean_bias),
+                ("mean_abs_bias", e.mean_abs_bias),
+                ("abs_bias_noise_floor", e.abs_bias_noise_floor),
+                ("mean_std", e.mean_std),
+                ("rmse", e.rmse),
+                ("mean_samples_per_ray", e.mean_samples_per_ray),
+                ("elapsed_ms", e.elapsed_ms),
+            ]),
+        });
+    }
+    Ok(Set {
+        id: id.into(),
+        label: id.into(),
+        kind: "estimators",
+        json,
+        facts,
+        width: r.width,
+        height: r.height,
+        modes: vec![
+            Mode {
+                id: "render",
+                label: "render",
+                caption: format!("mean transmittance of {} estimates per pixel", r.spp),
+                colour_map: Some(transmittance_map()),
+            },
+            Mode {
+                id: "bias",
+                label: "bias",
+                caption: "bias: pixel mean - reference (blue: under, red: over)".into(),
+                colour_map: Some(r.bias_colour_map.clone()),
+            },
+            Mode {
+                id: "std",
+                label: "std",
+                caption: "standard deviation of one estimate".into(),
+                colour_map: Some(r.std_colour_map.clone()),
+            },
+        ],
+        entries,
+        columns: ESTIMATOR_COLUMNS.to_vec(),
+    })
+}
+
+fn integrator_set(
+    r: &IntegratorEvalReport,
+    files: &mut Files,
+    id: &str,
+    json: String,
+) -> Result<Set> {
+    let mut facts = common_facts(&r.volume, &r.backend, &r.device, r.width, r.height, r.spp);
+    facts.extend([
+        ["lights".into(), r.lights.to_string()],
+        ["seed".into(), r.seed.to_string()],
+        ["reference".into(), r.reference.clone()],
+    ]);
+    let mut entries = vec![Entry {
+        name: "reference".into(),
+        about: r.reference.clone(),
+        reference: true,
+        unbiased: None,
+        images: BTreeMap::from([("render", files.image(&r.reference_png, &r.reference_exr)?)]),
+        values: BTreeMap::new(),
+    }];
+    for e in &r.integrators {
+        entries.push(Entry {
+            name: e.name.clone(),
+            about: format!("single scattering, {}", e.name),
+            reference: false,
+            unbiased: None,
+            images: BTreeMap::from([("render", files.image(&e.png, &e.exr)?)]),
+            values: BTreeMap::from([
+                ("smape", e.smape),
+                ("mean_bias", e.mean_bias),
+                ("mean_abs_error", e.mean_abs_error),
+                ("mean_radiance", e.mean_radiance),
+                ("mean_samples_per_ray", e.mean_samples_per_ray),
+                ("ms_per_frame", e.ms_per_frame),
+                ("elapsed_ms", e.elapsed_ms),
+            ]),
+        });
+    }
+    Ok(Set {
+        id: id.into(),
+        label: id.into(),
+        kind: "integrators",
+        json,
+        facts,
+        width: r.width,
+        height: r.height,
+        modes: vec![Mode {
+            id: "render",
+            label: "render",
+            caption: format!(
+                "radiance L, {} spp, shown as x / (1 + x) with x = {} x L, sRGB-encoded",
+                r.spp, r.exposure
+            ),
+            colour_map: None,
+        }],
+        entries,
+        columns: INTEGRATOR_COLUMNS.to_vec(),
+    })
+}
+
+/// The page: the template with the data as a JSON literal that cannot end its `<script>`.
+pub fn render_html(data: &ViewerData) -> Result<String> {
+    let json = serde_json::to_string(data).context("serializing the report data")?;
+    // '<', '>' and '&' occur only inside JSON strings, where \u escapes mean the same; so no
+    // "</script>" or "<!--" can appear in the literal.
+    let json = json
+        .replace('<', "\\u003c")
+        .replace('>', "\\u003e")
+        .replace('&', "\\u0026");
+    anyhow::ensure!(
+        TEMPLATE.matches(DATA_MARKER).count() == 1,
+        "viewer template must hold the data marker once"
+    );
+    Ok(TEMPLATE.replace(DATA_MARKER, &json))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn data_cannot_close_the_script_tag() {
+        let data = ViewerData {
+            title: "</script><script>alert(1)</script> <!-- & >".into(),
+            generator: String::new(),
+            sets: Vec::new(),
+        };
+        let html = render_html(&data).unwrap();
+        let start = html.find("id=\"report-data\"").unwrap();
+        let rest = &html[start..];
+        let literal = &rest[rest.find('>').unwrap() + 1..rest.find("</script>").unwrap()];
+        assert!(
+            !literal.contains('<') && !literal.contains('>'),
+            "{literal}"
+        );
+        let back: serde_json::Value = serde_json::from_str(literal).unwrap();
+        assert_eq!(back["title"], data.title.as_str());
+    }
+
+    #[test]
+    fn slugs_and_urls_are_plain() {
+        assert_eq!(slug("Cloud (procedural 256^3)"), "cloud--procedural-256-3");
+        assert_eq!(slug("..."), "eval");
+        assert_eq!(url_escape("a b#c.png"), "a%20b%23c.png");
+        let mut used = Vec::new();
+        assert_eq!(unique_id("cloud", &mut used), "cloud");
+        assert_eq!(unique_id("cloud", &mut used), "cloud-2");
+    }
+}
