@@ -8,7 +8,9 @@ use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use shared::camera::{Affine3x4, Camera};
 use shared::lights::PointLight;
-use shared::render::{finish_pixel, render_pixel_pass, PixelOut, PixelSums, RenderParams};
+use shared::render::{
+    finish_pixel, render_pixel_pass, tile_order_pixel, PixelOut, PixelSums, RenderParams,
+};
 use shared::vec3::V3;
 
 /// Axis-aligned world-space bounds of the volume's grid box [0, dims].
@@ -345,8 +347,8 @@ pub fn render_resident(
                 for (c, block) in sums.chunks_mut(chunk as usize).enumerate() {
                     let base = c as u32 * chunk;
                     block.par_iter_mut().enumerate().for_each(|(i, acc)| {
-                        *acc =
-                            render_pixel_pass(&view, params, lights, base + i as u32, s0, s1, *acc);
+                        let pixel = tile_order_pixel(base + i as u32, params.width, params.height);
+                        *acc = render_pixel_pass(&view, params, lights, pixel, s0, s1, *acc);
                     });
                     bar.inc(block.len() as u64 * (s1 - s0) as u64);
                 }
@@ -367,7 +369,9 @@ pub fn render_resident(
                 .map_err(|_| anyhow::anyhow!("internal: poisoned tile cache"))?;
             // Tiles of whole workgroups, each small enough for one storage buffer.
             let sums_size = std::mem::size_of::<PixelSums>() as u64;
-            let tile = (gpu.max_buffer_bytes() / sums_size / 64 * 64).clamp(64, count as u64);
+            let tile = (gpu.max_buffer_bytes() / sums_size / 64 * 64)
+                .max(64)
+                .min(u64::from(count));
             let tile = tile as u32;
             let tile_count = count.div_ceil(tile) as usize;
             let tile_bytes = u64::from(tile) * sums_size;
@@ -414,8 +418,11 @@ pub fn render_resident(
         }
     };
     bar.finish_and_clear();
-    Ok(sums
-        .into_iter()
-        .map(|s| finish_pixel(s, params.spp))
-        .collect())
+    // Work item k holds pixel tile_order_pixel(k) on both backends.
+    let mut out = vec![PixelOut::default(); sums.len()];
+    for (k, s) in sums.into_iter().enumerate() {
+        out[tile_order_pixel(k as u32, params.width, params.height) as usize] =
+            finish_pixel(s, params.spp);
+    }
+    Ok(out)
 }

@@ -73,11 +73,12 @@ pub fn render_cs(
         } else {
             sums[slot]
         };
+        let p = &params[0];
         sums[slot] = render::render_pixel_pass(
             &vol,
-            &params[0],
+            p,
             lights,
-            i as u32,
+            render::tile_order_pixel(i as u32, p.width, p.height),
             pass.s_begin,
             pass.s_end,
             prev,

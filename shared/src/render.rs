@@ -252,6 +252,34 @@ pub fn render_pixel_pass(
     acc
 }
 
+/// Side of the square pixel tiles that consecutive work items cover (one 64-invocation
+/// workgroup = one 8 x 8 tile), so neighbouring invocations trace neighbouring rays.
+pub const TILE: u32 = 8;
+
+/// The pixel (row-major id) of work item `k` in tile order: full 8 x 8 tiles row by row, each
+/// tile row-major inside; then the pixels right of the last full tile column (row-major), then
+/// those below the last full tile row. A bijection of `0..width * height`.
+#[inline]
+pub fn tile_order_pixel(k: u32, width: u32, height: u32) -> u32 {
+    let tw = width / TILE * TILE;
+    let th = height / TILE * TILE;
+    let full = tw * th;
+    if k < full {
+        let tile = k / (TILE * TILE);
+        let inner = k % (TILE * TILE);
+        let tiles_per_row = tw / TILE;
+        let x = (tile % tiles_per_row) * TILE + inner % TILE;
+        let y = (tile / tiles_per_row) * TILE + inner / TILE;
+        return y * width + x;
+    }
+    let k = k - full;
+    let right = width - tw;
+    if k < th * right {
+        return (k / right) * width + tw + k % right;
+    }
+    th * width + (k - th * right)
+}
+
 /// Per-pixel means from the sums of `spp` estimates.
 pub fn finish_pixel(sums: PixelSums, spp: u32) -> PixelOut {
     PixelOut {

@@ -36,3 +36,32 @@ fn shared_struct_layouts() {
         size_of::<Launch>()
     );
 }
+
+#[test]
+fn tile_order_is_a_bijection_of_the_pixels() {
+    use shared::render::tile_order_pixel;
+    for (w, h) in [
+        (1, 1),
+        (8, 8),
+        (9, 7),
+        (33, 21),
+        (64, 64),
+        (100, 37),
+        (7, 300),
+    ] {
+        let mut seen = vec![false; (w * h) as usize];
+        for k in 0..w * h {
+            let p = tile_order_pixel(k, w, h) as usize;
+            assert!(p < seen.len() && !seen[p], "{w}x{h}: k = {k} -> {p}");
+            seen[p] = true;
+        }
+        if w >= 8 && h >= 8 {
+            // The first 64 work items are the top-left 8 x 8 tile.
+            let first: Vec<u32> = (0..64).map(|k| tile_order_pixel(k, w, h)).collect();
+            assert!(
+                first.iter().all(|&p| p % w < 8 && p / w < 8),
+                "{w}x{h}: {first:?}"
+            );
+        }
+    }
+}
