@@ -353,7 +353,12 @@ pub fn render_resident(
                     bar.inc(block.len() as u64 * (s1 - s0) as u64);
                 }
             }
-            sums
+            // Work item k held pixel tile_order_pixel(k): back to row-major order.
+            let mut rows = vec![PixelSums::default(); sums.len()];
+            for (k, s) in sums.into_iter().enumerate() {
+                rows[tile_order_pixel(k as u32, params.width, params.height) as usize] = s;
+            }
+            rows
         }
         Backend::Gpu(gpu) => {
             let dev = resident
@@ -418,11 +423,8 @@ pub fn render_resident(
         }
     };
     bar.finish_and_clear();
-    // Work item k holds pixel tile_order_pixel(k) on both backends.
-    let mut out = vec![PixelOut::default(); sums.len()];
-    for (k, s) in sums.into_iter().enumerate() {
-        out[tile_order_pixel(k as u32, params.width, params.height) as usize] =
-            finish_pixel(s, params.spp);
-    }
-    Ok(out)
+    Ok(sums
+        .into_iter()
+        .map(|s| finish_pixel(s, params.spp))
+        .collect())
 }

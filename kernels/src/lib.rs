@@ -74,15 +74,8 @@ pub fn render_cs(
             sums[slot]
         };
         let p = &params[0];
-        sums[slot] = render::render_pixel_pass(
-            &vol,
-            p,
-            lights,
-            render::tile_order_pixel(i as u32, p.width, p.height),
-            pass.s_begin,
-            pass.s_end,
-            prev,
-        );
+        sums[slot] =
+            render::render_pixel_pass(&vol, p, lights, i as u32, pass.s_begin, pass.s_end, prev);
     }
 }
 

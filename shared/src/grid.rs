@@ -1,7 +1,6 @@
 //! Views of the high-resolution volume (f16 voxels) and of its super-voxel ("brick") grid.
 
 use crate::half::packed_f16;
-use crate::math;
 use crate::vec3::V3;
 use bytemuck::{Pod, Zeroable};
 
@@ -69,10 +68,11 @@ pub struct VolumeView<'a> {
     pub bricks: &'a [Brick],
 }
 
-/// Clamps a floor'd coordinate to [0, n-1] (NaN-free inputs only).
+/// `clamp(floor(v), 0, n - 1)` without a float floor: truncation equals floor for v >= 1, and
+/// everything below 1 (NaN included) maps to 0.
 #[inline]
-fn clamp_index(v: f32, n: u32) -> u32 {
-    if v < 0.0 {
+fn floor_index(v: f32, n: u32) -> u32 {
+    if !(v >= 1.0) {
         0
     } else if v >= n as f32 {
         n - 1
@@ -95,9 +95,9 @@ impl VolumeView<'_> {
     pub fn mu_nearest(&self, p: V3) -> f32 {
         let d = &self.desc.dims;
         self.voxel(
-            clamp_index(math::floor(p.x), d[0]),
-            clamp_index(math::floor(p.y), d[1]),
-            clamp_index(math::floor(p.z), d[2]),
+            floor_index(p.x, d[0]),
+            floor_index(p.y, d[1]),
+            floor_index(p.z, d[2]),
         )
     }
 
@@ -106,5 +106,43 @@ impl VolumeView<'_> {
     pub fn brick(&self, b: [u32; 3]) -> Brick {
         let d = &self.desc.brick_dims;
         self.bricks[b[0] as usize + d[0] as usize * (b[1] as usize + d[1] as usize * b[2] as usize)]
+    }
+}
+
+#[cfg(test)]
+mod floor_index_tests {
+    use super::floor_index;
+
+    #[test]
+    fn equals_clamped_floor() {
+        let reference = |v: f32, n: u32| -> u32 {
+            let f = crate::math::floor(v);
+            if f < 0.0 {
+                0
+            } else if f >= n as f32 {
+                n - 1
+            } else {
+                f as u32
+            }
+        };
+        let mut v = -70.0f32;
+        while v < 70.0 {
+            for x in [v, v.next_down(), v.next_up()] {
+                for n in [1, 2, 7, 64] {
+                    assert_eq!(floor_index(x, n), reference(x, n), "{x} {n}");
+                }
+            }
+            v += 0.125;
+        }
+        for x in [
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            1e30,
+            -1e30,
+            f32::MIN_POSITIVE,
+        ] {
+            assert_eq!(floor_index(x, 9), reference(x, 9), "{x}");
+        }
+        assert_eq!(floor_index(f32::NAN, 9), 0);
     }
 }
