@@ -280,10 +280,30 @@ fn quality(pixels: &[PixelOut], spp: u32) -> (f64, f64) {
     (var, samples)
 }
 
+/// The sweep's estimators, resolutions and sizes, checked (before any work is done).
+#[allow(clippy::type_complexity)]
+fn sweep_lists(args: &BenchArgs) -> Result<(Vec<&'static EstimatorSpec>, Vec<u32>, Vec<u32>)> {
+    let name = args.scene.volume.as_str();
+    if !crate::procedural::NAMES.contains(&name) {
+        bail!(
+            "--sweep needs an embedded volume (--volume {}), not {name:?}",
+            crate::procedural::NAMES.join("|")
+        );
+    }
+    Ok((
+        estimators(&args.sweep_estimators, "--sweep-estimators")?,
+        numbers(&args.sweep_resolutions, "--sweep-resolutions", 8..=1024)?,
+        numbers(&args.sweep_sizes, "--sweep-sizes", 1..=16384)?,
+    ))
+}
+
 /// `host bench`.
 pub fn run(args: &BenchArgs) -> Result<BenchReport> {
     let lookup = crate::commands::lookup_of(args.lookup);
     let specs = estimators(&args.estimators, "--estimators")?;
+    if args.sweep {
+        sweep_lists(args)?;
+    }
     let scene = crate::commands::prepare_scene(&args.scene, lookup, args.width, args.height)?;
     let backends = backends(args.backend)?;
     let base = RenderParams {
@@ -446,15 +466,7 @@ fn sweep(
     base: RenderParams,
 ) -> Result<(Vec<SweepPoint>, Vec<SweepPoint>)> {
     let name = args.scene.volume.as_str();
-    if !crate::procedural::NAMES.contains(&name) {
-        bail!(
-            "--sweep needs an embedded volume (--volume {}), not {name:?}",
-            crate::procedural::NAMES.join("|")
-        );
-    }
-    let specs = estimators(&args.sweep_estimators, "--sweep-estimators")?;
-    let resolutions = numbers(&args.sweep_resolutions, "--sweep-resolutions", 8..=1024)?;
-    let sizes = numbers(&args.sweep_sizes, "--sweep-sizes", 1..=16384)?;
+    let (specs, resolutions, sizes) = sweep_lists(args)?;
     let lookup = crate::commands::lookup_of(args.lookup);
     let mut by_resolution = Vec::new();
     let mut by_size = Vec::new();

@@ -1,0 +1,106 @@
+//! `host bench` end to end on a tiny scene: the JSON has every estimator on both backends with
+//! identical quality numbers (same rays, same bits), the goal ratios, the sweep and its plot.
+//! No timing is asserted (timings belong to the benchmark, not to tests).
+
+use std::process::Command;
+
+#[test]
+fn bench_reports_every_estimator_on_both_backends_and_the_sweep() {
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("bench.json");
+    let plot = dir.path().join("sweep.png");
+    let out = Command::new(env!("CARGO_BIN_EXE_host"))
+        .args([
+            "bench",
+            "--backend",
+            "both",
+            "--resolution",
+            "16",
+            "--width",
+            "16",
+            "--height",
+            "12",
+            "--spp",
+            "3",
+            "--reps",
+            "2",
+            "--warmup",
+            "0",
+            "--sweep",
+            "--sweep-resolutions",
+            "8,16",
+            "--sweep-sizes",
+            "8,16",
+            "--quiet",
+        ])
+        .arg("--json")
+        .arg(&json)
+        .arg("--plot")
+        .arg(&plot)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("goal cpu") && stdout.contains("goal gpu"),
+        "{stdout}"
+    );
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let rows = r["rows"].as_array().unwrap();
+    let names = [
+        "jackknife",
+        "naive-m1",
+        "biased-rm",
+        "unbiased-rm",
+        "track-length",
+        "ratio",
+    ];
+    assert_eq!(rows.len(), 2 * names.len(), "{rows:?}");
+    for name in names {
+        let row = |backend: &str| {
+            rows.iter()
+                .find(|x| x["backend"] == backend && x["estimator"] == name)
+                .unwrap_or_else(|| panic!("no {backend} row for {name}"))
+        };
+        let (cpu, gpu) = (row("cpu"), row("gpu"));
+        for field in ["samples_per_ray", "variance"] {
+            assert_eq!(cpu[field], gpu[field], "{name} {field}: CPU and GPU differ");
+        }
+        for r in [cpu, gpu] {
+            assert_eq!(r["frame_ms"].as_array().unwrap().len(), 2);
+            let ms = r["frame_ms_median"].as_f64().unwrap();
+            assert!(ms > 0.0 && ms.is_finite(), "{name}: {ms}");
+            assert!(r["variance"].as_f64().unwrap() >= 0.0);
+        }
+        assert!(cpu["kernel_ms_median"].is_null());
+    }
+    assert_eq!(r["goals"].as_array().unwrap().len(), 8);
+    // 4 sweep estimators x 2 resolutions (or sizes) x 2 backends.
+    assert_eq!(r["sweep_resolution"].as_array().unwrap().len(), 16);
+    assert_eq!(r["sweep_size"].as_array().unwrap().len(), 16);
+    let png = image::open(&plot).unwrap();
+    assert_eq!((png.width(), png.height()), (1200, 500));
+}
+
+#[test]
+fn bench_refuses_a_sweep_of_a_file_before_working() {
+    let fixture =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/fixtures/density_zip.vdb");
+    let out = Command::new(env!("CARGO_BIN_EXE_host"))
+        .args(["bench", "--sweep", "--backend", "cpu", "--volume"])
+        .arg(&fixture)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("--sweep needs an embedded volume"),
+        "{stderr}"
+    );
+    assert!(
+        !stderr.contains("ms/frame"),
+        "worked before refusing: {stderr}"
+    );
+}
