@@ -49,24 +49,9 @@ impl Backend {
     /// `--backend gpu` fail with advice (volumes are not split across buffers).
     pub fn open_for(choice: BackendChoice, volume: &crate::bricks::PackedVolume) -> Result<Self> {
         let backend = Self::open(choice)?;
-        let Backend::Gpu(gpu) = &backend else {
+        let Some(why) = backend.cannot_hold(volume) else {
             return Ok(backend);
         };
-        let limit = gpu.max_buffer_bytes();
-        let largest = (std::mem::size_of_val(volume.voxels.as_slice()) as u64)
-            .max(std::mem::size_of_val(volume.bricks.as_slice()) as u64);
-        if largest <= limit {
-            return Ok(backend);
-        }
-        let d = volume.desc.dims;
-        let why = format!(
-            "the {}x{}x{} volume needs a {largest}-byte storage buffer, more than this GPU's \
-             maxStorageBufferRange of {limit} bytes ({})",
-            d[0],
-            d[1],
-            d[2],
-            gpu.description()
-        );
         if choice == BackendChoice::Gpu {
             anyhow::bail!(
                 "--backend gpu: {why}; use --backend cpu, or a smaller volume (--resolution for \
@@ -75,6 +60,28 @@ impl Backend {
         }
         eprintln!("warning: {why}; falling back to the CPU backend");
         Ok(Backend::Cpu)
+    }
+
+    /// Why this backend cannot hold `volume` (a GPU whose largest storage buffer is smaller
+    /// than the voxel or brick array), or `None` if it can.
+    pub fn cannot_hold(&self, volume: &crate::bricks::PackedVolume) -> Option<String> {
+        let Backend::Gpu(gpu) = self else {
+            return None;
+        };
+        let limit = gpu.max_buffer_bytes();
+        let largest = (std::mem::size_of_val(volume.voxels.as_slice()) as u64)
+            .max(std::mem::size_of_val(volume.bricks.as_slice()) as u64);
+        let d = volume.desc.dims;
+        (largest > limit).then(|| {
+            format!(
+                "the {}x{}x{} volume needs a {largest}-byte storage buffer, more than this GPU's \
+                 maxStorageBufferRange of {limit} bytes ({})",
+                d[0],
+                d[1],
+                d[2],
+                gpu.description()
+            )
+        })
     }
 
     pub fn kind(&self) -> &'static str {

@@ -3,7 +3,6 @@
 //! and image size.
 
 use crate::backend::{Backend, BackendChoice};
-use crate::bricks::PackedVolume;
 use crate::cli::{LookupArg, SceneArgs};
 use crate::estimators::EstimatorSpec;
 use crate::render::{render_resident, Resident};
@@ -215,20 +214,6 @@ fn median(v: &[f64]) -> f64 {
     }
 }
 
-/// Why `backend` cannot hold `vol`, if it cannot.
-fn does_not_fit(backend: &Backend, vol: &PackedVolume) -> Option<String> {
-    let Backend::Gpu(g) = backend else {
-        return None;
-    };
-    let bytes = std::mem::size_of_val(vol.voxels.as_slice()) as u64;
-    (bytes > g.max_buffer_bytes()).then(|| {
-        format!(
-            "{bytes}-byte voxel buffer exceeds maxStorageBufferRange ({})",
-            g.max_buffer_bytes()
-        )
-    })
-}
-
 /// Frames of one estimator: `warmup` untimed, `reps` timed. Every frame must give the same
 /// pixels (same seed); returns the pixels, wall times and kernel times in ms.
 fn frames(
@@ -336,7 +321,7 @@ pub fn run(args: &BenchArgs) -> Result<BenchReport> {
     }
     let mut rows = Vec::new();
     for backend in &backends {
-        if let Some(why) = does_not_fit(backend, &scene.packed) {
+        if let Some(why) = backend.cannot_hold(&scene.packed) {
             eprintln!("warning: skipping {}: {why}", backend.device());
             continue;
         }
@@ -510,7 +495,7 @@ fn sweep(
         };
         let rays = f64::from(size) * f64::from(size) * f64::from(args.spp);
         for backend in backends {
-            let skipped = does_not_fit(backend, &scene.packed);
+            let skipped = backend.cannot_hold(&scene.packed);
             let resident = match &skipped {
                 None => Some(Resident::new(backend, &scene.packed)?),
                 Some(_) => None,

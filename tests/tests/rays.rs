@@ -16,19 +16,6 @@ use shared::rng::{pcg_hash, unit_f32, HashRng};
 use shared::tracking::{ratio_tracking, regular_tracking_tau, track_length};
 use shared::vec3::V3;
 
-/// Every estimator of the render kernel.
-const ESTIMATORS: [Estimator; 9] = [
-    Estimator::Jackknife,
-    Estimator::NaiveMean,
-    Estimator::NaiveSingle,
-    Estimator::JackknifeAdaptive,
-    Estimator::BiasedRayMarching,
-    Estimator::UnbiasedRayMarching,
-    Estimator::RegularTracking,
-    Estimator::TrackLength,
-    Estimator::RatioTracking,
-];
-
 /// A 32^3 volume of hashed densities in [0.5, 2.5] over [-1, 1]^3.
 fn volume() -> DenseVolume {
     let n = 32u32;
@@ -145,7 +132,7 @@ fn degenerate_rays_miss_and_give_transmittance_one() {
     // World-space versions through the render path: T = 1 exactly, no lookups, every estimator.
     for lookup in [Lookup::Nearest, Lookup::Stochastic] {
         let p = packed(lookup);
-        for e in ESTIMATORS {
+        for e in Estimator::ALL {
             for world in [
                 Ray {
                     o: V3::new(0.0, 0.0, 0.0),
@@ -194,7 +181,7 @@ fn infinite_t_max_clips_to_the_box_exit() {
 fn rays_along_axes_and_on_faces_stay_finite() {
     let p = packed(Lookup::Stochastic);
     // Axis-parallel rays on the box's faces, edges and corners and through its interior.
-    for e in ESTIMATORS {
+    for e in Estimator::ALL {
         for (o, d) in [
             ([0.0, 0.0, -2.0], [0.0, 0.0, 1.0]),
             ([-1.0, -1.0, -2.0], [0.0, 0.0, 1.0]),
