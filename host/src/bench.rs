@@ -299,7 +299,7 @@ pub fn run(args: &BenchArgs) -> Result<BenchReport> {
         spp: args.spp,
         seed: args.seed,
         n: args.n,
-        f_delta: 0.3,
+        f_delta: 0.6,
         pixel_jitter: 1,
         ..Default::default()
     };

@@ -160,9 +160,14 @@ pub struct RenderArgs {
     /// Samples per optical depth estimate (N; two estimates per ray).
     #[arg(long, allow_negative_numbers = true, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub n: u32,
-    /// CDF step of jackknife-adaptive (the author's default 0.3).
-    #[arg(long, default_value_t = 0.3, allow_negative_numbers = true, value_parser = parse_positive)]
+    /// CDF step F_delta of jackknife-adaptive, in (0, 10] (the paper's Fig. 8d: 0.6; the author's
+    /// UI default is 0.3). Expected samples per estimate: F / F_delta.
+    #[arg(long, default_value_t = 0.6, allow_negative_numbers = true, value_parser = parse_f_delta)]
     pub f_delta: f32,
+    /// Ratio tracking with pbrt-v4's Russian roulette (q = 0.75 below T = 0.05) for `--estimator
+    /// ratio` and `--t-hat ratio`; off by default, as in the paper and the author's code.
+    #[arg(long)]
+    pub ratio_roulette: bool,
     /// Render single scattering from point lights with this integrator instead of primary-ray
     /// transmittance: free-flight, equiangular, mis-jackknife, mis-naive, combined-jackknife,
     /// combined-naive, miller, mis-power (see README).
@@ -242,9 +247,12 @@ pub struct EvalArgs {
     /// Samples per optical depth estimate (N).
     #[arg(long, allow_negative_numbers = true, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub n: u32,
-    /// CDF step of jackknife-adaptive.
-    #[arg(long, default_value_t = 0.3, allow_negative_numbers = true, value_parser = parse_positive)]
+    /// CDF step F_delta of jackknife-adaptive, in (0, 10] (the paper's Fig. 8d: 0.6).
+    #[arg(long, default_value_t = 0.6, allow_negative_numbers = true, value_parser = parse_f_delta)]
     pub f_delta: f32,
+    /// Ratio tracking with pbrt-v4's Russian roulette (off: as in the paper).
+    #[arg(long)]
+    pub ratio_roulette: bool,
     /// Image width.
     #[arg(long, allow_negative_numbers = true, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=16384))]
     pub width: u32,
@@ -356,6 +364,19 @@ pub struct ProbeArgs {
     /// Seed.
     #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
     pub seed: u32,
+}
+
+/// Parses `--f-delta`: a CDF step in (0, 10]. Steps far above a ray's F take no sample on most
+/// rays (T = exp(-tau_c) there), so larger values are refused rather than rendered as empty.
+pub fn parse_f_delta(s: &str) -> Result<f32, String> {
+    let v: f32 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?} is not a number"))?;
+    if !(v > 0.0 && v <= 10.0) {
+        return Err(format!("must be in (0, 10] (got {s}); the paper uses 0.6"));
+    }
+    Ok(v)
 }
 
 /// Parses "x,y,z" into three finite floats.

@@ -120,6 +120,13 @@ pub struct RenderSummary {
     pub mean_t: f64,
     pub exr: String,
     pub png: String,
+    /// CDF step of jackknife-adaptive.
+    pub f_delta: f32,
+    /// Whether ratio tracking used Russian roulette (`--ratio-roulette`).
+    pub ratio_roulette: bool,
+    /// Rays traced, rays a loop bound changed, rays outside the jackknife's regime.
+    #[serde(flatten)]
+    pub flags: crate::diagnostics::RayFlags,
 }
 
 /// `host render`: loads, packs, renders, writes EXR + PNG (+ JSON), prints a summary.
@@ -151,6 +158,7 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderSummary> {
         n: args.n,
         f_delta: args.f_delta,
         pixel_jitter: 1,
+        roulette: args.ratio_roulette as u32,
         ..Default::default()
     };
     args.estimator.apply(&mut params);
@@ -169,6 +177,8 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderSummary> {
     let pixels = crate::render::render_scene(&backend, packed, &params, &lights, !args.quiet)?;
     let elapsed_ms = start.elapsed().as_secs_f64() * 1e3;
 
+    let flags = crate::diagnostics::RayFlags::of(&pixels, args.spp);
+    flags.warn(&params);
     let t: Vec<f32> = pixels.iter().map(|p| p.t_mean).collect();
     let rays = pixels.len() as f64 * args.spp as f64;
     let samples: f64 = pixels.iter().map(|p| p.samples as f64).sum();
@@ -213,6 +223,9 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderSummary> {
         mean_t,
         exr: args.out.display().to_string(),
         png: png.display().to_string(),
+        f_delta: args.f_delta,
+        ratio_roulette: args.ratio_roulette,
+        flags,
     };
     if let Some(path) = &args.json {
         ensure_parent(path)?;
@@ -363,6 +376,7 @@ pub fn run_eval(args: &EvalArgs) -> Result<()> {
         n: args.n,
         f_delta: args.f_delta,
         pixel_jitter: 0,
+        roulette: args.ratio_roulette as u32,
         ..Default::default()
     };
     if let Some(list) = &args.integrators {

@@ -30,6 +30,9 @@ pub struct EstimatorReport {
     pub rmse: f64,
     /// High-resolution lookups per ray, over the evaluated pixels.
     pub mean_samples_per_ray: f64,
+    /// Rays traced, rays a loop bound changed, rays outside the jackknife's regime (all pixels).
+    #[serde(flatten)]
+    pub flags: crate::diagnostics::RayFlags,
     /// Render time of all spp for the whole image.
     pub elapsed_ms: f64,
     pub bias_exr: String,
@@ -258,6 +261,7 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
             mean_std: masked(&|i| std[i] as f64),
             rmse: masked(&|i| (bias[i] as f64).powi(2) + (std[i] as f64).powi(2)).sqrt(),
             mean_samples_per_ray: masked(&|i| pixels[i].samples as f64) / params.spp as f64,
+            flags: crate::diagnostics::RayFlags::of(&pixels, params.spp),
             elapsed_ms,
             bias_exr: file("bias.exr"),
             bias_png: file("bias.png"),
@@ -277,6 +281,7 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
             report.mean_samples_per_ray,
             report.elapsed_ms
         );
+        report.flags.warn(&params);
         reports.push(report);
     }
     Ok(EvalReport {
@@ -350,6 +355,9 @@ pub struct IntegratorReport {
     /// Time per spp (one frame of 1 spp).
     pub ms_per_frame: f64,
     pub mean_samples_per_ray: f64,
+    /// Rays traced, rays a loop bound changed, rays outside the jackknife's regime.
+    #[serde(flatten)]
+    pub flags: crate::diagnostics::RayFlags,
     pub exr: String,
     pub png: String,
 }
@@ -452,6 +460,7 @@ pub fn evaluate_integrators(
             ms_per_frame: elapsed_ms / params.spp as f64,
             mean_samples_per_ray: pixels.iter().map(|p| p.samples as f64).sum::<f64>()
                 / (n * params.spp as f64),
+            flags: crate::diagnostics::RayFlags::of(&pixels, params.spp),
             exr: exr.display().to_string(),
             png: png.display().to_string(),
         };
@@ -459,6 +468,7 @@ pub fn evaluate_integrators(
             "{:<20} SMAPE {:.4}  bias {:+.5}  |err| {:.5}  mean L {:.5}  samples/ray {:6.2}  {:8.1} ms/spp",
             report.name, report.smape, report.mean_bias, report.mean_abs_error, report.mean_radiance, report.mean_samples_per_ray, report.ms_per_frame
         );
+        report.flags.warn(&params);
         reports.push(report);
     }
     Ok(IntegratorEvalReport {

@@ -6,6 +6,7 @@ pub mod bench;
 pub mod cli;
 pub mod commands;
 pub mod cpu;
+pub mod diagnostics;
 pub mod estimators;
 pub mod gpu;
 pub mod procedural;

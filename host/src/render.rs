@@ -210,12 +210,15 @@ pub fn loop_iterations_per_ray(params: &RenderParams, desc: &shared::grid::GridD
     let bricks = (desc.brick_dims[0] + desc.brick_dims[1] + desc.brick_dims[2] + 3) as u64;
     let voxels = (desc.dims[0] + desc.dims[1] + desc.dims[2] + 3) as u64;
     let fixed = 64;
+    // A tracking loop: two iterations per tentative collision (the collision loop and the
+    // sampler's), one sampler iteration per brick segment, and at the cap the completion by a
+    // voxel DDA (two for free-flight sampling: the flight, then T up to it).
+    let tracking = 2 * shared::tracking::MAX_TENTATIVE_COLLISIONS as u64 + bricks + 2 * voxels;
     if params.integrator != 0 {
-        // Delta tracking and ratio tracking, up to four pairs of estimates on the camera ray and
-        // two shadow rays, and two passes over the lights.
-        let tracking = shared::tracking::MAX_TENTATIVE_COLLISIONS as u64;
+        // Free-flight sampling and one ratio tracking (Miller, --t-hat ratio), up to four pairs
+        // of estimates on the camera ray and two shadow rays, and two passes over the lights.
         return fixed
-            + 2 * (tracking + bricks)
+            + 2 * tracking
             + 6 * (3 * bricks + 2 * params.n as u64)
             + 2 * shared::lights::MAX_LIGHTS as u64;
     }
@@ -233,9 +236,7 @@ pub fn loop_iterations_per_ray(params: &RenderParams, desc: &shared::grid::GridD
                     + estimates * (2 * bricks + shared::ray_marching::MAX_UNBIASED_SAMPLES as u64)
                     + 100
             }
-            E::TrackLength | E::RatioTracking => {
-                2 * bricks + shared::tracking::MAX_TENTATIVE_COLLISIONS as u64
-            }
+            E::TrackLength | E::RatioTracking => bricks + tracking,
         }
 }
 

@@ -8,11 +8,15 @@ use crate::complex::Complex;
 use crate::dda::{clip_to_box, Ray};
 use crate::grid::{Lookup, VolumeView};
 use crate::lights::{phase_hg, select_light, Equiangular, PointLight};
+use crate::math;
 use crate::mis::Mobius;
-use crate::optical_depth::{estimate_pair, mu_at, prepare, DepthPairEstimate, Importance, Jitter};
+use crate::optical_depth::{
+    estimate_pair, estimate_single, mu_at, prepare, DepthPairEstimate, Importance, Jitter,
+};
 use crate::render::RenderParams;
 use crate::rng::HashRng;
-use crate::tracking::{ratio_tracking, MajorantSampler};
+use crate::tally::Tally;
+use crate::tracking::{complete_exactly, exact_free_flight, ratio_tracking, MajorantSampler};
 use crate::transmittance;
 use crate::vec3::V3;
 
@@ -28,7 +32,7 @@ pub enum Integrator {
     Equiangular = 2,
     /// Eq. 9 with jackknife MIS weights Re g(X̄ + iS) and an independent T̂(t0).
     MisJackknife = 3,
-    /// Eq. 9 with naive MIS weights g(X̄).
+    /// Eq. 9 with naive MIS weights g(X) from one estimate with N samples (m = 1, Fig. 12d).
     MisNaive = 4,
     /// Eq. 10 (MIS weight times transmittance estimated at once), jackknife; biased.
     CombinedJackknife = 5,
@@ -119,12 +123,46 @@ fn depth_pair(
     )
 }
 
+/// One optical depth estimate X of [t_start, t_end] with n samples (m = 1; Alg. 2 + Alg. 1):
+/// the naive MIS weight g(X) of the paper's Fig. 12d. Returns (X, samples, rng).
+#[inline]
+fn depth_single(
+    vol: &VolumeView,
+    ray: &Ray,
+    t_start: f32,
+    t_end: f32,
+    n: u32,
+    lookup: Lookup,
+    rng: HashRng,
+) -> (f32, u32, HashRng) {
+    if !(t_start < t_end) {
+        return (0.0, 0, rng);
+    }
+    let prep = prepare(vol, ray, t_start, t_end, Importance::VarianceAware);
+    estimate_single(
+        vol,
+        ray,
+        &prep,
+        n,
+        Importance::VarianceAware,
+        Jitter::Stratified,
+        lookup,
+        rng,
+    )
+}
+
+/// The tally of a pair of optical depth estimates used by a jackknife (regime flag set).
+#[inline]
+fn jackknife_tally(est: &DepthPairEstimate) -> Tally {
+    Tally::lookups(est.samples).outside_if(transmittance::outside_regime(est.x0, est.x1))
+}
+
 /// Jackknife transmittance from world point x to the light (shadow ray, N per estimate).
-fn shadow_transmittance(ctx: &Context, x: V3, rng: HashRng) -> (f32, u32, HashRng) {
+fn shadow_transmittance(ctx: &Context, x: V3, rng: HashRng) -> (f32, Tally, HashRng) {
     let to = ctx.light.position - x;
     let dist = sqrt(to.dot(to));
     if !(dist > 0.0) {
-        return (1.0, 0, rng);
+        return (1.0, Tally::default(), rng);
     }
     let world = Ray {
         o: x,
@@ -133,20 +171,24 @@ fn shadow_transmittance(ctx: &Context, x: V3, rng: HashRng) -> (f32, u32, HashRn
     let ray = to_index_space(&world, &ctx.params.world_to_index);
     let (t0, t1) = clip_to_box(&ray, grid_hi(ctx.vol), 0.0, dist);
     if !(t0 < t1) {
-        return (1.0, 0, rng);
+        return (1.0, Tally::default(), rng);
     }
     let (est, rng) = depth_pair(ctx.vol, &ray, t0, t1, ctx.params.n, ctx.lookup, rng);
-    (transmittance::jackknife(est.x0, est.x1), est.samples, rng)
+    (
+        transmittance::jackknife(est.x0, est.x1),
+        jackknife_tally(&est),
+        rng,
+    )
 }
 
 /// In-scattered radiance from the selected light at distance t, divided by the light's
 /// selection probability: phase * I * T_shadow / d^2 / P(light).
-fn inscattered(ctx: &Context, t: f32, rng: HashRng) -> (f32, u32, HashRng) {
+fn inscattered(ctx: &Context, t: f32, rng: HashRng) -> (f32, Tally, HashRng) {
     let x = ctx.world.at(t);
     let to = ctx.light.position - x;
     let d2 = to.dot(to);
     if !(d2 > 0.0) || !(ctx.p_light > 0.0) {
-        return (0.0, 0, rng);
+        return (0.0, Tally::default(), rng);
     }
     let (tr, n, rng) = shadow_transmittance(ctx, x, rng);
     let cos_theta = (ctx.world.d * -1.0).dot(to * (1.0 / sqrt(d2)));
@@ -154,35 +196,71 @@ fn inscattered(ctx: &Context, t: f32, rng: HashRng) -> (f32, u32, HashRng) {
     (l, n, rng)
 }
 
-/// Free-flight sample by delta tracking over the brick majorants: (t, mu(t), found), plus the
-/// product of null-collision probabilities before t (Miller et al.'s density estimate).
-fn free_flight(ctx: &Context, rng: HashRng) -> (f32, f32, bool, f32, u32, HashRng) {
+/// A free-flight distance sample on the camera ray and what Miller et al.'s MIS needs of it.
+#[derive(Clone, Copy, Debug, Default)]
+struct FreeFlight {
+    /// Distance of the real collision (when `found`).
+    t: f32,
+    /// Extinction there.
+    mu: f32,
+    /// False when the flight left the volume.
+    found: bool,
+    /// Product of the null-collision probabilities before t: ratio tracking's estimate of T(t)
+    /// without roulette (Miller et al.'s density estimate).
+    null_product: f32,
+    tally: Tally,
+}
+
+/// Free-flight sample by delta tracking over the brick majorants. At the collision cap the flight
+/// continues exactly in the nearest-neighbour grid ([`exact_free_flight`]; memoryless, so the
+/// distance keeps its distribution) and the null product takes the exact T of that part; the
+/// ray is counted as capped.
+fn free_flight(ctx: &Context, rng: HashRng) -> (FreeFlight, HashRng) {
     let mut sampler = MajorantSampler::new(ctx.vol, &ctx.ray, ctx.ta, ctx.tb);
     let mut rng = rng;
     let mut lookups = 0u32;
-    let mut null_product = 1.0f32;
-    let (mut t, mut mu, mut found) = (0.0f32, 0.0f32, false);
+    let mut out = FreeFlight {
+        null_product: 1.0,
+        ..Default::default()
+    };
+    let mut t_last = ctx.ta;
     while !sampler.done && lookups < crate::tracking::MAX_TENTATIVE_COLLISIONS {
         let (c, r) = sampler.next_collision(ctx.vol, rng);
         rng = r;
         if c.found {
+            t_last = c.t;
             let key = [rng.state, lookups, 0x27d4_eb2f];
             let m = mu_at(ctx.vol, ctx.ray.at(c.t), ctx.lookup, key);
             lookups += 1;
             let (u, r) = rng.next_f32();
             rng = r;
             if u < m / c.sigma_maj {
-                t = c.t;
-                mu = m;
-                found = true;
+                out.t = c.t;
+                out.mu = m;
+                out.found = true;
                 sampler.done = true;
             } else {
                 let f = 1.0 - m / c.sigma_maj;
-                null_product *= if f > 0.0 { f } else { 0.0 };
+                out.null_product *= if f > 0.0 { f } else { 0.0 };
             }
         }
     }
-    (t, mu, found, null_product, lookups, rng)
+    out.tally = Tally::lookups(lookups);
+    if !sampler.done {
+        let (u, r) = rng.next_f32();
+        rng = r;
+        let flight = exact_free_flight(ctx.vol, &ctx.ray, t_last, ctx.tb, -math::ln(1.0 - u));
+        if flight.found {
+            let (rest, visited) = complete_exactly(ctx.vol, &ctx.ray, t_last, flight.t);
+            out.null_product *= rest;
+            out.t = flight.t;
+            out.mu = flight.mu;
+            out.found = true;
+            out.tally.lookups += visited;
+        }
+        out.tally = Tally::lookups(out.tally.lookups + flight.visited).capped_if(true);
+    }
+    (out, rng)
 }
 
 /// Extinction at distance t along the camera ray.
@@ -206,25 +284,25 @@ fn power_weight(mu: f32, p0: f32, est: &DepthPairEstimate, other: bool) -> f32 {
     let den = e2 + Complex::real(p0 * p0);
     let num = if other { Complex::real(p0 * p0) } else { e2 };
     let w = (num / den).re;
-    if crate::math::is_finite(w) {
+    if math::is_finite(w) {
         w
     } else {
         0.5
     }
 }
 
-/// Radiance along one world-space camera ray; returns (L, high-resolution lookups, rng).
+/// Radiance along one world-space camera ray; returns (L, tally, rng).
 pub fn radiance(
     vol: &VolumeView,
     params: &RenderParams,
     lights: &[PointLight],
     world: &Ray,
     rng: HashRng,
-) -> (f32, u32, HashRng) {
+) -> (f32, Tally, HashRng) {
     let ray = to_index_space(world, &params.world_to_index);
     let (ta, tb) = clip_to_box(&ray, grid_hi(vol), 0.0, f32::INFINITY);
     if !(ta < tb) || params.light_count == 0 {
-        return (0.0, 0, rng);
+        return (0.0, Tally::default(), rng);
     }
     let (u, rng) = rng.next_f32();
     let (k, p_light) = select_light(lights, params.light_count, world.o, world.d, ta, tb, u);
@@ -241,123 +319,160 @@ pub fn radiance(
         eq: Equiangular::new(world.o, world.d, light.position, ta, tb),
         lookup: Lookup::from_u32(vol.desc.lookup),
     };
-    let albedo = params.albedo;
     let which = Integrator::from_u32(params.integrator);
-    let mut lookups = 0u32;
     let mut total = 0.0f32;
+    let mut tally = Tally::default();
     let mut rng = rng;
-
-    // ---- Strategy 0: equiangular sample t0 toward the light ----
-    let uses_eq = which != Integrator::FreeFlight;
-    if uses_eq {
-        let (u, r) = rng.next_f32();
+    if which != Integrator::FreeFlight {
+        let (l, t, r) = equiangular_strategy(&ctx, which, rng);
+        total += l;
+        tally = tally.merge(t);
         rng = r;
-        let (t0, p0) = ctx.eq.sample(u);
-        let (mu0, r) = mu_on_ray(&ctx, t0, rng);
-        rng = r;
-        lookups += 1;
-        if p0 > 0.0 && mu0 > 0.0 && t0 > ta && t0 < tb {
-            let (ls, n, r) = inscattered(&ctx, t0, rng);
-            rng = r;
-            lookups += n;
-            let f_over_mu_t = albedo * ls * mu0 / p0; // f(t0) / p0 without T(t0)
-            let c0 = match which {
-                Integrator::Equiangular
-                | Integrator::MisJackknife
-                | Integrator::MisNaive
-                | Integrator::MisPowerJackknife => {
-                    // Weight from one pair of estimates on [ta, t0], T̂(t0) from independent ones.
-                    let w0 = if which == Integrator::Equiangular {
-                        1.0
-                    } else {
-                        let (est, r) = depth_pair(vol, &ray, ta, t0, params.n, ctx.lookup, rng);
-                        rng = r;
-                        lookups += est.samples;
-                        match which {
-                            Integrator::MisJackknife => {
-                                Mobius::other_weight(mu0, p0).jackknife(est.x0, est.x1)
-                            }
-                            Integrator::MisNaive => {
-                                Mobius::other_weight(mu0, p0).naive(est.x0, est.x1)
-                            }
-                            _ => power_weight(mu0, p0, &est, true),
-                        }
-                    };
-                    let (t_hat, n, r) = if params.t_hat == TransmittanceHat::Ratio as u32 {
-                        ratio_tracking(vol, &ray, ta, t0, ctx.lookup, rng)
-                    } else {
-                        let (est, r) = depth_pair(vol, &ray, ta, t0, params.n, ctx.lookup, rng);
-                        (transmittance::jackknife(est.x0, est.x1), est.samples, r)
-                    };
-                    rng = r;
-                    lookups += n;
-                    w0 * t_hat * f_over_mu_t
-                }
-                Integrator::CombinedJackknife | Integrator::CombinedNaive => {
-                    // Eq. 10: T mu / (p0 + T mu) * albedo * Ls estimated in one go.
-                    let (est, r) = depth_pair(vol, &ray, ta, t0, params.n, ctx.lookup, rng);
-                    rng = r;
-                    lookups += est.samples;
-                    let g = Mobius::free_flight_weight(mu0, p0);
-                    let w = if which == Integrator::CombinedJackknife {
-                        g.jackknife(est.x0, est.x1)
-                    } else {
-                        g.naive(est.x0, est.x1)
-                    };
-                    w * albedo * ls
-                }
-                Integrator::Miller => {
-                    let (p_hat, n, r) = ratio_tracking(vol, &ray, ta, t0, ctx.lookup, rng);
-                    rng = r;
-                    lookups += n;
-                    let q = mu0 * p_hat;
-                    if q + p0 > 0.0 {
-                        albedo * ls * q / (q + p0)
-                    } else {
-                        0.0
-                    }
-                }
-                _ => 0.0,
-            };
-            total += c0;
-        }
     }
-
-    // ---- Strategy 1: free-flight sample t1 (delta tracking) ----
-    let uses_ff = which != Integrator::Equiangular;
-    if uses_ff {
-        let (t1, mu1, found, null_product, n, r) = free_flight(&ctx, rng);
+    if which != Integrator::Equiangular {
+        let (l, t, r) = free_flight_strategy(&ctx, which, rng);
+        total += l;
+        tally = tally.merge(t);
         rng = r;
-        lookups += n;
-        if found {
-            let (ls, n, r) = inscattered(&ctx, t1, rng);
-            rng = r;
-            lookups += n;
-            let p0 = ctx.eq.pdf(t1);
-            let w1 = match which {
-                Integrator::FreeFlight => 1.0,
-                Integrator::Miller => {
-                    let q = mu1 * null_product;
-                    if q + p0 > 0.0 {
-                        q / (q + p0)
-                    } else {
-                        0.0
-                    }
+    }
+    (total, tally, rng)
+}
+
+/// Strategy 0 of Eq. 9/10: an equiangular sample t0 toward the light, weighted by the chosen
+/// integrator's MIS weight. Returns (contribution, tally, rng).
+fn equiangular_strategy(ctx: &Context, which: Integrator, rng: HashRng) -> (f32, Tally, HashRng) {
+    let (vol, params, ray, ta) = (ctx.vol, ctx.params, &ctx.ray, ctx.ta);
+    let (u, rng) = rng.next_f32();
+    let (t0, p0) = ctx.eq.sample(u);
+    let (mu0, mut rng) = mu_on_ray(ctx, t0, rng);
+    let mut tally = Tally::lookups(1);
+    if !(p0 > 0.0 && mu0 > 0.0 && t0 > ta && t0 < ctx.tb) {
+        return (0.0, tally, rng);
+    }
+    let (ls, t, r) = inscattered(ctx, t0, rng);
+    rng = r;
+    tally = tally.merge(t);
+    let f_over_mu_t = params.albedo * ls * mu0 / p0; // f(t0) / p0 without T(t0)
+    let c0 = match which {
+        Integrator::Equiangular
+        | Integrator::MisJackknife
+        | Integrator::MisNaive
+        | Integrator::MisPowerJackknife => {
+            // Weight from estimates on [ta, t0], T̂(t0) from independent ones.
+            let w0 = match which {
+                Integrator::Equiangular => 1.0,
+                Integrator::MisNaive => {
+                    // Fig. 12d: g(X) from ONE estimate with N samples (m = 1).
+                    let (x, n, r) = depth_single(vol, ray, ta, t0, params.n, ctx.lookup, rng);
+                    rng = r;
+                    tally = tally.merge(Tally::lookups(n));
+                    Mobius::other_weight(mu0, p0).naive(x, x)
                 }
                 _ => {
-                    let (est, r) = depth_pair(vol, &ray, ta, t1, params.n, ctx.lookup, rng);
+                    let (est, r) = depth_pair(vol, ray, ta, t0, params.n, ctx.lookup, rng);
                     rng = r;
-                    lookups += est.samples;
-                    let g = Mobius::free_flight_weight(mu1, p0);
-                    match which {
-                        Integrator::MisNaive | Integrator::CombinedNaive => g.naive(est.x0, est.x1),
-                        Integrator::MisPowerJackknife => power_weight(mu1, p0, &est, false),
-                        _ => g.jackknife(est.x0, est.x1),
+                    tally = tally.merge(jackknife_tally(&est));
+                    if which == Integrator::MisJackknife {
+                        Mobius::other_weight(mu0, p0).jackknife(est.x0, est.x1)
+                    } else {
+                        power_weight(mu0, p0, &est, true)
                     }
                 }
             };
-            total += w1 * albedo * ls;
+            let (t_hat, t, r) = if params.t_hat == TransmittanceHat::Ratio as u32 {
+                ratio_tracking(vol, ray, ta, t0, ctx.lookup, params.roulette != 0, rng)
+            } else {
+                let (est, r) = depth_pair(vol, ray, ta, t0, params.n, ctx.lookup, rng);
+                (
+                    transmittance::jackknife(est.x0, est.x1),
+                    jackknife_tally(&est),
+                    r,
+                )
+            };
+            rng = r;
+            tally = tally.merge(t);
+            w0 * t_hat * f_over_mu_t
         }
+        Integrator::CombinedJackknife | Integrator::CombinedNaive => {
+            // Eq. 10: T mu / (p0 + T mu) * albedo * Ls estimated in one go.
+            let (est, r) = depth_pair(vol, ray, ta, t0, params.n, ctx.lookup, rng);
+            rng = r;
+            let g = Mobius::free_flight_weight(mu0, p0);
+            if which == Integrator::CombinedJackknife {
+                tally = tally.merge(jackknife_tally(&est));
+                g.jackknife(est.x0, est.x1) * params.albedo * ls
+            } else {
+                tally = tally.merge(Tally::lookups(est.samples));
+                g.naive(est.x0, est.x1) * params.albedo * ls
+            }
+        }
+        Integrator::Miller => {
+            // Roulette-free ratio tracking: the same estimate of T as the free-flight side's
+            // null-collision product, so the two balance-heuristic weights sum to one.
+            let (p_hat, t, r) = ratio_tracking(vol, ray, ta, t0, ctx.lookup, false, rng);
+            rng = r;
+            tally = tally.merge(t);
+            let q = mu0 * p_hat;
+            if q + p0 > 0.0 {
+                params.albedo * ls * q / (q + p0)
+            } else {
+                0.0
+            }
+        }
+        _ => 0.0,
+    };
+    (c0, tally, rng)
+}
+
+/// Strategy 1 of Eq. 9/10: a free-flight sample t1 (delta tracking), weighted by the chosen
+/// integrator's MIS weight. Returns (contribution, tally, rng).
+fn free_flight_strategy(ctx: &Context, which: Integrator, rng: HashRng) -> (f32, Tally, HashRng) {
+    let (vol, params, ray, ta) = (ctx.vol, ctx.params, &ctx.ray, ctx.ta);
+    let (ff, mut rng) = free_flight(ctx, rng);
+    let mut tally = ff.tally;
+    if !ff.found {
+        return (0.0, tally, rng);
     }
-    (total, lookups, rng)
+    let (ls, t, r) = inscattered(ctx, ff.t, rng);
+    rng = r;
+    tally = tally.merge(t);
+    let p0 = ctx.eq.pdf(ff.t);
+    let w1 = match which {
+        Integrator::FreeFlight => 1.0,
+        Integrator::Miller => {
+            let q = ff.mu * ff.null_product;
+            if q + p0 > 0.0 {
+                q / (q + p0)
+            } else {
+                0.0
+            }
+        }
+        Integrator::MisNaive => {
+            // Fig. 12d: g(X) from ONE estimate with N samples (m = 1).
+            let (x, n, r) = depth_single(vol, ray, ta, ff.t, params.n, ctx.lookup, rng);
+            rng = r;
+            tally = tally.merge(Tally::lookups(n));
+            Mobius::free_flight_weight(ff.mu, p0).naive(x, x)
+        }
+        _ => {
+            let (est, r) = depth_pair(vol, ray, ta, ff.t, params.n, ctx.lookup, rng);
+            rng = r;
+            let g = Mobius::free_flight_weight(ff.mu, p0);
+            match which {
+                Integrator::CombinedNaive => {
+                    tally = tally.merge(Tally::lookups(est.samples));
+                    g.naive(est.x0, est.x1)
+                }
+                Integrator::MisPowerJackknife => {
+                    tally = tally.merge(jackknife_tally(&est));
+                    power_weight(ff.mu, p0, &est, false)
+                }
+                _ => {
+                    tally = tally.merge(jackknife_tally(&est));
+                    g.jackknife(est.x0, est.x1)
+                }
+            }
+        }
+    };
+    (w1 * params.albedo * ls, tally, rng)
 }

@@ -18,8 +18,10 @@ pub mod probe;
 pub mod ray_marching;
 pub mod render;
 pub mod rng;
+pub mod tally;
 pub mod tracking;
 pub mod transmittance;
 pub mod vec3;
 
 pub use complex::Complex;
+pub use tally::Tally;

@@ -170,6 +170,13 @@ pub fn estimate_pair_adaptive(
     estimate_interleaved(vol, ray, prep, &plan, mode, jitter, lookup, rng)
 }
 
+/// True when the adaptive variant reaches [`MAX_ADAPTIVE_STRATA`] strata and widens its step
+/// (fewer samples than F / F_delta: the ray is counted as capped).
+#[inline]
+pub fn adaptive_capped(prep: &Prep, f_delta: f32) -> bool {
+    f_delta > 0.0 && prep.f > f_delta * MAX_ADAPTIVE_STRATA as f32
+}
+
 /// How Alg. 1 divides the importance CDF: step, strata per estimate, and whether targets past
 /// F are skipped (adaptive) or clamped into the last brick (fixed count; only rounding).
 #[derive(Clone, Copy, Debug)]

@@ -7,6 +7,7 @@ use crate::grid::{Lookup, VolumeView};
 use crate::math;
 use crate::optical_depth::{estimate_single, prepare, Importance, Jitter};
 use crate::rng::HashRng;
+use crate::tally::Tally;
 
 /// Highest power-series degree (the author's cap; a tiny truncation bias, stated in the paper).
 pub const MAX_DEGREE: usize = 8;
@@ -16,9 +17,12 @@ const P_ZERO: f32 = 0.9;
 const K_FULL: usize = 2;
 /// Continuation constant c: beyond K, degree k is reached with probability min(1, c / k).
 const C_CONT: f32 = 2.0;
-/// Most samples per estimate of biased ray marching (keeps a ray's work bounded on the GPU).
+/// Most samples per estimate of biased ray marching (keeps a ray's work bounded on the GPU); a
+/// ray that reaches it is counted as capped.
 pub const MAX_BIASED_SAMPLES: u32 = 8192;
-/// Most samples per estimate of unbiased ray marching (up to MAX_DEGREE + 1 estimates per ray).
+/// Most samples per estimate of unbiased ray marching (up to MAX_DEGREE + 1 estimates per ray);
+/// fewer samples keep the estimate unbiased but raise its variance, so a ray that reaches it is
+/// counted as capped.
 pub const MAX_UNBIASED_SAMPLES: u32 = 4096;
 /// Expected evaluation order beyond the pivot, 0.31945 for c = 2, p_Z = 0.9 (Kettunen Eq. 22).
 const EXPECTED_ORDER: f32 = 0.319_45;
@@ -41,10 +45,30 @@ fn ceil_u32(v: f32) -> u32 {
 }
 
 /// N_CMF = ceil(cbrt((x + 0.015)(x + 0.65)(x + 60.3))), x = integral of the mean extinction
-/// along the ray (Kettunen et al.'s sample-count heuristic).
+/// along the ray (Kettunen et al.'s sample-count heuristic), as f32 (infinite for huge x).
 #[inline]
-pub fn n_cmf(x: f32) -> u32 {
-    ceil_u32(cbrt((x + 0.015) * (x + 0.65) * (x + 60.3)))
+pub fn n_cmf(x: f32) -> f32 {
+    let v = cbrt((x + 0.015) * (x + 0.65) * (x + 60.3));
+    if v < 16_777_216.0 {
+        ceil_u32(v) as f32
+    } else {
+        v
+    }
+}
+
+/// Samples per estimate N = max(1, round(scale * N_CMF / (1 + 0.31945))) (the author's tuple
+/// size, used by both ray marching baselines; the paper's Fig. 8b/10e double it), capped at
+/// `cap`. Returns (N, whether the cap was hit).
+#[inline]
+pub fn tuple_size(x: f32, scale: f32, cap: u32) -> (u32, bool) {
+    let tuple = scale * n_cmf(x) / (1.0 + EXPECTED_ORDER);
+    if !(tuple < cap as f32) {
+        (cap, true)
+    } else if tuple < 1.5 {
+        (1, false)
+    } else {
+        (math::floor(tuple + 0.5) as u32, false)
+    }
 }
 
 /// Probability P_j of evaluating degree j of the series under the Russian roulette above.
@@ -87,7 +111,8 @@ fn sample_degree(rng: HashRng) -> (usize, HashRng) {
     (m, rng)
 }
 
-/// Biased ray marching: exp(-X), X from `scale * N_CMF` mean-importance samples.
+/// Biased ray marching: exp(-X), X from [`tuple_size`] mean-importance samples (the same count
+/// as one estimate of unbiased ray marching, as in the author's code). Returns (T, tally, rng).
 pub fn biased_ray_marching(
     vol: &VolumeView,
     ray: &Ray,
@@ -96,17 +121,12 @@ pub fn biased_ray_marching(
     scale: f32,
     lookup: Lookup,
     rng: HashRng,
-) -> (f32, u32, HashRng) {
+) -> (f32, Tally, HashRng) {
     let prep = prepare(vol, ray, t0, t1, Importance::Mean);
     if !(prep.f > 0.0) {
-        return (1.0, 0, rng);
+        return (1.0, Tally::default(), rng);
     }
-    let want = scale * n_cmf(prep.f) as f32;
-    let n = if want >= MAX_BIASED_SAMPLES as f32 {
-        MAX_BIASED_SAMPLES
-    } else {
-        ceil_u32(want)
-    };
+    let (n, capped) = tuple_size(prep.f, scale, MAX_BIASED_SAMPLES);
     let (x, samples, rng) = estimate_single(
         vol,
         ray,
@@ -117,7 +137,11 @@ pub fn biased_ray_marching(
         lookup,
         rng,
     );
-    (math::exp(-x), samples, rng)
+    (
+        math::exp(-x),
+        Tally::lookups(samples).capped_if(capped),
+        rng,
+    )
 }
 
 /// Unbiased ray marching: with M + 1 i.i.d. estimates X_i (M from the roulette), each X_p as
@@ -131,17 +155,12 @@ pub fn unbiased_ray_marching(
     scale: f32,
     lookup: Lookup,
     rng: HashRng,
-) -> (f32, u32, HashRng) {
+) -> (f32, Tally, HashRng) {
     let prep = prepare(vol, ray, t0, t1, Importance::Mean);
     if !(prep.f > 0.0) {
-        return (1.0, 0, rng);
+        return (1.0, Tally::default(), rng);
     }
-    let tuple = scale * n_cmf(prep.f) as f32 / (1.0 + EXPECTED_ORDER);
-    let n = if tuple < 1.5 {
-        1
-    } else {
-        math::floor(tuple + 0.5) as u32
-    };
+    let (n, capped) = tuple_size(prep.f, scale, MAX_UNBIASED_SAMPLES);
     let (m, mut rng) = sample_degree(rng);
     let mut xs = [0.0f32; MAX_DEGREE + 1];
     let mut samples = 0u32;
@@ -168,7 +187,15 @@ pub fn unbiased_ray_marching(
         total += pivot_estimate(&xs, m, pivot);
         pivot += 1;
     }
-    (total / (m + 1) as f32, samples, rng)
+    let t = total / (m + 1) as f32;
+    // Offsets of optical depths near f32's range overflow the series (inf - inf = NaN): such an
+    // estimate is beyond f32, so it becomes 0 and the ray is counted like a capped one.
+    let finite = math::is_finite(t);
+    (
+        if finite { t } else { 0.0 },
+        Tally::lookups(samples).capped_if(capped || !finite),
+        rng,
+    )
 }
 
 /// exp(-X_p) sum_{j=0}^{M} e_j / (j! P_j) for pivot p (U-statistics over the other estimates).
@@ -201,7 +228,12 @@ fn pivot_estimate(xs: &[f32; MAX_DEGREE + 1], m: usize, p: usize) -> f32 {
         sum += e[j] / (factorial * p_degree(j));
         j += 1;
     }
-    math::exp(-xs[p]) * sum
+    let e = math::exp(-xs[p]);
+    if e == 0.0 {
+        // exp(-X_p) underflowed (X_p > 104): the term is 0 whatever the series says.
+        return 0.0;
+    }
+    e * sum
 }
 
 #[cfg(test)]
@@ -217,8 +249,20 @@ mod tests {
 
     #[test]
     fn n_cmf_grows_with_depth() {
-        assert_eq!(n_cmf(0.0), 1); // cbrt(0.015 * 0.65 * 60.3) = 0.84
-        assert!(n_cmf(1.0) >= 4 && n_cmf(10.0) > n_cmf(1.0));
+        assert_eq!(n_cmf(0.0), 1.0); // cbrt(0.015 * 0.65 * 60.3) = 0.84
+        assert!(n_cmf(1.0) >= 4.0 && n_cmf(10.0) > n_cmf(1.0));
+    }
+
+    #[test]
+    fn tuple_size_is_the_authors_and_capped() {
+        // N_CMF(0) = 1: round(1 / 1.31945) = 1.
+        assert_eq!(tuple_size(0.0, 1.0, 4096), (1, false));
+        // N_CMF(10) = ceil(cbrt(10.015 * 10.65 * 70.3)) = 20: round(20 / 1.31945) = 15.
+        assert_eq!(n_cmf(10.0), 20.0);
+        assert_eq!(tuple_size(10.0, 1.0, 4096), (15, false));
+        assert_eq!(tuple_size(10.0, 2.0, 4096), (30, false));
+        assert_eq!(tuple_size(1e30, 1.0, 4096), (4096, true));
+        assert_eq!(tuple_size(f32::INFINITY, 1.0, 4096), (4096, true));
     }
 
     #[test]

@@ -6,10 +6,12 @@ use crate::grid::{Lookup, VolumeView};
 use crate::lights::PointLight;
 use crate::math;
 use crate::optical_depth::{
-    estimate_pair, estimate_pair_adaptive, estimate_single, prepare, Importance, Jitter,
+    adaptive_capped, estimate_pair, estimate_pair_adaptive, estimate_single, prepare, Importance,
+    Jitter,
 };
 use crate::ray_marching::{biased_ray_marching, unbiased_ray_marching};
 use crate::rng::HashRng;
+use crate::tally::Tally;
 use crate::tracking::{ratio_tracking, regular_tracking_tau, track_length};
 use crate::transmittance;
 use crate::vec3::V3;
@@ -35,7 +37,7 @@ pub enum Estimator {
     RegularTracking = 6,
     /// Track-length estimate (delta tracking over per-brick majorants): 0 or 1.
     TrackLength = 7,
-    /// Ratio tracking over per-brick majorants, with Russian roulette.
+    /// Ratio tracking over per-brick majorants (Russian roulette only with `RenderParams::roulette`).
     RatioTracking = 8,
 }
 
@@ -105,7 +107,10 @@ pub struct RenderParams {
     pub hg_g: f32,
     /// [`crate::integrator::TransmittanceHat`] as u32.
     pub t_hat: u32,
-    pub _pad: [u32; 2],
+    /// 1: ratio tracking uses pbrt-v4's Russian roulette; 0: none, as the paper and the author's
+    /// code (Miller et al.'s MIS always runs without it: its weights need the plain product).
+    pub roulette: u32,
+    pub _pad: u32,
 }
 
 /// Per-pixel result: mean transmittance over spp and the high-resolution lookups taken.
@@ -116,23 +121,27 @@ pub struct PixelOut {
     /// Mean of the squared estimates (for the per-pixel standard deviation).
     pub t2_mean: f32,
     pub samples: u32,
-    pub _pad: u32,
+    /// Samples (rays) of this pixel whose estimate a loop bound changed ([`Tally::capped`]).
+    pub capped: u32,
+    /// Samples with a jackknife estimate outside its regime ([`Tally::outside`]).
+    pub outside: u32,
+    pub _pad: [u32; 3],
 }
 
-/// Transmittance estimate of one world-space ray through the whole volume, and its lookups.
+/// Transmittance estimate of one world-space ray through the whole volume, and its tally.
 #[inline]
 pub fn ray_transmittance(
     vol: &VolumeView,
     params: &RenderParams,
     world: &crate::dda::Ray,
     rng: HashRng,
-) -> (f32, u32, HashRng) {
+) -> (f32, Tally, HashRng) {
     let ray = to_index_space(world, &params.world_to_index);
     let d = &vol.desc.dims;
     let hi = V3::new(d[0] as f32, d[1] as f32, d[2] as f32);
     let (t0, t1) = clip_to_box(&ray, hi, 0.0, f32::INFINITY);
     if !(t0 < t1) {
-        return (1.0, 0, rng);
+        return (1.0, Tally::default(), rng);
     }
     let mode = if params.importance == 1 {
         Importance::Mean
@@ -150,24 +159,33 @@ pub fn ray_transmittance(
         Estimator::Jackknife | Estimator::NaiveMean => {
             let prep = prepare(vol, &ray, t0, t1, mode);
             let (est, rng) = estimate_pair(vol, &ray, &prep, params.n, mode, jitter, lookup, rng);
-            let t = if which == Estimator::Jackknife {
-                transmittance::jackknife(est.x0, est.x1)
+            let tally = Tally::lookups(est.samples);
+            if which == Estimator::Jackknife {
+                let outside = transmittance::outside_regime(est.x0, est.x1);
+                (
+                    transmittance::jackknife(est.x0, est.x1),
+                    tally.outside_if(outside),
+                    rng,
+                )
             } else {
-                transmittance::naive(est.x0, est.x1)
-            };
-            (t, est.samples, rng)
+                (transmittance::naive(est.x0, est.x1), tally, rng)
+            }
         }
         Estimator::NaiveSingle => {
             let prep = prepare(vol, &ray, t0, t1, mode);
             let (x, n, rng) =
                 estimate_single(vol, &ray, &prep, 2 * params.n, mode, jitter, lookup, rng);
-            (math::exp(-x), n, rng)
+            (math::exp(-x), Tally::lookups(n), rng)
         }
         Estimator::JackknifeAdaptive => {
             let prep = prepare(vol, &ray, t0, t1, mode);
+            let capped = adaptive_capped(&prep, params.f_delta);
             let (est, rng) =
                 estimate_pair_adaptive(vol, &ray, &prep, params.f_delta, mode, jitter, lookup, rng);
-            (transmittance::jackknife(est.x0, est.x1), est.samples, rng)
+            let tally = Tally::lookups(est.samples)
+                .capped_if(capped)
+                .outside_if(transmittance::outside_regime(est.x0, est.x1));
+            (transmittance::jackknife(est.x0, est.x1), tally, rng)
         }
         Estimator::BiasedRayMarching => {
             biased_ray_marching(vol, &ray, t0, t1, params.rm_scale, lookup, rng)
@@ -177,10 +195,12 @@ pub fn ray_transmittance(
         }
         Estimator::RegularTracking => {
             let (tau, n) = regular_tracking_tau(vol, &ray, t0, t1);
-            (math::exp(-tau), n, rng)
+            (math::exp(-tau), Tally::lookups(n), rng)
         }
         Estimator::TrackLength => track_length(vol, &ray, t0, t1, lookup, rng),
-        Estimator::RatioTracking => ratio_tracking(vol, &ray, t0, t1, lookup, rng),
+        Estimator::RatioTracking => {
+            ratio_tracking(vol, &ray, t0, t1, lookup, params.roulette != 0, rng)
+        }
     }
 }
 
@@ -191,7 +211,11 @@ pub struct PixelSums {
     pub t_sum: f32,
     pub t2_sum: f32,
     pub samples: u32,
-    pub _pad: u32,
+    /// Samples whose estimate a loop bound changed.
+    pub capped: u32,
+    /// Samples with a jackknife estimate outside its regime.
+    pub outside: u32,
+    pub _pad: [u32; 3],
 }
 
 /// Push constants of the render kernel: the launch header, then the pass's sample range.
@@ -239,14 +263,16 @@ pub fn render_pixel_pass(
         let world = params
             .camera
             .world_ray(x, y, jx, jy, params.width, params.height);
-        let (t, n, _) = if params.integrator == 0 {
+        let (t, tally, _) = if params.integrator == 0 {
             ray_transmittance(vol, params, &world, rng)
         } else {
             crate::integrator::radiance(vol, params, lights, &world, rng)
         };
         acc.t_sum += t;
         acc.t2_sum += t * t;
-        acc.samples += n;
+        acc.samples += tally.lookups;
+        acc.capped += tally.capped;
+        acc.outside += tally.outside;
         s += 1;
     }
     acc
@@ -287,7 +313,9 @@ pub fn finish_pixel(sums: PixelSums, spp: u32) -> PixelOut {
         t_mean: sums.t_sum / spp as f32,
         t2_mean: sums.t2_sum / spp as f32,
         samples: sums.samples,
-        _pad: 0,
+        capped: sums.capped,
+        outside: sums.outside,
+        _pad: [0; 3],
     }
 }
 

@@ -11,12 +11,14 @@ use crate::grid::{Lookup, VolumeView};
 use crate::math;
 use crate::optical_depth::mu_at;
 use crate::rng::HashRng;
+use crate::tally::Tally;
 
-/// Most tentative collisions per ray; at the cap the estimate returns what it has (1 for
-/// track-length, the running product for ratio tracking). Kept well below 65535 because
-/// lavapipe (gallivm) silently ends a shader after 65535 loop iterations summed over all loops,
-/// and the CPU must stop at the same point to stay bit-identical.
-pub const MAX_TENTATIVE_COLLISIONS: u32 = 20_000;
+/// Most tentative collisions per tracking loop; at the cap the rest of the ray is completed by
+/// regular tracking ([`complete_exactly`]) and the ray is counted as capped. Each collision costs
+/// two loop iterations (the collision loop and the sampler's), and lavapipe (gallivm) silently
+/// ends a shader after 65535 loop iterations summed over all loops: an integrator ray runs two
+/// tracking loops, so 4 x 10,000 plus its traversals must fit (`host::render::LOOP_BUDGET`).
+pub const MAX_TENTATIVE_COLLISIONS: u32 = 10_000;
 
 /// Ratio tracking starts Russian roulette once the running estimate drops below this (pbrt-v4).
 pub const RR_THRESHOLD: f32 = 0.05;
@@ -164,7 +166,7 @@ impl MajorantSampler {
 
 /// Track-length estimator (delta tracking, Novák et al. 2014; pbrt-v4): 0 at the first real
 /// collision (accepted with probability mu / sigma_maj), 1 if the flight escapes past t1.
-/// Returns (T, high-resolution lookups, rng).
+/// Returns (T, tally, rng).
 #[inline]
 pub fn track_length(
     vol: &VolumeView,
@@ -173,12 +175,13 @@ pub fn track_length(
     t1: f32,
     lookup: Lookup,
     rng: HashRng,
-) -> (f32, u32, HashRng) {
-    track(vol, ray, t0, t1, lookup, rng, false)
+) -> (f32, Tally, HashRng) {
+    track(vol, ray, t0, t1, lookup, rng, Track::Length)
 }
 
-/// Ratio tracking (Novák et al. 2014; pbrt-v4): product of (1 - mu / sigma_maj) over tentative
-/// collisions, with pbrt-v4's Russian roulette below [`RR_THRESHOLD`]. Returns (T, lookups, rng).
+/// Ratio tracking (Novák et al. 2014): product of (1 - mu / sigma_maj) over tentative
+/// collisions; without roulette as in the paper and the author's code, or with pbrt-v4's Russian
+/// roulette below [`RR_THRESHOLD`] when `roulette` is set. Returns (T, tally, rng).
 #[inline]
 pub fn ratio_tracking(
     vol: &VolumeView,
@@ -186,14 +189,33 @@ pub fn ratio_tracking(
     t0: f32,
     t1: f32,
     lookup: Lookup,
+    roulette: bool,
     rng: HashRng,
-) -> (f32, u32, HashRng) {
-    track(vol, ray, t0, t1, lookup, rng, true)
+) -> (f32, Tally, HashRng) {
+    let mode = if roulette {
+        Track::RatioRoulette
+    } else {
+        Track::Ratio
+    };
+    track(vol, ray, t0, t1, lookup, rng, mode)
+}
+
+/// Which estimate the collision loop of [`track`] updates.
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Track {
+    /// Track-length: stop at the first real collision.
+    Length,
+    /// Ratio tracking without roulette.
+    Ratio,
+    /// Ratio tracking with pbrt-v4's Russian roulette.
+    RatioRoulette,
 }
 
 /// The shared loop over tentative collisions (pbrt-v4's `SampleT_maj` with a callback): each
-/// collision reads mu once, then updates the estimate as ratio tracking (`ratio`) or as the
-/// track-length estimator, which stops at the first real collision.
+/// collision reads mu once, then updates the estimate as ratio tracking or as the track-length
+/// estimator, which stops at the first real collision. At [`MAX_TENTATIVE_COLLISIONS`] the rest
+/// of the ray is completed by [`complete_exactly`] and the ray is counted as capped.
 fn track(
     vol: &VolumeView,
     ray: &Ray,
@@ -201,25 +223,22 @@ fn track(
     t1: f32,
     lookup: Lookup,
     rng: HashRng,
-    ratio: bool,
-) -> (f32, u32, HashRng) {
+    mode: Track,
+) -> (f32, Tally, HashRng) {
     let mut sampler = MajorantSampler::new(vol, ray, t0, t1);
     let mut rng = rng;
     let mut transmittance = 1.0f32;
     let mut lookups = 0u32;
+    let mut t_last = t0;
     while !sampler.done && lookups < MAX_TENTATIVE_COLLISIONS {
         let (c, r) = sampler.next_collision(vol, rng);
         rng = r;
         if c.found {
+            t_last = c.t;
             let key = [rng.state, lookups, JITTER_SALT];
             let mu = mu_at(vol, ray.at(c.t), lookup, key);
             lookups += 1;
-            let stop = if ratio {
-                let (t, r, stop) = ratio_step(transmittance, mu, c.sigma_maj, rng);
-                transmittance = t;
-                rng = r;
-                stop
-            } else {
+            let stop = if mode == Track::Length {
                 let (u, r) = rng.next_f32();
                 rng = r;
                 let real = u < mu / c.sigma_maj;
@@ -227,22 +246,103 @@ fn track(
                     transmittance = 0.0;
                 }
                 real
+            } else {
+                let (t, r, stop) = ratio_step(
+                    transmittance,
+                    mu,
+                    c.sigma_maj,
+                    mode == Track::RatioRoulette,
+                    rng,
+                );
+                transmittance = t;
+                rng = r;
+                stop
             };
             if stop {
                 sampler.done = true;
             }
         }
     }
-    (transmittance, lookups, rng)
+    let mut tally = Tally::lookups(lookups);
+    if !sampler.done {
+        let (rest, visited) = complete_exactly(vol, ray, t_last, t1);
+        transmittance *= rest;
+        tally = Tally::lookups(lookups + visited).capped_if(true);
+    }
+    (transmittance, tally, rng)
 }
 
-/// One ratio tracking update (pbrt-v4): T *= max(0, 1 - mu / sigma_maj); below the threshold,
-/// terminate with probability q (T = 0) or survive and divide by 1 - q. Returns (T, rng, stop).
+/// The rest of a tracking estimate cut off at the collision cap: T(t_last, t1) of the
+/// nearest-neighbour grid by regular tracking, whose work is bounded by the voxel count, not by
+/// the density. Given the collisions so far, the remaining factor of both ratio tracking and the
+/// track-length estimate has this expectation (the collision process is memoryless), so the
+/// completed estimate stays unbiased for nearest lookups (approximate for stochastic ones).
+/// Returns (T of the rest, voxels visited).
+#[inline]
+pub fn complete_exactly(vol: &VolumeView, ray: &Ray, t_last: f32, t1: f32) -> (f32, u32) {
+    if !(t_last < t1) {
+        return (1.0, 0);
+    }
+    let (tau, visited) = regular_tracking_tau(vol, ray, t_last, t1);
+    (math::exp(-tau), visited)
+}
+
+/// A free-flight distance sampled exactly in the nearest-neighbour grid by a voxel DDA: the
+/// first t in [t0, t1] where the optical depth from t0 reaches `target` (an Exp(1) draw).
+/// Used where delta tracking reaches the collision cap: work bounded by the voxel count.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ExactFlight {
+    /// Distance of the collision (when `found`).
+    pub t: f32,
+    /// Extinction of the voxel at `t`.
+    pub mu: f32,
+    /// False when the flight escaped past t1.
+    pub found: bool,
+    /// Voxels visited.
+    pub visited: u32,
+}
+
+/// Samples [`ExactFlight`] over [t0, t1] with optical depth `target` (regular tracking).
+pub fn exact_free_flight(
+    vol: &VolumeView,
+    ray: &Ray,
+    t0: f32,
+    t1: f32,
+    target: f32,
+) -> ExactFlight {
+    let d = &vol.desc.dims;
+    let cap = d[0] + d[1] + d[2] + 4;
+    let mut out = ExactFlight::default();
+    if !(t0 < t1) {
+        return out;
+    }
+    let mut tau = 0.0f32;
+    let mut dda = GridDda::voxels(vol.desc, ray, t0, t1);
+    while !dda.done && !out.found && out.visited < cap {
+        let seg = dda.step();
+        let mu = vol.voxel(seg.cell[0], seg.cell[1], seg.cell[2]);
+        out.visited += 1;
+        let dtau = (seg.t1 - seg.t0) * mu;
+        if mu > 0.0 && tau + dtau >= target {
+            let t = seg.t0 + (target - tau) / mu;
+            out.t = if t < seg.t1 { t } else { seg.t1 };
+            out.mu = mu;
+            out.found = true;
+        }
+        tau += dtau;
+    }
+    out
+}
+
+/// One ratio tracking update: T *= max(0, 1 - mu / sigma_maj); with `roulette`, pbrt-v4's
+/// Russian roulette below the threshold (terminate with probability q: T = 0; otherwise divide
+/// by 1 - q). Returns (T, rng, stop).
 #[inline]
 pub fn ratio_step(
     transmittance: f32,
     mu: f32,
     sigma_maj: f32,
+    roulette: bool,
     rng: HashRng,
 ) -> (f32, HashRng, bool) {
     let mut factor = 1.0 - mu / sigma_maj;
@@ -253,7 +353,7 @@ pub fn ratio_step(
     }
     let mut t = transmittance * factor;
     let mut rng = rng;
-    if t > 0.0 && t < RR_THRESHOLD {
+    if roulette && t > 0.0 && t < RR_THRESHOLD {
         let (u, r) = rng.next_f32();
         rng = r;
         if u < RR_TERMINATE {

@@ -25,6 +25,18 @@ pub fn jackknife(x0: f32, x1: f32) -> f32 {
     math::cos(s(x0, x1)) * e
 }
 
+/// Largest S (Eq. 4) of the regime where the jackknife's analysis holds: [`outside_regime`].
+pub const S_REGIME: f32 = 1.0;
+
+/// True when a pair of optical depth estimates lies outside the regime where the jackknife
+/// holds (Sec. 3.3, 6.3): S > [`S_REGIME`], i.e. an optical-depth standard deviation of about
+/// sqrt(2) S > 1.4, where K's relative standard deviation sqrt((e^(sigma^2) - 1) / 2) exceeds 1.9
+/// and the estimates are far from normal (cos(S) changes sign at S = pi / 2).
+#[inline]
+pub fn outside_regime(x0: f32, x1: f32) -> bool {
+    !(s(x0, x1) <= S_REGIME)
+}
+
 /// Naive transmittance exp(-X̄), biased upwards by Jensen's inequality (Sec. 1).
 #[inline]
 pub fn naive(x0: f32, x1: f32) -> f32 {

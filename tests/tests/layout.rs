@@ -25,8 +25,8 @@ fn shared_struct_layouts() {
     assert_eq!(size_of::<Brick>(), 16);
     assert_eq!(size_of::<RenderParams>(), 184);
     assert_eq!(size_of::<RenderPass>(), 32);
-    assert_eq!(size_of::<PixelSums>(), 16);
-    assert_eq!(size_of::<PixelOut>(), 16);
+    assert_eq!(size_of::<PixelSums>(), 32);
+    assert_eq!(size_of::<PixelOut>(), 32);
     assert_eq!(size_of::<PointLight>(), 16);
     assert_eq!(size_of::<EquiangularIn>(), 48);
     assert_eq!(size_of::<EquiangularOut>(), 32);

@@ -159,7 +159,7 @@ fn homogeneous_medium_is_exact_for_jackknife_and_naive() {
             };
             let (t, samples, _) =
                 ray_transmittance(&view, &p, ray, HashRng::for_sample(i as u32, 0, 1));
-            assert_eq!(samples, 20);
+            assert_eq!(samples.lookups, 20);
             assert!(
                 (t as f64 - exact).abs() <= 2e-6 * exact.max(1e-3),
                 "{est:?}: T = {t}, exact {exact}"

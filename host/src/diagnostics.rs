@@ -1,0 +1,100 @@
+//! Per-image counts of the flags `shared` raises per ray ([`shared::Tally`]): rays whose estimate
+//! a loop bound changed, and jackknife estimates outside the regime where the paper's analysis
+//! holds. They go into every JSON summary and, when non-zero, into a warning.
+
+use shared::render::{Estimator, PixelOut, RenderParams};
+
+/// Fraction of rays outside the jackknife's regime above which a render warns.
+pub const OUTSIDE_WARN_FRACTION: f64 = 0.01;
+
+/// Counts over all rays (pixels x spp) of one image.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
+pub struct RayFlags {
+    /// Camera rays traced (pixels x spp).
+    pub rays: u64,
+    /// Rays whose estimate a loop bound of `shared` changed (see [`capped_advice`]).
+    pub capped_rays: u64,
+    /// Rays with a jackknife estimate whose S exceeds `shared::transmittance::S_REGIME`.
+    pub jackknife_outside_rays: u64,
+}
+
+impl RayFlags {
+    /// Sums the per-pixel counts of an image rendered with `spp` samples per pixel.
+    pub fn of(pixels: &[PixelOut], spp: u32) -> Self {
+        RayFlags {
+            rays: pixels.len() as u64 * spp as u64,
+            capped_rays: pixels.iter().map(|p| p.capped as u64).sum(),
+            jackknife_outside_rays: pixels.iter().map(|p| p.outside as u64).sum(),
+        }
+    }
+
+    /// The warnings these counts call for (empty when there is nothing to report).
+    pub fn warnings(&self, params: &RenderParams) -> Vec<String> {
+        let mut out = Vec::new();
+        let pct = |n: u64| 100.0 * n as f64 / self.rays.max(1) as f64;
+        if self.capped_rays > 0 {
+            out.push(format!(
+                "{} of {} rays ({:.3}%) reached a loop bound: {}",
+                self.capped_rays,
+                self.rays,
+                pct(self.capped_rays),
+                capped_advice(params)
+            ));
+        }
+        let outside = self.jackknife_outside_rays as f64 / self.rays.max(1) as f64;
+        if outside > OUTSIDE_WARN_FRACTION {
+            out.push(format!(
+                "{} of {} rays ({:.2}%) have jackknife estimates with S > {} (optical-depth \
+                 estimates too far apart for Eq. 4's normal model, paper Sec. 6.3): expect bias \
+                 there; raise --n, lower --density-scale or use a smaller --brick-size \
+                 (README: regime of the jackknife)",
+                self.jackknife_outside_rays,
+                self.rays,
+                100.0 * outside,
+                shared::transmittance::S_REGIME
+            ));
+        }
+        out
+    }
+
+    /// Prints [`RayFlags::warnings`] to stderr.
+    pub fn warn(&self, params: &RenderParams) {
+        for w in self.warnings(params) {
+            eprintln!("warning: {w}");
+        }
+    }
+}
+
+/// What the loop bound of this render's estimator does when reached, and what to change.
+pub fn capped_advice(params: &RenderParams) -> String {
+    use shared::ray_marching::{MAX_BIASED_SAMPLES, MAX_UNBIASED_SAMPLES};
+    use shared::tracking::MAX_TENTATIVE_COLLISIONS;
+    let tracking = format!(
+        "after {MAX_TENTATIVE_COLLISIONS} tentative collisions the rest of the ray was finished \
+         by regular tracking (exact for --lookup nearest, approximate for stochastic lookups); \
+         the medium is too dense for its per-brick majorants: lower --density-scale or use a \
+         smaller --brick-size"
+    );
+    if params.integrator != 0 {
+        return format!("free-flight sampling or ratio tracking {tracking}");
+    }
+    match Estimator::from_u32(params.estimator) {
+        Estimator::TrackLength | Estimator::RatioTracking => format!("tracking {tracking}"),
+        Estimator::BiasedRayMarching => format!(
+            "ray marching used its cap of {MAX_BIASED_SAMPLES} samples instead of N_CMF's count \
+             (more bias); lower --density-scale"
+        ),
+        Estimator::UnbiasedRayMarching => format!(
+            "ray marching used its cap of {MAX_UNBIASED_SAMPLES} samples per estimate instead of \
+             N_CMF's count (still unbiased, more variance), or its power series overflowed f32 \
+             (the estimate is then 0); lower --density-scale"
+        ),
+        Estimator::JackknifeAdaptive => format!(
+            "F / F_delta exceeded {} strata, so the CDF step was widened (fewer samples than \
+             --f-delta asks for); raise --f-delta",
+            shared::optical_depth::MAX_ADAPTIVE_STRATA
+        ),
+        _ => "an internal loop bound was reached".into(),
+    }
+}

@@ -1,0 +1,66 @@
+#!/usr/bin/env python3
+"""Prints the README's `host eval` tables (markdown) from eval JSON files written by `host eval`.
+
+Usage: scripts/eval_tables.py docs/results/eval_cloud.json [more.json ...]
+Transmittance evals (key `estimators`) and integrator evals (key `integrators`) are both accepted.
+"""
+import json
+import sys
+
+
+def name_of(path, d):
+    """The short volume name: the first word of the JSON's `volume`."""
+    return d["volume"].split(" ")[0]
+
+
+def transmittance_table(d):
+    head = (
+        f"**{name_of(None, d)}** ({d['volume']}, {d['width']}x{d['height']}, {d['spp']} estimates "
+        f"per pixel, {d['lookup']} lookups, {d['evaluated_pixels']} pixels; {d['backend']}: "
+        f"{d['device']})\n\n"
+        "| estimator | mean bias | mean abs bias | noise floor | mean std | RMSE | samples/ray | capped rays | ms |\n"
+        "|---|---|---|---|---|---|---|---|---|"
+    )
+    rows = [
+        f"| `{e['name']}` | {e['mean_bias']:+.5f} | {e['mean_abs_bias']:.5f} | "
+        f"{e['abs_bias_noise_floor']:.5f} | {e['mean_std']:.4f} | {e['rmse']:.4f} | "
+        f"{e['mean_samples_per_ray']:.2f} | {e.get('capped_rays', 0)} | {e['elapsed_ms']:.0f} |"
+        for e in d["estimators"]
+    ]
+    return "\n".join([head] + rows)
+
+
+def integrator_table(d):
+    head = (
+        "| integrator | SMAPE | mean bias | mean abs error | mean L | lookups/ray | capped rays | ms per spp |\n"
+        "|---|---|---|---|---|---|---|---|"
+    )
+    rows = [
+        f"| `{i['name']}` | {i['smape']:.4f} | {i['mean_bias']:+.5f} | {i['mean_abs_error']:.5f} | "
+        f"{i['mean_radiance']:.5f} | {i['mean_samples_per_ray']:.2f} | {i.get('capped_rays', 0)} | "
+        f"{i['ms_per_frame']:.1f} |"
+        for i in d["integrators"]
+    ]
+    return "\n".join([head] + rows)
+
+
+def main():
+    if len(sys.argv) < 2:
+        sys.exit(__doc__)
+    for path in sys.argv[1:]:
+        try:
+            with open(path) as f:
+                d = json.load(f)
+        except (OSError, ValueError) as e:
+            sys.exit(f"error: {path}: {e}")
+        if "estimators" in d:
+            print(transmittance_table(d))
+        elif "integrators" in d:
+            print(integrator_table(d))
+        else:
+            sys.exit(f"error: {path}: neither a transmittance nor an integrator eval")
+        print()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,54 @@
+//! What one ray's estimate reports besides its value: the high-resolution lookups it took and the
+//! flags the host counts per image, so that no loop bound or regime change goes unreported.
+
+/// Lookups and report flags of one estimate; combine the parts of a ray with [`Tally::merge`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Tally {
+    /// High-resolution volume lookups (voxel reads).
+    pub lookups: u32,
+    /// 1 if a loop bound of `shared` (collision cap, sample cap, strata cap) changed the estimate.
+    pub capped: u32,
+    /// 1 if a jackknife estimate of the ray lies outside the regime where the paper's analysis
+    /// holds ([`crate::transmittance::outside_regime`]).
+    pub outside: u32,
+}
+
+impl Tally {
+    /// A tally of `lookups` lookups and no flags.
+    #[inline]
+    pub fn lookups(lookups: u32) -> Self {
+        Tally {
+            lookups,
+            capped: 0,
+            outside: 0,
+        }
+    }
+
+    /// Both tallies of one ray together: lookups add, flags are or-ed.
+    #[inline]
+    pub fn merge(self, other: Tally) -> Self {
+        Tally {
+            lookups: self.lookups + other.lookups,
+            capped: self.capped | other.capped,
+            outside: self.outside | other.outside,
+        }
+    }
+
+    /// This tally with the capped flag set when `hit` is true.
+    #[inline]
+    pub fn capped_if(self, hit: bool) -> Self {
+        Tally {
+            capped: self.capped | hit as u32,
+            ..self
+        }
+    }
+
+    /// This tally with the outside-regime flag set when `outside` is true.
+    #[inline]
+    pub fn outside_if(self, outside: bool) -> Self {
+        Tally {
+            outside: self.outside | outside as u32,
+            ..self
+        }
+    }
+}
