@@ -15,6 +15,8 @@ pub struct PackedVolume {
     /// f16 voxel bits, two per word, x fastest (padded to whole words).
     pub voxels: Vec<u32>,
     pub bricks: Vec<Brick>,
+    /// Nonzero densities that became 0 when scaled and stored as f16.
+    pub underflow: Underflow,
 }
 
 impl PackedVolume {
@@ -38,8 +40,11 @@ fn round_up(v: f64) -> f32 {
     }
 }
 
-/// Quantizes to f16 and computes per-brick min, max, mean and P (Eq. 5).
+/// Scales by `density_scale`, quantizes to f16 and computes per-brick min, max, mean and P (Eq. 5).
 ///
+/// The scale is applied before the f16 conversion, so the range checks (above 65504: an error;
+/// nonzero values rounding to 0: counted in [`PackedVolume::underflow`]) apply to the extinction
+/// the kernels read, and `desc.density_scale` is 1.
 /// Statistics come from exactly the values the kernels read (`scale * f16`), over each brick
 /// widened by one voxel on every side ([-1, B+1) per axis, clamped to the grid). The widening makes
 /// them conservative for stochastically filtered lookups (jitter <= 0.5 voxel) and for nearest
@@ -58,18 +63,7 @@ pub fn pack(
         bail!("--brick-size must be in 2..=256 (got {brick_size})");
     }
     let dims = vol.dims;
-    let mut halves = Vec::with_capacity(vol.values.len() + 1);
-    for (i, &v) in vol.values.iter().enumerate() {
-        let h = f16::from_f32(v);
-        if h.is_infinite() {
-            let (x, y, z) = unflatten(i, dims);
-            bail!(
-                "{}: voxel ({x}, {y}, {z}) = {v} exceeds the f16 range (65504); rescale the file's densities and use --density-scale",
-                vol.name
-            );
-        }
-        halves.push(h.to_bits());
-    }
+    let (mut halves, underflow) = to_f16(vol, density_scale)?;
     if !halves.len().is_multiple_of(2) {
         halves.push(0);
     }
@@ -85,7 +79,8 @@ pub fn pack(
         brick_dims: [brick_dims[0], brick_dims[1], brick_dims[2], 0],
         brick_size,
         lookup: lookup as u32,
-        density_scale,
+        // The voxels already hold density x scale (scaled before the f16 conversion).
+        density_scale: 1.0,
         _pad: 0,
     };
     let view = shared::grid::VolumeView {
@@ -106,7 +101,53 @@ pub fn pack(
         desc,
         voxels,
         bricks,
+        underflow,
     })
+}
+
+/// Nonzero densities that became 0 in f16 once scaled: how many, and the first one.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Underflow {
+    /// Voxels with density > 0 whose scaled value rounds to 0 in f16.
+    pub count: u64,
+    /// Voxels with density > 0.
+    pub nonzero: u64,
+    /// The first such voxel, described for messages (file coordinates for files), and its density.
+    pub first: Option<(String, f32)>,
+}
+
+/// Extinction `density * scale` of every voxel as f16 bits; refuses values above the f16 range
+/// (naming the voxel) and counts nonzero values that underflow to 0.
+fn to_f16(vol: &DenseVolume, scale: f32) -> Result<(Vec<u16>, Underflow)> {
+    let mut halves = Vec::with_capacity(vol.values.len() + 1);
+    let mut underflow = Underflow::default();
+    for (i, &v) in vol.values.iter().enumerate() {
+        let mu = v * scale;
+        let h = f16::from_f32(mu);
+        if h.is_infinite() || !mu.is_finite() {
+            let (x, y, z) = unflatten(i, vol.dims);
+            bail!(
+                "{}: {} has density {v}, which times --density-scale {scale} is {mu}, above the \
+                 f16 range of the volume (65504); lower --density-scale (or rescale the file's \
+                 densities)",
+                vol.name,
+                vol.describe_voxel(x, y, z)
+            );
+        }
+        // A scale of 0 empties the volume on purpose: nothing to report.
+        if v > 0.0 && scale > 0.0 {
+            underflow.nonzero += 1;
+            if h.to_f32() == 0.0 {
+                underflow.count += 1;
+                if underflow.first.is_none() {
+                    let (x, y, z) = unflatten(i, vol.dims);
+                    underflow.first = Some((vol.describe_voxel(x, y, z), v));
+                }
+            }
+        }
+        halves.push(h.to_bits());
+    }
+    Ok((halves, underflow))
 }
 
 /// (x, y, z) of flat index i in a grid of `dims`, x fastest.
