@@ -398,3 +398,51 @@ fn f16_underflow_is_counted_or_refused_never_silent() {
     assert!(count > 0, "{count}");
     assert!(stderr.contains(&format!("{count} of ")), "{stderr}");
 }
+
+#[test]
+fn bench_report_and_study_outputs_are_checked_before_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("a_file");
+    std::fs::write(&file, b"x").unwrap();
+    let under = file.join("x.json");
+    let run = |args: &[&str]| host().args(args).output().unwrap();
+    let plot = dir.path().join("p.png");
+    let out = run(&[
+        "study",
+        "normal",
+        "--quiet",
+        "--json",
+        s(&under),
+        "--plot",
+        s(&plot),
+    ]);
+    assert_refused(&out, &["--json", "a_file"]);
+    assert!(!plot.exists(), "the study ran before --json was checked");
+    let out = run(&[
+        "study",
+        "normal",
+        "--quiet",
+        "--json",
+        s(&plot),
+        "--plot",
+        s(&plot),
+    ]);
+    assert_refused(&out, &["--json", "--plot", "same path"]);
+    let out = run(&["report", "--out", s(&file.join("r")), "--quiet"]);
+    assert_refused(&out, &["--out", "a_file"]);
+    let out = run(&[
+        "bench",
+        "--backend",
+        "cpu",
+        "--quiet",
+        "--resolution",
+        "32",
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--json",
+        s(&under),
+    ]);
+    assert_refused(&out, &["--json", "a_file"]);
+}
