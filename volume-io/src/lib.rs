@@ -391,27 +391,12 @@ impl DenseBuilder {
             .context("the grid has no active voxels (it is empty); pick another grid")?;
         let dims = dense_dims(lo, hi, cap)?;
         let count: usize = dims.iter().map(|&d| d as usize).product();
-        let bytes = count as u64 * PEAK_BYTES_PER_VOXEL;
-        let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
-        if let Some(available) = available_memory() {
-            ensure!(
-                bytes <= available,
-                "its dense {}x{}x{} grid needs {:.1} GiB at its peak ({PEAK_BYTES_PER_VOXEL} bytes \
-                 per voxel of the active bounding box: f32 values, then f16 packing), more than \
-                 the {:.1} GiB of memory available; crop the volume to the region of interest or \
-                 resample it coarser",
-                dims[0],
-                dims[1],
-                dims[2],
-                gib(bytes),
-                gib(available)
-            );
-        }
+        check_memory(dims, available_memory())?;
         let mut values = Vec::new();
         values.try_reserve_exact(count).map_err(|_| {
             anyhow!(
                 "cannot allocate {:.1} GiB for its dense grid; crop or resample the volume",
-                gib(count as u64 * 4)
+                count as f64 * 4.0 / (1u64 << 30) as f64
             )
         })?;
         values.resize(count, background);
@@ -423,6 +408,29 @@ impl DenseBuilder {
             background,
         })
     }
+}
+
+/// Refuses a dense grid of `dims` whose peak memory ([`PEAK_BYTES_PER_VOXEL`] per voxel) exceeds
+/// `available` bytes (when known), so it fails with advice instead of aborting later.
+fn check_memory(dims: [u32; 3], available: Option<u64>) -> Result<()> {
+    let count: u64 = dims.iter().map(|&d| u64::from(d)).product();
+    let bytes = count.saturating_mul(PEAK_BYTES_PER_VOXEL);
+    let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
+    if let Some(available) = available {
+        ensure!(
+            bytes <= available,
+            "its dense {}x{}x{} grid needs {:.1} GiB at its peak ({PEAK_BYTES_PER_VOXEL} bytes \
+             per voxel of the active bounding box: f32 values, then f16 packing), more than \
+             the {:.1} GiB of memory available; crop the volume to the region of interest or \
+             resample it coarser",
+            dims[0],
+            dims[1],
+            dims[2],
+            gib(bytes),
+            gib(available)
+        );
+    }
+    Ok(())
 }
 
 /// The memory the OS says is available (Linux: MemAvailable of /proc/meminfo), if known.
@@ -563,6 +571,19 @@ mod tests {
         assert!(err.contains("4294967296x"), "{err}");
         assert_eq!(dense_dims([-1, 0, 5], [1, 0, 6], 6).unwrap(), [3, 1, 2]);
         assert!(dense_dims([-1, 0, 5], [1, 0, 6], 5).is_err());
+    }
+
+    #[test]
+    fn memory_check_counts_the_peak_not_just_the_f32_grid() {
+        // 2^20 voxels: 4 MiB of f32 fit in 6 MiB, the 8 MiB peak does not.
+        let dims = [128, 128, 64];
+        let err = check_memory(dims, Some(6 << 20)).unwrap_err().to_string();
+        assert!(
+            err.contains("8 bytes per voxel") && err.contains("crop"),
+            "{err}"
+        );
+        assert!(check_memory(dims, Some(8 << 20)).is_ok());
+        assert!(check_memory(dims, None).is_ok());
     }
 
     #[test]
