@@ -192,6 +192,31 @@ def bad_density_files():
         EXPECTED[name + ".nvdb"] = ("-", words)
 
 
+def grid_class_files():
+    """A level set (signed distances) and an instanced grid: valid files the loader must refuse
+    with advice of their own (not --clamp-negative, not "corrupt")."""
+    import pyopenvdb as vdb
+
+    ls = vdb.createLevelSetSphere(radius=2.0, center=(0, 0, 0), voxelSize=1.0, halfWidth=1.5)
+    ls.name = "density"
+    path = os.path.join(OUT, "level_set.vdb")
+    vdb.write(path, grids=[ls])
+    EXPECTED["level_set.vdb"] = ("-", ["'density' is a level set", "fog volume"])
+    nvdb = os.path.join(OUT, "level_set.nvdb")
+    subprocess.run(["nanovdb_convert", "-f", "-z", path, nvdb], check=True,
+                   stdout=subprocess.DEVNULL)
+    EXPECTED["level_set.nvdb"] = ("-", ["'density' is a level set", "fog volume"])
+    fog = vdb.FloatGrid()
+    fog.name = "density"
+    acc = fog.getAccessor()
+    for ijk in [(0, 0, 0), (7, 7, 7)]:
+        acc.setValueOn(ijk, 1.0)
+    instance = fog.copy()  # shares the tree: written as an instance of "density"
+    instance.name = "copy"
+    vdb.write(os.path.join(OUT, "instance.vdb"), grids=[fog, instance])
+    EXPECTED["instance.vdb"] = ("copy", ["instance of grid 'density'", "--grid density"])
+
+
 def main():
     os.makedirs(OUT, exist_ok=True)
     keep = {f for f in os.listdir(OUT) if f.startswith("fuzz_")}
@@ -208,6 +233,7 @@ def main():
     vdb_files()
     nvdb_files()
     bad_density_files()
+    grid_class_files()
     write("wrong_extension.txt", b"density", "-", "unknown volume file extension", ".vdb")
     with open(manifest, "w") as f:
         f.write("# file\tgrid (- = default)\twords the error must contain, separated by ' | '\n")

@@ -289,6 +289,15 @@ pub fn run(args: &BenchArgs) -> Result<BenchReport> {
     if args.sweep {
         sweep_lists(args)?;
     }
+    let mut plan = crate::output::OutputPlan::new();
+    if args.sweep {
+        plan.file("--plot", &args.plot);
+    }
+    if let Some(json) = &args.json {
+        plan.file("--json", json);
+    }
+    plan.input("--volume", std::path::Path::new(&args.scene.volume))
+        .check()?;
     let scene = crate::commands::prepare_scene(&args.scene, lookup, args.width, args.height)?;
     let backends = backends(args.backend)?;
     let base = RenderParams {

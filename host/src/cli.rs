@@ -204,7 +204,8 @@ pub struct RenderArgs {
     /// Where kernels run: auto (GPU if a Vulkan driver exists, else CPU), gpu, or cpu.
     #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
     pub backend: BackendChoice,
-    /// Output EXR (linear transmittance); a PNG preview is written next to it.
+    /// Output EXR (linear transmittance or radiance; must end in .exr); a PNG preview is written
+    /// next to it (same name, .png).
     #[arg(long, short, default_value = "out/render.exr")]
     pub out: PathBuf,
     /// Also write a JSON summary here.
@@ -213,6 +214,31 @@ pub struct RenderArgs {
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Ids of the flags given on the command line (filled by [`parse`], not a flag).
+    #[arg(skip)]
+    pub given: Vec<String>,
+}
+
+/// Parses the command line like `Cli::parse`, recording which render flags the user gave.
+pub fn parse() -> Cli {
+    use clap::{CommandFactory, FromArgMatches};
+    let matches = Cli::command().get_matches();
+    let mut cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    let (render, sub) = match &mut cli.command {
+        Some(Command::Render(args)) => (args, matches.subcommand_matches("render")),
+        None => (&mut cli.render, Some(&matches)),
+        Some(_) => return cli,
+    };
+    if let Some(m) = sub {
+        render.given = m
+            .ids()
+            .filter(|id| {
+                m.value_source(id.as_str()) == Some(clap::parser::ValueSource::CommandLine)
+            })
+            .map(|id| id.as_str().to_owned())
+            .collect();
+    }
+    cli
 }
 
 /// Flags of `host eval`.
@@ -229,7 +255,8 @@ pub struct EvalArgs {
     pub estimators: String,
     /// Evaluate single-scattering integrators instead of transmittance estimators:
     /// comma-separated names or "all" (see `host render --integrator`). Reference: mis-jackknife
-    /// with ratio-tracking T(t0) at --reference-spp (default 16 x --spp).
+    /// with ratio-tracking T(t0) at --reference-spp (default 16 x --spp; with the default --spp
+    /// of 1024 that is slow, about 25 min at 128^2 on 2 CPU cores: try --spp 16).
     #[arg(long)]
     pub integrators: Option<String>,
     /// Estimate of T(t0) in Eq. 9 for the evaluated integrators.
@@ -262,7 +289,8 @@ pub struct EvalArgs {
     /// Estimates per pixel (all along the pixel center's ray).
     #[arg(long, allow_negative_numbers = true, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(2..=1 << 20))]
     pub spp: u32,
-    /// Estimates per pixel of the reference when it is stochastic (default 4 x --spp).
+    /// Estimates per pixel of the reference when it is stochastic (default 4 x --spp;
+    /// with --integrators 16 x --spp).
     #[arg(long)]
     pub reference_spp: Option<u32>,
     /// Seed.

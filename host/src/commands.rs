@@ -3,7 +3,7 @@
 use crate::backend::Backend;
 use crate::bricks::pack;
 use crate::cli::{EvalArgs, LookupArg, ProbeArgs, RenderArgs};
-use crate::output::{ensure_parent, write_exr, write_json, write_png};
+use crate::output::{write_exr, write_json, write_png, OutputPlan};
 use crate::render::{make_camera, occupied_world_bounds, world_to_index, CameraSpec};
 use crate::volume::DenseVolume;
 use anyhow::{bail, Context, Result};
@@ -13,8 +13,9 @@ use shared::render::RenderParams;
 use std::path::Path;
 use std::time::Instant;
 
-/// An embedded volume by name or a volume file by path, with its default density scale.
-pub fn load_volume(scene: &crate::cli::SceneArgs) -> Result<(DenseVolume, f32)> {
+/// An embedded volume by name or a volume file by path, with its default density scale and, for
+/// a file, the name of the grid read.
+pub fn load_volume(scene: &crate::cli::SceneArgs) -> Result<(DenseVolume, f32, Option<String>)> {
     let spec = scene.volume.as_str();
     let path = Path::new(spec);
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
@@ -32,10 +33,10 @@ pub fn load_volume(scene: &crate::cli::SceneArgs) -> Result<(DenseVolume, f32)> 
                 path.display()
             );
         }
-        return Ok((loaded.volume, 1.0));
+        return Ok((loaded.volume, 1.0, Some(loaded.grid)));
     }
     match crate::procedural::by_name(spec, scene.resolution) {
-        Some(v) => Ok((v, crate::procedural::default_density_scale(spec))),
+        Some(v) => Ok((v, crate::procedural::default_density_scale(spec), None)),
         None => bail!(
             "--volume {spec:?} is neither a file nor an embedded volume; embedded volumes: {}",
             crate::procedural::NAMES.join(", ")
@@ -105,6 +106,7 @@ pub struct RenderSummary {
     pub backend: String,
     pub device: String,
     pub volume: String,
+    /// The transmittance estimator, or for an integrator render the integrator's name.
     pub estimator: String,
     pub lookup: String,
     pub width: u32,
@@ -116,8 +118,9 @@ pub struct RenderSummary {
     pub brick_size: u32,
     pub elapsed_ms: f64,
     pub mean_samples_per_ray: f64,
-    #[serde(rename = "mean_T")]
-    pub mean_t: f64,
+    /// Mean transmittance (transmittance renders only).
+    #[serde(rename = "mean_T", skip_serializing_if = "Option::is_none")]
+    pub mean_t: Option<f64>,
     pub exr: String,
     pub png: String,
     /// CDF step of jackknife-adaptive.
@@ -127,19 +130,132 @@ pub struct RenderSummary {
     /// Rays traced, rays a loop bound changed, rays outside the jackknife's regime.
     #[serde(flatten)]
     pub flags: crate::diagnostics::RayFlags,
+    /// The grid read from a volume file (absent for embedded volumes).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub grid: Option<String>,
+    /// Mean radiance (integrator renders only).
+    #[serde(rename = "mean_L", skip_serializing_if = "Option::is_none")]
+    pub mean_l: Option<f64>,
+    /// Everything an integrator render depends on beyond the fields above.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub integrator: Option<IntegratorSettings>,
+    /// Nonzero densities that became 0 as scaled f16 values (see the warning).
+    pub underflowed_voxels: u64,
+    /// The host version and the command line, to reproduce the image.
+    pub host_version: String,
+    pub command_line: Vec<String>,
 }
 
-/// `host render`: loads, packs, renders, writes EXR + PNG (+ JSON), prints a summary.
+/// The settings of an integrator render, as resolved (default lights included).
+#[derive(serde::Serialize)]
+pub struct IntegratorSettings {
+    pub name: String,
+    /// The transmittance estimator of the shadow rays (fixed: `--estimator` does not apply).
+    pub shadow_rays: String,
+    /// Every light as [x, y, z, intensity] in world units (the `--light` syntax).
+    pub lights: Vec<[f32; 4]>,
+    pub albedo: f32,
+    pub hg_g: f32,
+    pub t_hat: String,
+    /// The PNG shows x / (1 + x) of x = exposure * radiance, sRGB-encoded; the EXR is linear.
+    pub exposure: f32,
+}
+
+/// Flags that only an integrator render reads (clap ids and their spelling).
+const INTEGRATOR_ONLY: &[(&str, &str)] = &[
+    ("lights", "--light"),
+    ("albedo", "--albedo"),
+    ("hg_g", "--hg-g"),
+    ("t_hat", "--t-hat"),
+    ("exposure", "--exposure"),
+];
+
+/// Flags that no integrator reads: shadow rays always use the jackknife (shared/src/integrator.rs).
+const TRANSMITTANCE_ONLY: &[(&str, &str)] =
+    &[("estimator", "--estimator"), ("f_delta", "--f-delta")];
+
+/// Refuses flag combinations whose flags would be ignored, so no output is mislabelled.
+pub fn check_render_flags(args: &RenderArgs) -> Result<()> {
+    let given = |id: &str| args.given.iter().any(|g| g == id);
+    if args.integrator.is_some() {
+        if let Some((_, flag)) = TRANSMITTANCE_ONLY.iter().find(|(id, _)| given(id)) {
+            bail!(
+                "{flag} has no effect with --integrator: every integrator's shadow rays use the \
+                 jackknife transmittance (with --n samples per estimate); drop {flag}, or drop \
+                 --integrator to render transmittance with it"
+            );
+        }
+    } else if let Some((_, flag)) = INTEGRATOR_ONLY.iter().find(|(id, _)| given(id)) {
+        bail!(
+            "{flag} only applies to single-scattering renders: add --integrator NAME (e.g. \
+             --integrator mis-jackknife) or drop {flag}"
+        );
+    }
+    let is_exr = args
+        .out
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    anyhow::ensure!(
+        is_exr,
+        "--out {}: the image is written as a linear OpenEXR file, so --out must end in .exr (the \
+         PNG preview is written next to it with the extension .png)",
+        args.out.display()
+    );
+    Ok(())
+}
+
+/// Checks every output of `host render` up front: the EXR, its PNG preview and the JSON must
+/// be distinct, must not replace the input volume, and must be writable. Returns the PNG path.
+pub fn plan_render_outputs(args: &RenderArgs) -> Result<std::path::PathBuf> {
+    let png = args.out.with_extension("png");
+    let mut plan = OutputPlan::new();
+    plan.input("--volume", Path::new(&args.scene.volume))
+        .file("--out", &args.out)
+        .file("the PNG preview of --out", &png);
+    if let Some(json) = &args.json {
+        plan.file("--json", json);
+    }
+    plan.check()?;
+    Ok(png)
+}
+
+/// The integrator settings for the JSON summary.
+fn integrator_settings(
+    args: &RenderArgs,
+    integrator: shared::integrator::Integrator,
+    lights: &[shared::lights::PointLight],
+) -> IntegratorSettings {
+    IntegratorSettings {
+        name: crate::cli::integrator_name(integrator).into(),
+        shadow_rays: "jackknife".into(),
+        lights: lights
+            .iter()
+            .map(|l| [l.position.x, l.position.y, l.position.z, l.intensity])
+            .collect(),
+        albedo: args.albedo,
+        hg_g: args.hg_g,
+        t_hat: format!("{:?}", args.t_hat).to_lowercase(),
+        exposure: args.exposure,
+    }
+}
+
+/// `host render`: checks flags and outputs, loads, packs, renders, writes EXR + PNG (+ JSON),
+/// prints a summary.
 pub fn run_render(args: &RenderArgs) -> Result<RenderSummary> {
+    check_render_flags(args)?;
+    let png = plan_render_outputs(args)?;
     let t_load = Instant::now();
     let scene = prepare_scene(&args.scene, lookup_of(args.lookup), args.width, args.height)?;
     let (vol, packed, density_scale) = (&scene.volume, &scene.packed, scene.density_scale);
     let load_ms = t_load.elapsed().as_secs_f64() * 1e3;
     let backend = Backend::open_for(args.backend, packed)?;
+    let volume_label = match &scene.grid {
+        Some(grid) => format!("{} (grid '{grid}')", vol.name),
+        None => vol.name.clone(),
+    };
     if !args.quiet {
         eprintln!(
-            "volume {} {}x{}x{} (density scale {density_scale}, {} bricks of {}^3), prepared in {load_ms:.0} ms",
-            vol.name,
+            "volume {volume_label} {}x{}x{} (density scale {density_scale}, {} bricks of {}^3), prepared in {load_ms:.0} ms",
             vol.dims[0],
             vol.dims[1],
             vol.dims[2],
@@ -182,9 +298,7 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderSummary> {
     let t: Vec<f32> = pixels.iter().map(|p| p.t_mean).collect();
     let rays = pixels.len() as f64 * args.spp as f64;
     let samples: f64 = pixels.iter().map(|p| p.samples as f64).sum();
-    let mean_t = t.iter().map(|&v| v as f64).sum::<f64>() / t.len() as f64;
-    ensure_parent(&args.out)?;
-    let png = args.out.with_extension("png");
+    let mean = t.iter().map(|&v| v as f64).sum::<f64>() / t.len() as f64;
     write_exr(&args.out, args.width, args.height, &t)?;
     let preview: Vec<f32> = if args.integrator.is_some() {
         // Radiance: exposure, then Reinhard x / (1 + x) so highlights do not clip.
@@ -198,16 +312,13 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderSummary> {
         t.clone()
     };
     write_png(&png, args.width, args.height, &preview)?;
+    let radiance = args.integrator.is_some();
     let summary = RenderSummary {
         backend: backend.kind().into(),
         device: backend.device(),
         volume: vol.name.clone(),
         estimator: match args.integrator {
-            Some(i) => format!(
-                "{} (integrator; shadow rays: {})",
-                crate::cli::integrator_name(i),
-                args.estimator.name
-            ),
+            Some(i) => crate::cli::integrator_name(i).into(),
             None => args.estimator.name.into(),
         },
         lookup: format!("{:?}", args.lookup).to_lowercase(),
@@ -220,19 +331,26 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderSummary> {
         brick_size: args.scene.brick_size,
         elapsed_ms,
         mean_samples_per_ray: samples / rays,
-        mean_t,
+        mean_t: (!radiance).then_some(mean),
         exr: args.out.display().to_string(),
         png: png.display().to_string(),
         f_delta: args.f_delta,
         ratio_roulette: args.ratio_roulette,
         flags,
+        grid: scene.grid.clone(),
+        mean_l: radiance.then_some(mean),
+        integrator: args
+            .integrator
+            .map(|i| integrator_settings(args, i, &lights)),
+        underflowed_voxels: packed.underflow.count,
+        host_version: env!("CARGO_PKG_VERSION").into(),
+        command_line: std::env::args().collect(),
     };
     if let Some(path) = &args.json {
-        ensure_parent(path)?;
         write_json(path, &summary)?;
     }
     println!(
-        "{} {}x{} spp {} on {}: {:.1} ms, {:.2} samples/ray, mean T {:.5} -> {}",
+        "{} {}x{} spp {} on {}: {:.1} ms, {:.2} samples/ray, mean {} {:.5} -> {} (volume {volume_label})",
         summary.estimator,
         args.width,
         args.height,
@@ -240,7 +358,8 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderSummary> {
         summary.backend,
         elapsed_ms,
         summary.mean_samples_per_ray,
-        mean_t,
+        if radiance { "L" } else { "T" },
+        mean,
         args.out.display()
     );
     Ok(summary)
@@ -316,6 +435,8 @@ pub struct Scene {
     pub density_scale: f32,
     pub camera: shared::camera::Camera,
     pub world_to_index: shared::camera::Affine3x4,
+    /// The grid read from a volume file (None for embedded volumes).
+    pub grid: Option<String>,
 }
 
 /// Loads the volume of `--volume`, packs it and sets up the camera for a `w` x `h` image.
@@ -330,9 +451,10 @@ pub fn prepare_scene(
         "--fov must be in (0, 180) degrees (got {})",
         args.fov
     );
-    let (volume, default_scale) = load_volume(args)?;
+    let (volume, default_scale, grid) = load_volume(args)?;
     let density_scale = args.density_scale.unwrap_or(default_scale);
     let packed = pack(&volume, density_scale, args.brick_size, lookup)?;
+    report_underflow(&volume.name, &packed.underflow, density_scale)?;
     let spec = CameraSpec {
         position: args.camera,
         look_at: args.look_at,
@@ -346,7 +468,28 @@ pub fn prepare_scene(
         density_scale,
         camera,
         world_to_index,
+        grid,
     })
+}
+
+/// Warns (with a count) about nonzero densities that became 0 as scaled f16 values; refuses a
+/// volume all of whose nonzero densities did, which would render as empty.
+fn report_underflow(name: &str, u: &crate::bricks::Underflow, scale: f32) -> Result<()> {
+    let Some((voxel, density)) = &u.first else {
+        return Ok(());
+    };
+    let what = format!(
+        "{name}: {} of {} nonzero densities (first: {voxel}, density {density}) become 0: \
+         times --density-scale {scale:e} they are below f32's smallest value, or more than 2^40 \
+         below the largest density (the range of the f16 voxels)",
+        u.count, u.nonzero
+    );
+    anyhow::ensure!(
+        u.count < u.nonzero,
+        "{what}: the volume would render as empty; raise --density-scale"
+    );
+    eprintln!("warning: {what}; raise --density-scale if they matter");
+    Ok(())
 }
 
 pub fn lookup_of(arg: LookupArg) -> Lookup {
@@ -359,6 +502,16 @@ pub fn lookup_of(arg: LookupArg) -> Lookup {
 /// `host eval`: the reference and each estimator on pixel-center rays; JSON + images.
 pub fn run_eval(args: &EvalArgs) -> Result<()> {
     let estimators = crate::eval::parse_list(&args.estimators)?;
+    let integrators = args
+        .integrators
+        .as_deref()
+        .map(parse_integrators)
+        .transpose()?;
+    let images = match &integrators {
+        Some(list) => crate::eval::integrator_files(&args.out_dir, list.iter().map(|(n, _)| *n)),
+        None => crate::eval::estimator_files(&args.out_dir, estimators.iter().map(|e| e.name)),
+    };
+    let json = plan_eval_outputs(args, &images)?;
     let lookup = lookup_of(args.lookup);
     let scene = prepare_scene(&args.scene, lookup, args.width, args.height)?;
     let (vol, packed) = (&scene.volume, &scene.packed);
@@ -379,8 +532,8 @@ pub fn run_eval(args: &EvalArgs) -> Result<()> {
         roulette: args.ratio_roulette as u32,
         ..Default::default()
     };
-    if let Some(list) = &args.integrators {
-        return run_eval_integrators(args, list, vol, packed, &backend, params);
+    if let Some(integrators) = &integrators {
+        return run_eval_integrators(args, integrators, &json, vol, packed, &backend, params);
     }
     let (reference, reference_spp) = match lookup {
         // Deterministic and exact for nearest lookups: one estimate per pixel suffices.
@@ -406,38 +559,55 @@ pub fn run_eval(args: &EvalArgs) -> Result<()> {
         progress: !args.quiet,
     };
     let report = crate::eval::evaluate(&setup, &estimators)?;
-    let json = args
-        .json
-        .clone()
-        .unwrap_or_else(|| args.out_dir.join("eval.json"));
     crate::eval::write_report(&json, &report)?;
     println!("wrote {}", json.display());
     Ok(())
 }
 
 /// `host eval --integrators`: single scattering against an unbiased high-spp reference.
+/// Parses `--integrators`: comma-separated names or "all".
+fn parse_integrators(list: &str) -> Result<Vec<(&'static str, shared::integrator::Integrator)>> {
+    if list == "all" {
+        return Ok(crate::cli::INTEGRATORS.to_vec());
+    }
+    list.split(',')
+        .map(|n| {
+            let n = n.trim();
+            crate::cli::INTEGRATORS
+                .iter()
+                .find(|(name, _)| *name == n)
+                .copied()
+                .with_context(|| format!("--integrators: unknown integrator {n:?}"))
+        })
+        .collect()
+}
+
+/// Checks every output of `host eval` before any work: `--out-dir` and each image in it, and
+/// the JSON report, distinct and writable. Returns the JSON path.
+fn plan_eval_outputs(args: &EvalArgs, images: &[std::path::PathBuf]) -> Result<std::path::PathBuf> {
+    let json = args
+        .json
+        .clone()
+        .unwrap_or_else(|| args.out_dir.join("eval.json"));
+    let mut plan = OutputPlan::new();
+    plan.input("--volume", Path::new(&args.scene.volume))
+        .dir("--out-dir", &args.out_dir);
+    for image in images {
+        plan.file("an image of --out-dir", image);
+    }
+    plan.file("--json", &json).check()?;
+    Ok(json)
+}
+
 fn run_eval_integrators(
     args: &EvalArgs,
-    list: &str,
+    integrators: &[(&'static str, shared::integrator::Integrator)],
+    json: &std::path::Path,
     vol: &DenseVolume,
     packed: &crate::bricks::PackedVolume,
     backend: &Backend,
     mut params: RenderParams,
 ) -> Result<()> {
-    let integrators: Vec<(&'static str, shared::integrator::Integrator)> = if list == "all" {
-        crate::cli::INTEGRATORS.to_vec()
-    } else {
-        list.split(',')
-            .map(|n| {
-                let n = n.trim();
-                crate::cli::INTEGRATORS
-                    .iter()
-                    .find(|(name, _)| *name == n)
-                    .copied()
-                    .with_context(|| format!("--integrators: unknown integrator {n:?}"))
-            })
-            .collect::<Result<_>>()?
-    };
     let lights = lights_or_default(&args.lights, args.albedo, args.exposure, vol)?;
     params.light_count = lights.len() as u32;
     params.albedo = args.albedo;
@@ -458,13 +628,8 @@ fn run_eval_integrators(
         std_scale: args.std_scale,
         progress: !args.quiet,
     };
-    let report = crate::eval::evaluate_integrators(&setup, &lights, &integrators, args.exposure)?;
-    let json = args
-        .json
-        .clone()
-        .unwrap_or_else(|| args.out_dir.join("eval.json"));
-    crate::output::ensure_parent(&json)?;
-    crate::output::write_json(&json, &report)?;
+    let report = crate::eval::evaluate_integrators(&setup, &lights, integrators, args.exposure)?;
+    crate::output::write_json(json, &report)?;
     println!("wrote {}", json.display());
     Ok(())
 }

@@ -8,7 +8,7 @@ use crate::output::{write_exr, write_json};
 use crate::render::render;
 use anyhow::{Context, Result};
 use shared::render::{PixelOut, RenderParams};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Statistics of one estimator over the pixels whose reference transmittance is below 1.
@@ -183,6 +183,48 @@ fn pixel_std(p: &PixelOut, spp: u32) -> f64 {
     }
 }
 
+/// The image file `name_suffix` of an evaluated estimator in `out_dir` (suffix "bias.exr", ...).
+pub fn estimator_file(out_dir: &Path, name: &str, suffix: &str) -> PathBuf {
+    out_dir.join(format!("{name}_{suffix}"))
+}
+
+/// Suffixes of the images written per estimator.
+const ESTIMATOR_IMAGES: [&str; 6] = [
+    "mean.exr", "mean.png", "bias.exr", "bias.png", "std.exr", "std.png",
+];
+
+/// Every image `evaluate` writes in `out_dir` for these estimators, the reference first.
+pub fn estimator_files<'a>(out_dir: &Path, names: impl Iterator<Item = &'a str>) -> Vec<PathBuf> {
+    let mut files = vec![out_dir.join("reference.exr"), out_dir.join("reference.png")];
+    for name in names {
+        files.extend(
+            ESTIMATOR_IMAGES
+                .iter()
+                .map(|s| estimator_file(out_dir, name, s)),
+        );
+    }
+    files
+}
+
+/// Every image `evaluate_integrators` writes in `out_dir` for these integrators.
+pub fn integrator_files<'a>(out_dir: &Path, names: impl Iterator<Item = &'a str>) -> Vec<PathBuf> {
+    let mut files = vec![out_dir.join("reference.exr"), out_dir.join("reference.png")];
+    for name in names {
+        files.push(out_dir.join(format!("{name}.exr")));
+        files.push(out_dir.join(format!("{name}.png")));
+    }
+    files
+}
+
+/// Prints one progress line to stderr (also when it is not a terminal, where the progress bar
+/// stays hidden): render `k` of `total` (0: the reference).
+fn step(setup: &EvalSetup, k: usize, total: usize, what: &str, spp: u32) {
+    if setup.progress {
+        let (w, h) = (setup.params.width, setup.params.height);
+        eprintln!("eval [{k}/{total}] rendering {what}: {w}x{h} at {spp} spp");
+    }
+}
+
 /// Settings of one evaluation.
 pub struct EvalSetup<'a> {
     pub backend: &'a Backend,
@@ -205,6 +247,7 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
     let mut ref_params = setup.params;
     setup.reference.apply(&mut ref_params);
     ref_params.spp = setup.reference_spp;
+    step(setup, 0, estimators.len(), "the reference", ref_params.spp);
     let reference = render(setup.backend, setup.volume, &ref_params, setup.progress)
         .context("rendering the reference")?;
     let ref_t: Vec<f32> = reference.iter().map(|p| p.t_mean).collect();
@@ -218,9 +261,10 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
     let count = mask.iter().filter(|&&m| m).count().max(1);
 
     let mut reports = Vec::new();
-    for spec in estimators {
+    for (k, spec) in estimators.iter().enumerate() {
         let mut params = setup.params;
         spec.apply(&mut params);
+        step(setup, k + 1, estimators.len(), spec.name, params.spp);
         let start = Instant::now();
         let pixels = render(setup.backend, setup.volume, &params, setup.progress)
             .with_context(|| format!("rendering {}", spec.name))?;
@@ -238,8 +282,11 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
             (0..pixels.len()).filter(|&i| mask[i]).map(f).sum::<f64>() / count as f64
         };
         let noise = (2.0 / (std::f64::consts::PI * params.spp as f64)).sqrt();
-        let stem = setup.out_dir.join(spec.name);
-        let file = |suffix: &str| format!("{}_{suffix}", stem.display());
+        let file = |suffix: &str| {
+            estimator_file(setup.out_dir, spec.name, suffix)
+                .display()
+                .to_string()
+        };
         let mean_t: Vec<f32> = pixels.iter().map(|p| p.t_mean).collect();
         write_exr(Path::new(&file("mean.exr")), w, h, &mean_t)?;
         crate::output::write_png(Path::new(&file("mean.png")), w, h, &mean_t)?;
@@ -409,6 +456,7 @@ pub fn evaluate_integrators(
     ref_params.t_hat = TransmittanceHat::Ratio as u32;
     ref_params.spp = setup.reference_spp;
     ref_params.seed = setup.params.seed ^ 0x5eed_0001;
+    step(setup, 0, integrators.len(), "the reference", ref_params.spp);
     let reference = crate::render::render_scene(
         setup.backend,
         setup.volume,
@@ -426,9 +474,10 @@ pub fn evaluate_integrators(
     crate::output::write_png(&reference_png, w, h, &tone(&ref_l))?;
     let n = ref_l.len() as f64;
     let mut reports = Vec::new();
-    for &(name, integrator) in integrators {
+    for (k, &(name, integrator)) in integrators.iter().enumerate() {
         let mut params = setup.params;
         params.integrator = integrator as u32;
+        step(setup, k + 1, integrators.len(), name, params.spp);
         let start = Instant::now();
         let pixels = crate::render::render_scene(
             setup.backend,

@@ -1,12 +1,11 @@
 //! `host`: renders and measures the jackknife transmittance estimators on the GPU or the CPU.
 
-use clap::Parser;
-use host::cli::{Cli, Command};
+use host::cli::Command;
 use host::commands::{run_eval, run_probe, run_render};
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = host::cli::parse();
     let result = match &cli.command {
         None => run_render(&cli.render).map(|_| ()),
         Some(Command::Render(args)) => run_render(args).map(|_| ()),

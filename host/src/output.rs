@@ -1,7 +1,7 @@
 //! Image and summary output: linear EXR, tone-mapped PNG preview, JSON summary.
 
-use anyhow::{Context, Result};
-use std::path::Path;
+use anyhow::{bail, Context, Result};
+use std::path::{Component, Path, PathBuf};
 
 /// Writes a single-channel linear image as an RGB EXR (all channels equal), f32, ZIP-compressed
 /// scan lines in increasing order, written on one thread so equal images give equal bytes.
@@ -62,4 +62,186 @@ pub fn ensure_parent(path: &Path) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// Whether a planned output is one file or a directory of files.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    File,
+    Dir,
+}
+
+/// Every path a command will write, gathered before any work so that clashes and unwritable
+/// paths are refused up front instead of after a long render (or by overwriting an output).
+#[derive(Debug, Default)]
+pub struct OutputPlan {
+    /// (what writes it, for messages; the path as given; its absolute, normalized form; kind)
+    entries: Vec<(String, PathBuf, PathBuf, Kind)>,
+    /// Files that are read and must never be written (the input volume).
+    inputs: Vec<(String, PathBuf)>,
+}
+
+impl OutputPlan {
+    /// An empty plan.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Plans a file written for `what` (a flag such as "--json", or "the PNG preview of --out").
+    pub fn file(&mut self, what: &str, path: &Path) -> &mut Self {
+        self.push(what, path, Kind::File)
+    }
+
+    /// Plans a directory whose files are written for `what`.
+    pub fn dir(&mut self, what: &str, path: &Path) -> &mut Self {
+        self.push(what, path, Kind::Dir)
+    }
+
+    /// Records a file the command reads (`what`, e.g. "--volume"), so no output may replace it.
+    pub fn input(&mut self, what: &str, path: &Path) -> &mut Self {
+        if path.is_file() {
+            self.inputs.push((what.to_owned(), normalize(path)));
+        }
+        self
+    }
+
+    /// Adds one entry.
+    fn push(&mut self, what: &str, path: &Path, kind: Kind) -> &mut Self {
+        self.entries
+            .push((what.to_owned(), path.to_owned(), normalize(path), kind));
+        self
+    }
+
+    /// Refuses clashes (two outputs on one path, an output on an input), then checks that every
+    /// output can be written, creating missing parent directories and output directories.
+    pub fn check(&self) -> Result<()> {
+        self.check_clashes()?;
+        for (what, path, _, kind) in &self.entries {
+            match kind {
+                Kind::File => check_file(what, path)?,
+                Kind::Dir => check_dir(what, path)?,
+            }
+        }
+        Ok(())
+    }
+
+    /// Refuses two outputs on the same path and outputs on inputs.
+    fn check_clashes(&self) -> Result<()> {
+        for (i, (what, path, norm, kind)) in self.entries.iter().enumerate() {
+            if let Some((other, _)) = self.inputs.iter().find(|(_, input)| input == norm) {
+                bail!(
+                    "{what} {} would overwrite the input {other}; choose another output path",
+                    path.display()
+                );
+            }
+            for (what2, path2, norm2, kind2) in &self.entries[..i] {
+                let same = norm == norm2 && (*kind == Kind::File || *kind2 == Kind::File);
+                if same {
+                    bail!(
+                        "{what2} and {what} are the same path ({} and {}): one would overwrite \
+                         the other; give them different paths",
+                        path2.display(),
+                        path.display()
+                    );
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// `path` made absolute (against the current directory) with `.` and `..` resolved lexically,
+/// and its existing parent's symlinks resolved, so equal files compare equal.
+fn normalize(path: &Path) -> PathBuf {
+    let absolute = std::env::current_dir()
+        .map(|cwd| cwd.join(path))
+        .unwrap_or_else(|_| path.to_owned());
+    let mut out = PathBuf::new();
+    for part in absolute.components() {
+        match part {
+            Component::CurDir => {}
+            Component::ParentDir => {
+                out.pop();
+            }
+            other => out.push(other),
+        }
+    }
+    match (out.parent(), out.file_name()) {
+        (Some(dir), Some(name)) => match dir.canonicalize() {
+            Ok(dir) => dir.join(name),
+            Err(_) => out,
+        },
+        _ => out,
+    }
+}
+
+/// Checks that file `path` can be written: not a directory, its directory exists (created if
+/// missing) and accepts a new file, or the existing file opens for writing (not truncated).
+fn check_file(what: &str, path: &Path) -> Result<()> {
+    anyhow::ensure!(
+        path.file_name().is_some(),
+        "{what} {}: not a file path; give a file name",
+        path.display()
+    );
+    anyhow::ensure!(
+        !path.is_dir(),
+        "{what} {} is a directory; give a file path",
+        path.display()
+    );
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_owned(),
+        _ => PathBuf::from("."),
+    };
+    create_dir(what, path, &dir)?;
+    if path.exists() {
+        std::fs::OpenOptions::new()
+            .append(true)
+            .open(path)
+            .map(drop)
+            .with_context(|| format!("{what} {} exists and cannot be written", path.display()))
+    } else {
+        probe_dir(what, path, &dir)
+    }
+}
+
+/// Checks that directory `path` exists (created if missing) and accepts new files.
+fn check_dir(what: &str, path: &Path) -> Result<()> {
+    anyhow::ensure!(
+        !path.exists() || path.is_dir(),
+        "{what} {} exists and is not a directory; give a directory path",
+        path.display()
+    );
+    create_dir(what, path, path)?;
+    probe_dir(what, path, path)
+}
+
+/// Creates `dir` (and its parents) for output `path` of `what`, with an error naming both.
+fn create_dir(what: &str, path: &Path, dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| {
+        format!(
+            "{what} {}: cannot create directory {}; check the path (is a parent a file?) and \
+             its permissions",
+            path.display(),
+            dir.display()
+        )
+    })
+}
+
+/// Creates and removes a probe file in `dir`, proving that `what` can write there.
+fn probe_dir(what: &str, path: &Path, dir: &Path) -> Result<()> {
+    let probe = dir.join(format!(".host-write-probe-{}", std::process::id()));
+    std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&probe)
+        .with_context(|| {
+            format!(
+                "{what} {}: cannot write in directory {}; check its permissions or choose \
+                 another path",
+                path.display(),
+                dir.display()
+            )
+        })?;
+    std::fs::remove_file(&probe)
+        .with_context(|| format!("removing the write probe {}", probe.display()))
 }

@@ -35,6 +35,9 @@ pub struct DenseVolume {
     pub values: Vec<f32>,
     /// Voxel index space to world space.
     pub index_to_world: Affine,
+    /// For a volume read from a file: the file index of dense voxel (0, 0, 0), so messages can
+    /// name voxels in the file's own coordinates.
+    pub file_origin: Option<[i32; 3]>,
 }
 
 impl DenseVolume {
@@ -76,7 +79,27 @@ impl DenseVolume {
             dims,
             values,
             index_to_world,
+            file_origin: None,
         })
+    }
+
+    /// The same volume, its dense voxel (0, 0, 0) being file voxel `origin`.
+    pub fn with_file_origin(mut self, origin: [i32; 3]) -> Self {
+        self.file_origin = Some(origin);
+        self
+    }
+
+    /// Describes voxel (x, y, z) for messages: in file index coordinates for a file, else as is.
+    pub fn describe_voxel(&self, x: u32, y: u32, z: u32) -> String {
+        match self.file_origin {
+            Some(o) => format!(
+                "voxel ({}, {}, {}) (file index coordinates)",
+                i64::from(o[0]) + i64::from(x),
+                i64::from(o[1]) + i64::from(y),
+                i64::from(o[2]) + i64::from(z)
+            ),
+            None => format!("voxel ({x}, {y}, {z})"),
+        }
     }
 
     /// Value of voxel (x, y, z).

@@ -23,6 +23,10 @@ use std::path::Path;
 /// The grid loaded when none is named.
 pub const DEFAULT_GRID: &str = "density";
 
+/// Peak bytes per dense voxel from loading to rendering: the f32 dense grid (4) plus, while it
+/// is packed, the f16 values (2) and their packed words (2).
+pub const PEAK_BYTES_PER_VOXEL: u64 = 8;
+
 /// Largest dense grid a loader builds (2^31 voxels, 8 GiB of f32).
 pub const MAX_DENSE_VOXELS: u64 = 1 << 31;
 
@@ -69,6 +73,8 @@ pub struct LoadedVolume {
     pub volume: DenseVolume,
     /// How many negative densities [`LoadOptions::clamp_negative`] set to 0.
     pub clamped_negative: u64,
+    /// The name of the grid that was read (the one rendered).
+    pub grid: String,
 }
 
 /// Loads a `.vdb` or `.nvdb` file as [`LoadOptions`] say. Every error names the file.
@@ -145,6 +151,33 @@ struct GridEntry {
     value_type: String,
     /// Whether the loader can read this grid's values.
     supported: bool,
+    /// Why an unsupported grid is refused, with advice (default: not scalar floats).
+    why: Option<String>,
+}
+
+impl GridEntry {
+    /// A grid listing; `supported` grids have no refusal reason.
+    fn new(name: String, value_type: String, supported: bool) -> Self {
+        GridEntry {
+            name,
+            value_type,
+            supported,
+            why: None,
+        }
+    }
+
+    /// Marks the grid unsupported because it is a level set (signed distances, not densities).
+    fn level_set(mut self) -> Self {
+        self.supported = false;
+        self.value_type = format!("{} level set", self.value_type);
+        self.why = Some(format!(
+            "grid '{}' is a level set (signed distances to a surface, negative inside), not a \
+             density; convert it to a fog volume first (OpenVDB tools::sdfToFogVolume, Houdini \
+             'Convert VDB' to Fog VDB) or pick a fog-volume grid with --grid",
+            self.name
+        ));
+        self
+    }
 }
 
 /// Picks the grid to load: `requested`, else "density", else the first supported grid.
@@ -163,6 +196,9 @@ fn select_grid(grids: &[GridEntry], requested: Option<&str>) -> Result<usize> {
         })?,
     };
     let g = &grids[index];
+    if let (false, Some(why)) = (g.supported, &g.why) {
+        bail!("{why} (available grids: {})", list(grids));
+    }
     ensure!(
         g.supported,
         "grid '{}' holds {} values, not scalar floats; pick a float grid (available grids: {})",
@@ -251,6 +287,8 @@ impl LinearMap {
 struct Loaded {
     dense: Dense,
     map: LinearMap,
+    /// The name of the grid read.
+    grid: String,
 }
 
 impl Loaded {
@@ -289,10 +327,12 @@ impl Loaded {
         let Dense {
             min, dims, values, ..
         } = self.dense;
-        let volume = DenseVolume::new(name, dims, values, self.map.dense_affine(min))?;
+        let volume =
+            DenseVolume::new(name, dims, values, self.map.dense_affine(min))?.with_file_origin(min);
         Ok(LoadedVolume {
             volume,
             clamped_negative,
+            grid: self.grid,
         })
     }
 }
@@ -351,25 +391,12 @@ impl DenseBuilder {
             .context("the grid has no active voxels (it is empty); pick another grid")?;
         let dims = dense_dims(lo, hi, cap)?;
         let count: usize = dims.iter().map(|&d| d as usize).product();
-        let bytes = count as u64 * 4;
-        let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
-        if let Some(available) = available_memory() {
-            ensure!(
-                bytes <= available,
-                "its dense {}x{}x{} grid needs {:.1} GiB, more than the {:.1} GiB of memory \
-                 available; crop the volume to the region of interest or resample it coarser",
-                dims[0],
-                dims[1],
-                dims[2],
-                gib(bytes),
-                gib(available)
-            );
-        }
+        check_memory(dims, available_memory())?;
         let mut values = Vec::new();
         values.try_reserve_exact(count).map_err(|_| {
             anyhow!(
                 "cannot allocate {:.1} GiB for its dense grid; crop or resample the volume",
-                gib(bytes)
+                count as f64 * 4.0 / (1u64 << 30) as f64
             )
         })?;
         values.resize(count, background);
@@ -381,6 +408,29 @@ impl DenseBuilder {
             background,
         })
     }
+}
+
+/// Refuses a dense grid of `dims` whose peak memory ([`PEAK_BYTES_PER_VOXEL`] per voxel) exceeds
+/// `available` bytes (when known), so it fails with advice instead of aborting later.
+fn check_memory(dims: [u32; 3], available: Option<u64>) -> Result<()> {
+    let count: u64 = dims.iter().map(|&d| u64::from(d)).product();
+    let bytes = count.saturating_mul(PEAK_BYTES_PER_VOXEL);
+    let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
+    if let Some(available) = available {
+        ensure!(
+            bytes <= available,
+            "its dense {}x{}x{} grid needs {:.1} GiB at its peak ({PEAK_BYTES_PER_VOXEL} bytes \
+             per voxel of the active bounding box: f32 values, then f16 packing), more than \
+             the {:.1} GiB of memory available; crop the volume to the region of interest or \
+             resample it coarser",
+            dims[0],
+            dims[1],
+            dims[2],
+            gib(bytes),
+            gib(available)
+        );
+    }
+    Ok(())
 }
 
 /// The memory the OS says is available (Linux: MemAvailable of /proc/meminfo), if known.
@@ -472,11 +522,7 @@ mod tests {
     use super::*;
 
     fn entry(name: &str, value_type: &str, supported: bool) -> GridEntry {
-        GridEntry {
-            name: name.into(),
-            value_type: value_type.into(),
-            supported,
-        }
+        GridEntry::new(name.into(), value_type.into(), supported)
     }
 
     #[test]
@@ -525,6 +571,19 @@ mod tests {
         assert!(err.contains("4294967296x"), "{err}");
         assert_eq!(dense_dims([-1, 0, 5], [1, 0, 6], 6).unwrap(), [3, 1, 2]);
         assert!(dense_dims([-1, 0, 5], [1, 0, 6], 5).is_err());
+    }
+
+    #[test]
+    fn memory_check_counts_the_peak_not_just_the_f32_grid() {
+        // 2^20 voxels: 4 MiB of f32 fit in 6 MiB, the 8 MiB peak does not.
+        let dims = [128, 128, 64];
+        let err = check_memory(dims, Some(6 << 20)).unwrap_err().to_string();
+        assert!(
+            err.contains("8 bytes per voxel") && err.contains("crop"),
+            "{err}"
+        );
+        assert!(check_memory(dims, Some(8 << 20)).is_ok());
+        assert!(check_memory(dims, None).is_ok());
     }
 
     #[test]

@@ -3,7 +3,7 @@
 
 use super::{select_grid, DenseBuilder, GridEntry, LinearMap, Loaded};
 use anyhow::{ensure, Context, Result};
-use nanovdb_rs::{GridType, NvdbFile, ValidatedFloatTreeCache};
+use nanovdb_rs::{GridClass, GridType, NvdbFile, ValidatedFloatTreeCache};
 use std::path::Path;
 
 /// `"NanoVDB0"` as a little-endian u64: the first field of every segment header and grid.
@@ -104,15 +104,26 @@ fn explain(e: nanovdb_rs::Error) -> anyhow::Error {
     anyhow::anyhow!("{e}{advice}")
 }
 
-/// A grid's listing: name, value type, and whether it is a plain float grid.
+/// A grid's listing: name, value type, and whether it is a plain float fog volume; level sets
+/// and quantized float grids get reasons of their own.
 fn entry(g: &nanovdb_rs::Grid) -> GridEntry {
     let value_type = g.value_type();
     let supported = value_type == GridType::Float;
-    GridEntry {
-        name: g.name().to_owned(),
-        value_type: format!("{value_type:?}"),
-        supported,
+    let mut e = GridEntry::new(g.name().to_owned(), format!("{value_type:?}"), supported);
+    if matches!(
+        value_type,
+        GridType::Fp4 | GridType::Fp8 | GridType::Fp16 | GridType::FpN
+    ) {
+        e.why = Some(format!(
+            "grid '{}' holds {value_type:?} values (NanoVDB's quantized floats), which this \
+             reader does not decode; re-convert the .vdb without quantization (nanovdb_convert \
+             without --fp4/--fp8/--fp16/--fpN) or load the .vdb itself",
+            e.name
+        ));
+    } else if g.metadata.grid_class == GridClass::LevelSet {
+        e = e.level_set();
     }
+    e
 }
 
 /// Reads one float grid into a dense grid over its index bounding box.
@@ -158,5 +169,9 @@ fn load_grid(g: &nanovdb_rs::Grid, cap: u64) -> Result<Loaded> {
             }
         }
     }
-    Ok(Loaded { dense, map })
+    Ok(Loaded {
+        dense,
+        map,
+        grid: g.name().to_owned(),
+    })
 }

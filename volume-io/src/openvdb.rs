@@ -62,7 +62,13 @@ pub fn load(data: &[u8], grid: Option<&str>, cap: u64) -> Result<super::Loaded> 
     let mut r = ByteReader::new(data);
     read_header(&mut r)?;
     let descriptors = read_descriptors(&mut r)?;
-    let entries: Vec<GridEntry> = descriptors.iter().map(|d| d.entry.clone()).collect();
+    let entries: Vec<GridEntry> = descriptors
+        .iter()
+        .map(|d| match grid_class(data, d.grid_pos).as_deref() {
+            Some("level set") => d.entry.clone().level_set(),
+            _ => d.entry.clone(),
+        })
+        .collect();
     let chosen = &descriptors[super::select_grid(&entries, grid)?];
     read_grid(&mut r, chosen, cap).with_context(|| format!("grid '{}'", chosen.entry.name))
 }
@@ -88,6 +94,25 @@ fn read_header(r: &mut ByteReader) -> Result<()> {
     );
     let _uuid = r.bytes(36)?;
     skip_metadata(r).context("reading the file metadata")
+}
+
+/// The "class" metadata of the grid at `grid_pos` ("level set", "fog volume", ...), if it can
+/// be read; reading the grid itself reports a damaged header.
+fn grid_class(data: &[u8], grid_pos: u64) -> Option<String> {
+    let mut r = ByteReader::new(data);
+    r.seek(grid_pos).ok()?;
+    let _compression = r.u32().ok()?;
+    let count = r.u32().ok()?;
+    for _ in 0..count {
+        let name = r.string().ok()?;
+        let type_name = r.string().ok()?;
+        let size = r.u32().ok()?;
+        let bytes = r.bytes(size as usize).ok()?;
+        if name == "class" && type_name == "string" {
+            return Some(String::from_utf8_lossy(bytes).into_owned());
+        }
+    }
+    None
 }
 
 /// Skips a metadata map: a count, then (name, type name, byte size, bytes) per entry.
@@ -135,11 +160,7 @@ fn read_descriptor(r: &mut ByteReader) -> Result<Descriptor> {
     let value_type = value_type_name(&tree_type);
     let supported = matches!(tree_type.as_str(), "Tree_float_5_4_3" | "Tree_double_5_4_3");
     Ok(Descriptor {
-        entry: GridEntry {
-            name,
-            value_type,
-            supported,
-        },
+        entry: GridEntry::new(name, value_type, supported),
         tree_type,
         half,
         instance_parent,
@@ -157,8 +178,9 @@ fn value_type_name(tree_type: &str) -> String {
 fn read_grid(r: &mut ByteReader, d: &Descriptor, cap: u64) -> Result<super::Loaded> {
     ensure!(
         d.instance_parent.is_empty(),
-        "it is an instance of grid '{}' (shares its tree); load that grid instead",
-        d.instance_parent
+        "it is an instance of grid '{parent}' (it shares that grid's tree, which this reader \
+         does not follow); load that grid instead with --grid {parent}",
+        parent = d.instance_parent
     );
     r.seek(d.grid_pos)?;
     let compression = r.u32()?;
@@ -191,7 +213,11 @@ fn read_grid(r: &mut ByteReader, d: &Descriptor, cap: u64) -> Result<super::Load
         "the tree topology read differently twice"
     );
     read_leaf_buffers(r, storage, &survey.leaves, &mut dense).context("reading the leaf values")?;
-    Ok(super::Loaded { dense, map })
+    Ok(super::Loaded {
+        dense,
+        map,
+        grid: d.entry.name.clone(),
+    })
 }
 
 /// Reads a grid transform: the map's type name, then its parameters.

@@ -121,7 +121,7 @@ pub fn run(args: &ReportArgs) -> Result<()> {
         "--bias-scale and --std-scale must be finite and > 0"
     );
     let out = &args.out;
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    crate::output::OutputPlan::new().dir("--out", out).check()?;
     let mut used = Vec::new();
     let mut sources: Vec<(String, PathBuf)> = Vec::new();
     // Read every --from-eval first: a typo should not cost the evaluations.

@@ -23,6 +23,20 @@ pub struct Output {
 }
 
 impl Output {
+    /// Checks before the study runs that `--json` and the plot (or, by default, `out/`) are
+    /// distinct and writable.
+    pub fn check(&self) -> Result<()> {
+        let mut plan = crate::output::OutputPlan::new();
+        if let Some(json) = &self.json {
+            plan.file("--json", json);
+        }
+        match &self.plot {
+            Some(plot) => plan.file("--plot", plot),
+            None => plan.dir("the default plot directory", Path::new("out")),
+        };
+        plan.check()
+    }
+
     /// Writes the JSON (if asked for) and the plot, and says where they went.
     pub fn write<T: Serialize>(
         &self,

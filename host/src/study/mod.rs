@@ -220,7 +220,21 @@ pub fn run(args: &StudyArgs) -> Result<()> {
     }
 }
 
+/// The output flags of a study.
+fn output_of(command: &StudyCommand) -> &Output {
+    match command {
+        StudyCommand::Normal(a) => &a.out,
+        StudyCommand::Distributions(a) => &a.out,
+        StudyCommand::Profile(a) => &a.out,
+        StudyCommand::Table1(a) => &a.out,
+        StudyCommand::Histogram(a) => &a.out,
+        StudyCommand::Convergence(a) => &a.out,
+        StudyCommand::MisBias(a) => &a.out,
+    }
+}
+
 fn run_study(command: &StudyCommand) -> Result<()> {
+    output_of(command).check()?;
     match command {
         StudyCommand::Normal(a) => commands::run_normal(a),
         StudyCommand::Distributions(a) => commands::run_distributions(a),

@@ -1,0 +1,442 @@
+//! Outputs are never lost or mislabelled: clashing or unwritable output paths are refused before
+//! any work, integrator renders are labelled and recorded as radiance, flags that would be ignored
+//! are errors, and the volume actually rendered (grid, f16 range) is named and checked.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn host() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_host"))
+}
+
+/// A small CPU render with `extra` flags (outputs are given by the caller).
+fn render(extra: &[&str]) -> Output {
+    host()
+        .args([
+            "render",
+            "--width",
+            "16",
+            "--height",
+            "16",
+            "--spp",
+            "1",
+            "--resolution",
+            "32",
+            "--backend",
+            "cpu",
+            "--quiet",
+        ])
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
+/// Asserts that `out` failed cleanly (exit 1, `error:`) with all `words` in stderr.
+fn assert_refused(out: &Output, words: &[&str]) -> String {
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert_eq!(out.status.code(), Some(1), "expected failure: {stderr}");
+    assert!(stderr.starts_with("error:"), "{stderr}");
+    for w in words {
+        assert!(stderr.contains(w), "stderr lacks {w:?}: {stderr}");
+    }
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    stderr
+}
+
+/// Asserts success and returns stdout.
+fn assert_ok(out: &Output) -> String {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).to_string()
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../tests/fixtures")
+        .join(name)
+}
+
+fn json(path: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+#[test]
+fn json_equal_to_out_or_its_preview_is_refused_without_touching_either() {
+    let dir = tempfile::tempdir().unwrap();
+    let exr = dir.path().join("r.exr");
+    let png = dir.path().join("r.png");
+    std::fs::write(&exr, b"precious exr").unwrap();
+    std::fs::write(&png, b"precious png").unwrap();
+    let same = render(&["--out", s(&exr), "--json", s(&exr)]);
+    assert_refused(&same, &["--out", "--json", "same path"]);
+    // A different spelling of the same file is the same path.
+    let dotted = dir.path().join(".").join("r.png");
+    let preview = render(&["--out", s(&exr), "--json", s(&dotted)]);
+    assert_refused(&preview, &["PNG preview", "--json", "same path"]);
+    assert_eq!(std::fs::read(&exr).unwrap(), b"precious exr");
+    assert_eq!(std::fs::read(&png).unwrap(), b"precious png");
+}
+
+#[test]
+fn out_that_is_not_an_exr_is_refused_instead_of_overwritten_by_the_preview() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("r.png");
+    let out = render(&["--out", s(&png)]);
+    assert_refused(&out, &["--out", "must end in .exr", ".png"]);
+    assert!(!png.exists(), "a file was written");
+}
+
+#[test]
+fn out_over_the_input_volume_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let vol = dir.path().join("v.vdb");
+    std::fs::copy(fixture("density_zip.vdb"), &vol).unwrap();
+    let before = std::fs::read(&vol).unwrap();
+    let out = render(&[
+        "--volume",
+        s(&vol),
+        "--out",
+        s(&dir.path().join("r.exr")),
+        "--json",
+        s(&vol),
+    ]);
+    assert_refused(&out, &["--json", "input --volume"]);
+    assert_eq!(std::fs::read(&vol).unwrap(), before);
+}
+
+#[test]
+fn unwritable_outputs_are_refused_before_rendering() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("a_file");
+    std::fs::write(&file, b"x").unwrap();
+    let exr = dir.path().join("r.exr");
+    // A parent that is a file: no render may start, no EXR may be written.
+    let out = host()
+        .args([
+            "render",
+            "--backend",
+            "cpu",
+            "--quiet",
+            "--width",
+            "512",
+            "--height",
+            "512",
+            "--spp",
+            "64",
+            "--resolution",
+            "64",
+            "--out",
+            s(&exr),
+            "--json",
+            s(&file.join("r.json")),
+        ])
+        .output()
+        .unwrap();
+    assert_refused(&out, &["--json", "a_file", "cannot create directory"]);
+    assert!(
+        !exr.exists(),
+        "the EXR was written before --json was checked"
+    );
+    let out = render(&["--out", s(&file.join("r.exr"))]);
+    assert_refused(&out, &["--out", "a_file"]);
+    let out = render(&["--out", s(&exr), "--json", s(dir.path())]);
+    assert_refused(&out, &["--json", "is a directory"]);
+    assert!(!exr.exists());
+    // host eval: --out-dir under a file, and --json under a file.
+    let eval = |extra: &[&str]| {
+        host()
+            .args([
+                "eval",
+                "--width",
+                "8",
+                "--height",
+                "8",
+                "--spp",
+                "2",
+                "--resolution",
+                "32",
+                "--backend",
+                "cpu",
+                "--quiet",
+                "--estimators",
+                "jackknife",
+            ])
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    assert_refused(
+        &eval(&["--out-dir", s(&file.join("eval"))]),
+        &["--out-dir", "a_file"],
+    );
+    let good = dir.path().join("eval");
+    assert_refused(
+        &eval(&["--out-dir", s(&good), "--json", s(&file.join("e.json"))]),
+        &["--json", "a_file"],
+    );
+    assert!(!good.join("reference.exr").exists(), "eval rendered first");
+    // --json onto one of the eval's own images.
+    assert_refused(
+        &eval(&[
+            "--out-dir",
+            s(&good),
+            "--json",
+            s(&good.join("jackknife_bias.png")),
+        ]),
+        &["--json", "same path"],
+    );
+}
+
+#[test]
+fn integrator_render_records_radiance_and_everything_to_reproduce_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let (exr, js) = (dir.path().join("r.exr"), dir.path().join("r.json"));
+    let stdout = assert_ok(&render(&[
+        "--integrator",
+        "mis-jackknife",
+        "--albedo",
+        "0.5",
+        "--hg-g",
+        "0.3",
+        "--t-hat",
+        "ratio",
+        "--exposure",
+        "2",
+        "--light",
+        "1,2,3,40",
+        "--seed",
+        "7",
+        "--out",
+        s(&exr),
+        "--json",
+        s(&js),
+    ]));
+    assert!(stdout.contains("mean L "), "{stdout}");
+    assert!(!stdout.contains("mean T"), "{stdout}");
+    assert!(!stdout.contains("shadow rays"), "{stdout}");
+    let j = json(&js);
+    assert!(j.get("mean_T").is_none(), "{j}");
+    assert!(j["mean_L"].as_f64().unwrap() > 0.0, "{j}");
+    assert_eq!(j["estimator"], "mis-jackknife");
+    assert_eq!(j["seed"], 7);
+    let i = &j["integrator"];
+    assert_eq!(i["name"], "mis-jackknife");
+    assert_eq!(i["lights"], serde_json::json!([[1.0, 2.0, 3.0, 40.0]]));
+    assert_eq!(i["albedo"], 0.5);
+    assert!((i["hg_g"].as_f64().unwrap() - 0.3).abs() < 1e-6);
+    assert_eq!(i["t_hat"], "ratio");
+    assert_eq!(i["exposure"], 2.0);
+    let cmd: Vec<String> = serde_json::from_value(j["command_line"].clone()).unwrap();
+    assert!(cmd.iter().any(|a| a == "--hg-g"), "{cmd:?}");
+    // Default lights are recorded as resolved.
+    let js2 = dir.path().join("r2.json");
+    assert_ok(&render(&[
+        "--integrator",
+        "free-flight",
+        "--out",
+        s(&exr),
+        "--json",
+        s(&js2),
+    ]));
+    assert_eq!(
+        json(&js2)["integrator"]["lights"].as_array().unwrap().len(),
+        2
+    );
+}
+
+#[test]
+fn ignored_flags_are_errors_not_labels() {
+    let dir = tempfile::tempdir().unwrap();
+    let exr = dir.path().join("r.exr");
+    let o = s(&exr);
+    for estimator in ["ratio", "jackknife"] {
+        let out = render(&[
+            "--integrator",
+            "mis-jackknife",
+            "--estimator",
+            estimator,
+            "--out",
+            o,
+        ]);
+        assert_refused(
+            &out,
+            &["--estimator", "no effect with --integrator", "jackknife"],
+        );
+    }
+    let out = render(&["--integrator", "miller", "--f-delta", "0.2", "--out", o]);
+    assert_refused(&out, &["--f-delta", "no effect"]);
+    for flag in [
+        &["--albedo", "0.5"][..],
+        &["--hg-g", "0.2"],
+        &["--t-hat", "ratio"],
+        &["--exposure", "2"],
+        &["--light", "0,0,0,1"],
+    ] {
+        let mut args = flag.to_vec();
+        args.extend(["--out", o]);
+        let out = render(&args);
+        assert_refused(&out, &[flag[0], "--integrator"]);
+    }
+    assert!(!exr.exists());
+}
+
+#[test]
+fn the_grid_read_is_named_in_stdout_and_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let (exr, js) = (dir.path().join("r.exr"), dir.path().join("r.json"));
+    let multi = fixture("multi.vdb");
+    let stdout = assert_ok(&render(&[
+        "--volume",
+        s(&multi),
+        "--grid",
+        "temperature",
+        "--out",
+        s(&exr),
+        "--json",
+        s(&js),
+    ]));
+    assert!(stdout.contains("grid 'temperature'"), "{stdout}");
+    assert_eq!(json(&js)["grid"], "temperature");
+    // Without --grid: the default chosen by the loader is named.
+    let stdout = assert_ok(&render(&[
+        "--volume",
+        s(&fixture("density_zip.vdb")),
+        "--out",
+        s(&exr),
+        "--json",
+        s(&js),
+    ]));
+    assert!(stdout.contains("grid 'density'"), "{stdout}");
+    assert_eq!(json(&js)["grid"], "density");
+}
+
+#[test]
+fn level_sets_are_refused_with_fog_volume_advice() {
+    let dir = tempfile::tempdir().unwrap();
+    let exr = dir.path().join("r.exr");
+    for file in ["level_set.vdb", "level_set.nvdb"] {
+        let path = fixture(&format!("malformed/{file}"));
+        let out = render(&["--volume", s(&path), "--out", s(&exr)]);
+        let err = assert_refused(&out, &["level set", "fog volume", file]);
+        assert!(!err.contains("--clamp-negative"), "{err}");
+    }
+}
+
+#[test]
+fn extinction_ranges_are_checked_after_the_density_scale_at_file_coordinates() {
+    let dir = tempfile::tempdir().unwrap();
+    let exr = dir.path().join("r.exr");
+    let vol = fixture("density_zip.vdb");
+    // Densities of the fixture are O(1). A scale of 1e6 was refused as f16 overflow although
+    // f32 extinctions of 1e6 are fine: the f16 voxels are now prescaled by a power of two.
+    let out = render(&[
+        "--volume",
+        s(&vol),
+        "--density-scale",
+        "1e6",
+        "--out",
+        s(&exr),
+    ]);
+    assert_ok(&out);
+    // 3e38 overflows the optical depths' f32 sums: mean T was NaN; now refused at the densest
+    // voxel's file coordinates.
+    let exr = dir.path().join("r2.exr");
+    let out = render(&[
+        "--volume",
+        s(&vol),
+        "--density-scale",
+        "3e38",
+        "--out",
+        s(&exr),
+    ]);
+    assert_refused(
+        &out,
+        &["--density-scale", "optical depth", "file index coordinates"],
+    );
+    assert!(!exr.exists());
+}
+
+#[test]
+fn extinction_underflow_is_counted_never_silent() {
+    let dir = tempfile::tempdir().unwrap();
+    let (exr, js) = (dir.path().join("r.exr"), dir.path().join("r.json"));
+    let vol = fixture("density_zip.vdb");
+    // Times 1e-45 (f32's smallest subnormal) most densities become 0: a counted warning naming
+    // the first one in file coordinates, and the count in the JSON.
+    let out = render(&[
+        "--volume",
+        s(&vol),
+        "--density-scale",
+        "1e-45",
+        "--out",
+        s(&exr),
+        "--json",
+        s(&js),
+    ]);
+    assert_ok(&out);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("warning:")
+            && stderr.contains("become 0")
+            && stderr.contains("file index coordinates"),
+        "{stderr}"
+    );
+    let count = json(&js)["underflowed_voxels"].as_u64().unwrap();
+    assert!(count > 0, "{count}");
+    assert!(stderr.contains(&format!("{count} of ")), "{stderr}");
+}
+
+#[test]
+fn bench_report_and_study_outputs_are_checked_before_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("a_file");
+    std::fs::write(&file, b"x").unwrap();
+    let under = file.join("x.json");
+    let run = |args: &[&str]| host().args(args).output().unwrap();
+    let plot = dir.path().join("p.png");
+    let out = run(&[
+        "study",
+        "normal",
+        "--quiet",
+        "--json",
+        s(&under),
+        "--plot",
+        s(&plot),
+    ]);
+    assert_refused(&out, &["--json", "a_file"]);
+    assert!(!plot.exists(), "the study ran before --json was checked");
+    let out = run(&[
+        "study",
+        "normal",
+        "--quiet",
+        "--json",
+        s(&plot),
+        "--plot",
+        s(&plot),
+    ]);
+    assert_refused(&out, &["--json", "--plot", "same path"]);
+    let out = run(&["report", "--out", s(&file.join("r")), "--quiet"]);
+    assert_refused(&out, &["--out", "a_file"]);
+    let out = run(&[
+        "bench",
+        "--backend",
+        "cpu",
+        "--quiet",
+        "--resolution",
+        "32",
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--json",
+        s(&under),
+    ]);
+    assert_refused(&out, &["--json", "a_file"]);
+}
