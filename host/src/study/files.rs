@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 #[derive(Args, Debug, Clone)]
 pub struct Output {
     /// Seed of the random numbers, 0 to 2^64 - 1; results are bit-identical for any thread count.
-    #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 1, allow_hyphen_values = true)]
     pub seed: u64,
     /// Also write the numbers as JSON to this file.
     #[arg(long)]
