@@ -40,34 +40,34 @@ pub struct BenchArgs {
     /// Backends to time.
     #[arg(long, value_enum, default_value_t = BenchBackend::Both)]
     pub backend: BenchBackend,
-    /// Image width.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 256, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    /// Image width, 1 to 16384.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 256, value_parser = clap::value_parser!(u32).range(1..=16384))]
     pub width: u32,
-    /// Image height.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 256, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    /// Image height, 1 to 16384.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 256, value_parser = clap::value_parser!(u32).range(1..=16384))]
     pub height: u32,
-    /// Estimates per pixel per frame.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 8, value_parser = clap::value_parser!(u32).range(2..=4096))]
+    /// Estimates per pixel per frame, 2 to 4096.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 8, value_parser = clap::value_parser!(u32).range(2..=4096))]
     pub spp: u32,
-    /// Samples per optical depth estimate (N).
-    #[arg(long, allow_negative_numbers = true, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    /// Samples per optical depth estimate (N), 1 to 4096.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub n: u32,
-    /// Seed (every frame of an estimator renders the same rays and samples).
-    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
+    /// Seed, 0 to 2^32 - 1 (every frame of an estimator renders the same rays and samples).
+    #[arg(long, default_value_t = 0, allow_hyphen_values = true)]
     pub seed: u32,
-    /// Timed frames per estimator.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    /// Timed frames per estimator, 1 to 1000.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=1000))]
     pub reps: u32,
-    /// Untimed frames per estimator first (pipeline compilation, caches).
-    #[arg(long, allow_negative_numbers = true, default_value_t = 1, value_parser = clap::value_parser!(u32).range(0..=100))]
+    /// Untimed frames per estimator first, 0 to 100 (pipeline compilation, caches).
+    #[arg(long, allow_hyphen_values = true, default_value_t = 1, value_parser = clap::value_parser!(u32).range(0..=100))]
     pub warmup: u32,
     /// Also sweep the embedded volume's resolution and the image size.
     #[arg(long)]
     pub sweep: bool,
-    /// Volume resolutions of the sweep.
+    /// Volume resolutions of the sweep, each 8 to 1024.
     #[arg(long, default_value = "64,128,256,512")]
     pub sweep_resolutions: String,
-    /// Image sizes (square) of the sweep.
+    /// Image sizes (square) of the sweep, each 1 to 16384.
     #[arg(long, default_value = "64,128,256,512")]
     pub sweep_sizes: String,
     /// Estimators of the sweep.

@@ -189,7 +189,12 @@ pub struct Underflow {
 /// Every voxel's density x 2^k as f16 bits; refuses extinctions (density x `scale`) beyond f32's
 /// range, naming the voxel, and counts nonzero densities whose extinction
 /// (`stored_scale` x f16) is 0.
-fn to_f16(vol: &DenseVolume, k: i32, scale: f32, stored_scale: f32) -> Result<(Vec<u16>, Underflow)> {
+fn to_f16(
+    vol: &DenseVolume,
+    k: i32,
+    scale: f32,
+    stored_scale: f32,
+) -> Result<(Vec<u16>, Underflow)> {
     let mut halves = Vec::with_capacity(vol.values.len() + 1);
     let mut underflow = Underflow::default();
     let prescale = pow2(k);
@@ -274,8 +279,13 @@ mod tests {
 
     fn volume(values: Vec<f32>) -> DenseVolume {
         let n = values.len() as u32;
-        DenseVolume::new("test", [n, 1, 1], values, Affine::scale_translate([1.0; 3], [0.0; 3]))
-            .unwrap()
+        DenseVolume::new(
+            "test",
+            [n, 1, 1],
+            values,
+            Affine::scale_translate([1.0; 3], [0.0; 3]),
+        )
+        .unwrap()
     }
 
     #[test]
@@ -312,11 +322,18 @@ mod tests {
     #[test]
     fn extinction_beyond_f32_is_refused_naming_the_voxel() {
         let vol = volume(vec![0.5, 10.0]);
-        let e = pack(&vol, 1e38, 4, Lookup::Nearest).unwrap_err().to_string();
+        let e = pack(&vol, 1e38, 4, Lookup::Nearest)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("(1, 0, 0)") && e.contains("f32"), "{e}");
         // Optical depths beyond f32 sums are refused too (NaN images before).
-        let e = pack(&vol, 3e34, 4, Lookup::Nearest).unwrap_err().to_string();
-        assert!(e.contains("(1, 0, 0)") && e.contains("optical depth"), "{e}");
+        let e = pack(&vol, 3e34, 4, Lookup::Nearest)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("(1, 0, 0)") && e.contains("optical depth"),
+            "{e}"
+        );
         assert!(pack(&vol, 1e30, 4, Lookup::Nearest).is_ok());
     }
 

@@ -124,14 +124,15 @@ pub struct SceneArgs {
     /// Set negative densities of a volume file to 0 (with a warning) instead of refusing it.
     #[arg(long)]
     pub clamp_negative: bool,
-    /// Voxels per axis of an embedded volume.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 256, value_parser = clap::value_parser!(u32).range(8..=1024))]
+    /// Voxels per axis of an embedded volume, 8 to 1024.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 256, value_parser = clap::value_parser!(u32).range(8..=1024))]
     pub resolution: u32,
-    /// Extinction per unit of stored density (default: the embedded volume's own, 1 for files).
-    #[arg(long, allow_negative_numbers = true)]
+    /// Extinction per unit of stored density, 0 to 3.4e38 (default: the embedded volume's own, 1
+    /// for files); optical depths through the volume above 1e35 are refused.
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_density_scale)]
     pub density_scale: Option<f32>,
-    /// Voxels per super-voxel (brick) along each axis.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 16, value_parser = clap::value_parser!(u32).range(2..=256))]
+    /// Voxels per super-voxel (brick) along each axis, 2 to 256.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 16, value_parser = clap::value_parser!(u32).range(2..=256))]
     pub brick_size: u32,
     /// Camera position x,y,z in world units (default: framing the volume from the front).
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
@@ -139,8 +140,8 @@ pub struct SceneArgs {
     /// Point the camera looks at, x,y,z (default: the volume's center).
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub look_at: Option<[f32; 3]>,
-    /// Vertical field of view in degrees.
-    #[arg(long, default_value_t = 40.0, allow_negative_numbers = true)]
+    /// Vertical field of view in degrees, in (0, 180).
+    #[arg(long, default_value_t = 40.0, allow_hyphen_values = true, value_parser = f32_open(0.0, 180.0))]
     pub fov: f32,
 }
 
@@ -157,12 +158,12 @@ pub struct RenderArgs {
     /// regular (see README).
     #[arg(long, default_value = "jackknife", value_parser = crate::estimators::parse)]
     pub estimator: &'static crate::estimators::EstimatorSpec,
-    /// Samples per optical depth estimate (N; two estimates per ray).
-    #[arg(long, allow_negative_numbers = true, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    /// Samples per optical depth estimate (N; two estimates per ray), 1 to 4096.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub n: u32,
     /// CDF step F_delta of jackknife-adaptive, in (0, 10] (the paper's Fig. 8d: 0.6; the author's
     /// UI default is 0.3). Expected samples per estimate: F / F_delta.
-    #[arg(long, default_value_t = 0.6, allow_negative_numbers = true, value_parser = parse_f_delta)]
+    #[arg(long, default_value_t = 0.6, allow_hyphen_values = true, value_parser = parse_f_delta)]
     pub f_delta: f32,
     /// Ratio tracking with pbrt-v4's Russian roulette (q = 0.75 below T = 0.05) for `--estimator
     /// ratio` and `--t-hat ratio`; off by default, as in the paper and the author's code.
@@ -177,29 +178,30 @@ pub struct RenderArgs {
     /// inside the volume).
     #[arg(long = "light", value_parser = parse_light, allow_hyphen_values = true)]
     pub lights: Vec<shared::lights::PointLight>,
-    /// Single-scattering albedo.
-    #[arg(long, default_value_t = 0.8, allow_negative_numbers = true)]
+    /// Single-scattering albedo, in [0, 1].
+    #[arg(long, default_value_t = 0.8, allow_hyphen_values = true, value_parser = f32_in(0.0, 1.0))]
     pub albedo: f32,
     /// Henyey-Greenstein anisotropy g in (-1, 1) (0: isotropic).
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = f32_open(-1.0, 1.0))]
     pub hg_g: f32,
     /// Estimate of T(t0) for the equiangular strategy of Eq. 9: jackknife or ratio (unbiased).
     #[arg(long, value_enum, default_value_t = THatArg::Jackknife)]
     pub t_hat: THatArg,
-    /// Multiplier applied before the PNG preview's tone mapping (the EXR stays linear).
-    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    /// Multiplier applied before the PNG preview's tone mapping (the EXR stays linear), a finite
+    /// number > 0.
+    #[arg(long, default_value_t = 1.0, allow_hyphen_values = true, value_parser = parse_positive)]
     pub exposure: f32,
-    /// Image width in pixels.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    /// Image width in pixels, 1 to 16384.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
     pub width: u32,
-    /// Image height in pixels.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    /// Image height in pixels, 1 to 16384.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
     pub height: u32,
-    /// Primary rays (transmittance estimates) per pixel.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
+    /// Primary rays (transmittance estimates) per pixel, 1 to 2^20.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
     pub spp: u32,
-    /// Seed; the same seed gives the same image on every backend.
-    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
+    /// Seed, 0 to 2^32 - 1; the same seed gives the same image on every backend.
+    #[arg(long, default_value_t = 0, allow_hyphen_values = true)]
     pub seed: u32,
     /// Where kernels run: auto (GPU if a Vulkan driver exists, else CPU), gpu, or cpu.
     #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
@@ -220,14 +222,14 @@ pub struct RenderArgs {
 }
 
 /// Parses the command line like `Cli::parse`, recording which render flags the user gave.
-pub fn parse() -> Cli {
+pub fn parse() -> Result<Cli, clap::Error> {
     use clap::{CommandFactory, FromArgMatches};
-    let matches = Cli::command().get_matches();
-    let mut cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    let matches = Cli::command().try_get_matches()?;
+    let mut cli = Cli::from_arg_matches(&matches)?;
     let (render, sub) = match &mut cli.command {
         Some(Command::Render(args)) => (args, matches.subcommand_matches("render")),
         None => (&mut cli.render, Some(&matches)),
-        Some(_) => return cli,
+        Some(_) => return Ok(cli),
     };
     if let Some(m) = sub {
         render.given = m
@@ -238,7 +240,7 @@ pub fn parse() -> Cli {
             .map(|id| id.as_str().to_owned())
             .collect();
     }
-    cli
+    Ok(cli)
 }
 
 /// Flags of `host eval`.
@@ -265,36 +267,36 @@ pub struct EvalArgs {
     /// A point light "x,y,z,intensity" (repeatable; default: two lights inside the volume).
     #[arg(long = "light", value_parser = parse_light, allow_hyphen_values = true)]
     pub lights: Vec<shared::lights::PointLight>,
-    /// Single-scattering albedo.
-    #[arg(long, default_value_t = 0.8, allow_negative_numbers = true)]
+    /// Single-scattering albedo, in [0, 1].
+    #[arg(long, default_value_t = 0.8, allow_hyphen_values = true, value_parser = f32_in(0.0, 1.0))]
     pub albedo: f32,
-    /// Multiplier before the PNG previews' tone mapping.
-    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    /// Multiplier before the PNG previews' tone mapping, a finite number > 0.
+    #[arg(long, default_value_t = 1.0, allow_hyphen_values = true, value_parser = parse_positive)]
     pub exposure: f32,
-    /// Samples per optical depth estimate (N).
-    #[arg(long, allow_negative_numbers = true, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    /// Samples per optical depth estimate (N), 1 to 4096.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub n: u32,
     /// CDF step F_delta of jackknife-adaptive, in (0, 10] (the paper's Fig. 8d: 0.6).
-    #[arg(long, default_value_t = 0.6, allow_negative_numbers = true, value_parser = parse_f_delta)]
+    #[arg(long, default_value_t = 0.6, allow_hyphen_values = true, value_parser = parse_f_delta)]
     pub f_delta: f32,
     /// Ratio tracking with pbrt-v4's Russian roulette (off: as in the paper).
     #[arg(long)]
     pub ratio_roulette: bool,
-    /// Image width.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    /// Image width, 1 to 16384.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=16384))]
     pub width: u32,
-    /// Image height.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    /// Image height, 1 to 16384.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=16384))]
     pub height: u32,
-    /// Estimates per pixel (all along the pixel center's ray).
-    #[arg(long, allow_negative_numbers = true, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(2..=1 << 20))]
+    /// Estimates per pixel (all along the pixel center's ray), 2 to 2^20.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(2..=1 << 20))]
     pub spp: u32,
-    /// Estimates per pixel of the reference when it is stochastic (default 4 x --spp;
-    /// with --integrators 16 x --spp).
-    #[arg(long)]
+    /// Estimates per pixel of the reference when it is stochastic, 1 to 2^24 (default 4 x --spp;
+    /// 16 x --spp with --integrators).
+    #[arg(long, allow_hyphen_values = true, value_parser = clap::value_parser!(u32).range(1..=1 << 24))]
     pub reference_spp: Option<u32>,
-    /// Seed.
-    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
+    /// Seed, 0 to 2^32 - 1.
+    #[arg(long, default_value_t = 0, allow_hyphen_values = true)]
     pub seed: u32,
     /// Where kernels run.
     #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
@@ -305,11 +307,11 @@ pub struct EvalArgs {
     /// JSON report path (default: <out-dir>/eval.json).
     #[arg(long)]
     pub json: Option<PathBuf>,
-    /// |bias| mapped to full colour in the bias PNGs.
-    #[arg(long, default_value_t = 0.05)]
+    /// |bias| mapped to full colour in the bias PNGs, a finite number > 0.
+    #[arg(long, default_value_t = 0.05, allow_hyphen_values = true, value_parser = parse_positive)]
     pub bias_scale: f32,
-    /// std mapped to full colour in the std PNGs.
-    #[arg(long, default_value_t = 0.5)]
+    /// std mapped to full colour in the std PNGs, a finite number > 0.
+    #[arg(long, default_value_t = 0.5, allow_hyphen_values = true, value_parser = parse_positive)]
     pub std_scale: f32,
     /// No progress bars.
     #[arg(long, short)]
@@ -336,38 +338,38 @@ pub struct ReportArgs {
     /// (repeatable; transmittance or --integrators evaluations).
     #[arg(long = "from-eval", value_name = "DIR")]
     pub from_eval: Vec<PathBuf>,
-    /// Voxels per axis of an embedded volume.
-    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(8..=1024))]
+    /// Voxels per axis of an embedded volume, 8 to 1024.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 256, value_parser = clap::value_parser!(u32).range(8..=1024))]
     pub resolution: u32,
     /// Lookups of the new evaluations (see `host eval --lookup`).
     #[arg(long, value_enum, default_value_t = LookupArg::Nearest)]
     pub lookup: LookupArg,
-    /// Samples per optical depth estimate (N).
-    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    /// Samples per optical depth estimate (N), 1 to 4096.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub n: u32,
-    /// Image width.
-    #[arg(long, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    /// Image width, 1 to 16384.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=16384))]
     pub width: u32,
-    /// Image height.
-    #[arg(long, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    /// Image height, 1 to 16384.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=16384))]
     pub height: u32,
-    /// Estimates per pixel of the transmittance evaluations.
-    #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(2..=1 << 20))]
+    /// Estimates per pixel of the transmittance evaluations, 2 to 2^20.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(2..=1 << 20))]
     pub spp: u32,
-    /// Samples per pixel of the integrator evaluations (reference: 16 x this).
-    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(2..=1 << 20))]
+    /// Samples per pixel of the integrator evaluations, 2 to 2^20 (reference: 16 x this).
+    #[arg(long, allow_hyphen_values = true, default_value_t = 16, value_parser = clap::value_parser!(u32).range(2..=1 << 20))]
     pub integrator_spp: u32,
-    /// Seed.
-    #[arg(long, default_value_t = 0)]
+    /// Seed, 0 to 2^32 - 1.
+    #[arg(long, default_value_t = 0, allow_hyphen_values = true)]
     pub seed: u32,
     /// Where kernels run.
     #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
     pub backend: BackendChoice,
-    /// |bias| mapped to full colour in the bias images.
-    #[arg(long, default_value_t = 0.05)]
+    /// |bias| mapped to full colour in the bias images, a finite number > 0.
+    #[arg(long, default_value_t = 0.05, allow_hyphen_values = true, value_parser = parse_positive)]
     pub bias_scale: f32,
-    /// std mapped to full colour in the std images.
-    #[arg(long, default_value_t = 0.5)]
+    /// std mapped to full colour in the std images, a finite number > 0.
+    #[arg(long, default_value_t = 0.5, allow_hyphen_values = true, value_parser = parse_positive)]
     pub std_scale: f32,
     /// No progress bars.
     #[arg(long, short)]
@@ -380,17 +382,17 @@ pub struct ProbeArgs {
     /// Where kernels run.
     #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
     pub backend: BackendChoice,
-    /// Number of (X0, X1) pairs.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 1 << 20, value_parser = clap::value_parser!(u32).range(1..=1 << 26))]
+    /// Number of (X0, X1) pairs, 1 to 2^26.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 1 << 20, value_parser = clap::value_parser!(u32).range(1..=1 << 26))]
     pub count: u32,
-    /// True optical depth tau of the simulated estimates.
-    #[arg(long, default_value_t = 2.0, allow_negative_numbers = true)]
+    /// True optical depth tau of the simulated estimates, 0 to 20.
+    #[arg(long, default_value_t = 2.0, allow_hyphen_values = true, value_parser = f32_in(0.0, 20.0))]
     pub tau: f32,
-    /// Standard deviation sigma of each simulated optical depth estimate.
-    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    /// Standard deviation sigma of each simulated optical depth estimate, 0 to 10.
+    #[arg(long, default_value_t = 1.0, allow_hyphen_values = true, value_parser = f32_in(0.0, 10.0))]
     pub sigma: f32,
-    /// Seed.
-    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
+    /// Seed, 0 to 2^32 - 1.
+    #[arg(long, default_value_t = 0, allow_hyphen_values = true)]
     pub seed: u32,
 }
 
@@ -407,7 +409,46 @@ pub fn parse_f_delta(s: &str) -> Result<f32, String> {
     Ok(v)
 }
 
-/// Parses "x,y,z" into three finite floats.
+/// A value parser of finite numbers in `[lo, hi]`, for a flag's documented range.
+pub fn f32_in(lo: f32, hi: f32) -> impl Fn(&str) -> Result<f32, String> + Clone + Send + Sync {
+    move |s: &str| match s.trim().parse::<f32>() {
+        Ok(v) if v.is_finite() && (lo..=hi).contains(&v) => Ok(v),
+        Ok(v) => Err(format!("must be a finite number in [{lo}, {hi}] (got {v})")),
+        Err(e) => Err(format!("not a number: {e}")),
+    }
+}
+
+/// A value parser of finite numbers in the open interval `(lo, hi)`.
+pub fn f32_open(lo: f32, hi: f32) -> impl Fn(&str) -> Result<f32, String> + Clone + Send + Sync {
+    move |s: &str| match s.trim().parse::<f32>() {
+        Ok(v) if v > lo && v < hi => Ok(v),
+        Ok(v) => Err(format!("must be in ({lo}, {hi}) (got {v})")),
+        Err(e) => Err(format!("not a number: {e}")),
+    }
+}
+
+/// Parses `--density-scale`: a finite number >= 0 that f32 holds (a nonzero value that rounds
+/// to 0 is refused rather than rendered as an empty volume). Optical depths beyond f32's sums
+/// are refused later, against the volume's densities and size.
+pub fn parse_density_scale(s: &str) -> Result<f32, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?} is not a number"))?;
+    let f = v as f32;
+    if !(f.is_finite() && f >= 0.0) {
+        return Err(format!(
+            "must be a finite number >= 0 and at most 3.4e38 (got {s})"
+        ));
+    }
+    if v > 0.0 && f == 0.0 {
+        return Err(format!(
+            "{s} rounds to 0 in f32 (the smallest is 1.4e-45); use 0 for an empty volume"
+        ));
+    }
+    Ok(f)
+}
+
 /// A finite number > 0.
 pub fn parse_positive(s: &str) -> Result<f32, String> {
     match s.trim().parse::<f32>() {
@@ -417,6 +458,7 @@ pub fn parse_positive(s: &str) -> Result<f32, String> {
     }
 }
 
+/// Parses "x,y,z" into three finite floats.
 pub fn parse_vec3(s: &str) -> Result<[f32; 3], String> {
     let parts: Vec<&str> = s.split(',').map(str::trim).collect();
     if parts.len() != 3 {

@@ -191,6 +191,17 @@ pub fn check_render_flags(args: &RenderArgs) -> Result<()> {
              --integrator mis-jackknife) or drop {flag}"
         );
     }
+    let uses_ratio = match args.integrator {
+        Some(_) => args.t_hat == crate::cli::THatArg::Ratio,
+        None => args.estimator.estimator == shared::render::Estimator::RatioTracking,
+    };
+    if given("ratio_roulette") && !uses_ratio {
+        bail!(
+            "--ratio-roulette has no effect here: it changes ratio tracking, used by --estimator \
+             ratio and, with --integrator, by --t-hat ratio (Miller et al.'s MIS always runs \
+             without roulette); drop it or use one of those"
+        );
+    }
     let is_exr = args
         .out
         .extension()

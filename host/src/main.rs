@@ -5,7 +5,19 @@ use host::commands::{run_eval, run_probe, run_render};
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
-    let cli = host::cli::parse();
+    // Usage errors exit with 1 like every other error (clap's default is 2); --help and
+    // --version print to stdout and exit with 0.
+    let cli = match host::cli::parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            let _ = e.print();
+            return if e.use_stderr() {
+                ExitCode::FAILURE
+            } else {
+                ExitCode::SUCCESS
+            };
+        }
+    };
     let result = match &cli.command {
         None => run_render(&cli.render).map(|_| ()),
         Some(Command::Render(args)) => run_render(args).map(|_| ()),

@@ -284,7 +284,28 @@ fn ignored_flags_are_errors_not_labels() {
         let out = render(&args);
         assert_refused(&out, &[flag[0], "--integrator"]);
     }
+    // --ratio-roulette only changes ratio tracking.
+    for args in [
+        &["--ratio-roulette"][..],
+        &["--ratio-roulette", "--integrator", "miller"],
+    ] {
+        let mut args = args.to_vec();
+        args.extend(["--out", o]);
+        assert_refused(&render(&args), &["--ratio-roulette", "no effect"]);
+    }
     assert!(!exr.exists());
+    let mut ok = vec!["--ratio-roulette", "--estimator", "ratio", "--out", o];
+    assert_ok(&render(&ok));
+    ok = vec![
+        "--ratio-roulette",
+        "--integrator",
+        "miller",
+        "--t-hat",
+        "ratio",
+        "--out",
+        o,
+    ];
+    assert_ok(&render(&ok));
 }
 
 #[test]

@@ -77,3 +77,209 @@ fn profile_csv_parser_never_panics_and_accepts_only_valid_profiles() {
         Ok(())
     });
 }
+
+/// Numeric flag values: hostile extremes and arbitrary numbers, as a user might type them.
+fn number() -> impl Strategy<Value = String> {
+    prop_oneof![
+        any::<f64>().prop_map(|v| v.to_string()),
+        any::<i64>().prop_map(|v| v.to_string()),
+        (-3i64..70000).prop_map(|v| v.to_string()),
+        prop::sample::select(vec![
+            "0",
+            "-0",
+            "-1",
+            "1",
+            "2",
+            "nan",
+            "NaN",
+            "inf",
+            "-inf",
+            "1e9",
+            "1e30",
+            "-1e30",
+            "1e308",
+            "4294967296",
+            "18446744073709551616",
+            "0.5",
+            "",
+            " ",
+            "1,2",
+            "0x10",
+        ])
+        .prop_map(str::to_string),
+    ]
+}
+
+/// Every numeric flag of every subcommand, with the arguments that make it parse on its own.
+const NUMERIC_FLAGS: &[(&[&str], &str)] = &[
+    (&["render"], "--resolution"),
+    (&["render"], "--density-scale"),
+    (&["render"], "--brick-size"),
+    (&["render"], "--fov"),
+    (&["render"], "--n"),
+    (&["render"], "--f-delta"),
+    (&["render"], "--albedo"),
+    (&["render"], "--hg-g"),
+    (&["render"], "--exposure"),
+    (&["render"], "--width"),
+    (&["render"], "--height"),
+    (&["render"], "--spp"),
+    (&["render"], "--seed"),
+    (&["eval"], "--n"),
+    (&["eval"], "--f-delta"),
+    (&["eval"], "--albedo"),
+    (&["eval"], "--exposure"),
+    (&["eval"], "--width"),
+    (&["eval"], "--height"),
+    (&["eval"], "--spp"),
+    (&["eval"], "--reference-spp"),
+    (&["eval"], "--seed"),
+    (&["eval"], "--bias-scale"),
+    (&["eval"], "--std-scale"),
+    (&["report"], "--resolution"),
+    (&["report"], "--n"),
+    (&["report"], "--width"),
+    (&["report"], "--height"),
+    (&["report"], "--spp"),
+    (&["report"], "--integrator-spp"),
+    (&["report"], "--seed"),
+    (&["report"], "--bias-scale"),
+    (&["report"], "--std-scale"),
+    (&["probe"], "--count"),
+    (&["probe"], "--tau"),
+    (&["probe"], "--sigma"),
+    (&["probe"], "--seed"),
+    (&["bench"], "--width"),
+    (&["bench"], "--height"),
+    (&["bench"], "--spp"),
+    (&["bench"], "--n"),
+    (&["bench"], "--seed"),
+    (&["bench"], "--reps"),
+    (&["bench"], "--warmup"),
+    (&["study", "normal"], "--tau"),
+    (&["study", "normal"], "--sigma"),
+    (&["study", "normal"], "--trials"),
+    (&["study", "normal"], "--sweep-trials"),
+    (&["study", "normal"], "--seed"),
+    (&["study", "normal"], "--threads"),
+    (&["study", "distributions"], "--tau"),
+    (&["study", "distributions"], "--sigma-max"),
+    (&["study", "distributions"], "--points"),
+    (&["study", "distributions"], "--trials"),
+    (&["study", "profile"], "--m"),
+    (&["study", "profile"], "--n"),
+    (&["study", "profile"], "--trials"),
+    (&["study", "profile"], "--bins"),
+    (&["study", "table1"], "--total"),
+    (&["study", "table1"], "--min-n"),
+    (&["study", "table1"], "--trials"),
+    (&["study", "histogram"], "--n"),
+    (&["study", "histogram"], "--trials"),
+    (&["study", "histogram"], "--bins"),
+    (&["study", "convergence"], "--max-n"),
+    (&["study", "convergence"], "--points"),
+    (&["study", "convergence"], "--trials"),
+    (&["study", "mis-bias"], "--g"),
+    (&["study", "mis-bias"], "--tau-max"),
+    (&["study", "mis-bias"], "--sigma-max"),
+    (&["study", "mis-bias"], "--nx"),
+    (&["study", "mis-bias"], "--ny"),
+    (&["study", "mis-bias"], "--trials"),
+    (&["study", "mis-bias"], "--limit"),
+];
+
+/// The parsed value of the one numeric flag set on `cli`, as f64 (every value a flag accepts).
+fn numeric_values(cli: &host::cli::Cli) -> Vec<f64> {
+    use host::cli::Command as C;
+    use host::study::StudyCommand as S;
+    let Some(command) = &cli.command else {
+        return Vec::new();
+    };
+    match command {
+        C::Render(a) => {
+            let s = &a.scene;
+            let mut v = vec![s.resolution as f64, s.brick_size as f64, s.fov as f64];
+            v.extend(s.density_scale.map(f64::from));
+            v.extend([a.n, a.width, a.height, a.spp].map(f64::from));
+            v.extend([a.f_delta, a.albedo, a.hg_g, a.exposure].map(f64::from));
+            v
+        }
+        C::Eval(a) => {
+            let mut v: Vec<f64> = [a.n, a.width, a.height, a.spp].map(f64::from).to_vec();
+            v.extend(a.reference_spp.map(f64::from));
+            v.extend([a.f_delta, a.albedo, a.exposure, a.bias_scale, a.std_scale].map(f64::from));
+            v
+        }
+        C::Report(a) => [
+            a.resolution,
+            a.n,
+            a.width,
+            a.height,
+            a.spp,
+            a.integrator_spp,
+        ]
+        .map(f64::from)
+        .into_iter()
+        .chain([a.bias_scale, a.std_scale].map(f64::from))
+        .collect(),
+        C::Probe(a) => vec![a.count as f64, a.tau as f64, a.sigma as f64],
+        C::Bench(a) => [a.width, a.height, a.spp, a.n, a.reps, a.warmup]
+            .map(f64::from)
+            .to_vec(),
+        C::Study(s) => {
+            let mut v: Vec<f64> = s.threads.iter().map(|&t| t as f64).collect();
+            v.extend(match &s.command {
+                S::Normal(a) => vec![a.tau, a.sigma, a.trials as f64, a.sweep_trials as f64],
+                S::Distributions(a) => vec![a.tau, a.sigma_max, a.points as f64, a.trials as f64],
+                S::Profile(a) => [a.m, a.n, a.bins].map(|x| x as f64).to_vec(),
+                S::Table1(a) => vec![a.total as f64, a.min_n as f64, a.trials as f64],
+                S::Histogram(a) => {
+                    a.n.iter()
+                        .map(|&n| n as f64)
+                        .chain([a.bins as f64])
+                        .collect()
+                }
+                S::Convergence(a) => vec![a.max_n as f64, a.points as f64, a.trials as f64],
+                S::MisBias(a) => {
+                    let mut v: Vec<f64> = a.g.iter().map(|&g| g as f64).collect();
+                    v.extend([a.tau_max, a.sigma_max, a.limit, a.nx as f64, a.ny as f64]);
+                    v
+                }
+            });
+            v
+        }
+    }
+}
+
+#[test]
+fn every_numeric_flag_of_every_subcommand_parses_or_errors_cleanly() {
+    use clap::Parser;
+    let config = Config {
+        cases: 64,
+        failure_persistence: None,
+        ..Config::default()
+    };
+    for &(command, flag) in NUMERIC_FLAGS {
+        let rng = TestRng::from_seed(RngAlgorithm::ChaCha, &[11; 32]);
+        let mut runner = TestRunner::new_with_rng(config.clone(), rng);
+        let result = runner.run(&number(), |value| {
+            let mut argv = vec!["host"];
+            argv.extend(command);
+            argv.extend([flag, value.as_str()]);
+            match host::cli::Cli::try_parse_from(&argv) {
+                Ok(cli) => {
+                    let values = numeric_values(&cli);
+                    // Whatever a flag accepts is finite: no NaN or infinity reaches a run.
+                    prop_assert!(values.iter().all(|v| v.is_finite()), "{argv:?}: {values:?}");
+                }
+                Err(e) => {
+                    let text = e.to_string();
+                    prop_assert!(text.starts_with("error: "), "{argv:?}: {text}");
+                    prop_assert!(text.contains(flag), "{argv:?} does not name {flag}: {text}");
+                }
+            }
+            Ok(())
+        });
+        result.unwrap_or_else(|e| panic!("{command:?} {flag}: {e}"));
+    }
+}

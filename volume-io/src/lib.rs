@@ -123,9 +123,35 @@ impl Format {
     }
 }
 
-/// Reads a whole file, with an error naming it.
+/// Reads a whole regular file, never more than the size it had when opened, with an error
+/// naming it; directories, FIFOs and devices (a symlink to `/dev/zero`) are refused unread.
 fn read_file(path: &Path) -> Result<Vec<u8>> {
-    std::fs::read(path).with_context(|| format!("cannot read {}: check the path", path.display()))
+    use std::io::Read;
+    let what = || format!("cannot read {}: check the path", path.display());
+    // Checked before opening: opening a FIFO blocks until something writes to it.
+    let kind = std::fs::metadata(path).with_context(what)?.file_type();
+    if !kind.is_file() {
+        bail!(
+            "cannot read {}: not a regular file (a {}); pass a .vdb or .nvdb file",
+            path.display(),
+            if kind.is_dir() {
+                "directory"
+            } else {
+                "FIFO, socket or device"
+            }
+        );
+    }
+    let file = std::fs::File::open(path).with_context(what)?;
+    let meta = file.metadata().with_context(what)?;
+    ensure!(
+        meta.is_file(),
+        "cannot read {}: not a regular file",
+        path.display()
+    );
+    let len = meta.len();
+    let mut bytes = Vec::with_capacity(usize::try_from(len).unwrap_or(0));
+    file.take(len).read_to_end(&mut bytes).with_context(what)?;
+    Ok(bytes)
 }
 
 /// Runs a parser, turning a panic (a bug or a third-party reader's bad-input assertion) into an

@@ -40,6 +40,55 @@ fn type_name(t: vk::PhysicalDeviceType) -> &'static str {
     }
 }
 
+/// The index of `JK_VULKAN_DEVICE=<value>` among `count` devices, or why it is not one.
+pub fn forced_index(value: &str, count: usize) -> Result<usize, GpuError> {
+    match value.trim().parse::<usize>() {
+        Ok(i) if i < count => Ok(i),
+        _ => Err(GpuError::BadDeviceIndex(value.to_string(), count)),
+    }
+}
+
+/// The first feature the kernels need (shaderInt64, vulkanMemoryModel) that a device lacks.
+pub fn missing_feature(shader_int64: bool, vulkan_memory_model: bool) -> Option<&'static str> {
+    if !shader_int64 {
+        Some("shaderInt64")
+    } else if !vulkan_memory_model {
+        Some("vulkanMemoryModel")
+    } else {
+        None
+    }
+}
+
+/// Everything [`DeviceOwner`] holds but the entry and the instance.
+struct DeviceParts {
+    device: ash::Device,
+    physical: vk::PhysicalDevice,
+    queue: vk::Queue,
+    queue_family: u32,
+    memory: vk::PhysicalDeviceMemoryProperties,
+    limits: vk::PhysicalDeviceLimits,
+    timestamp_bits: u32,
+    description: String,
+}
+
+impl DeviceParts {
+    /// The owner of these parts, the instance they came from and the loader.
+    fn into_owner(self, entry: ash::Entry, instance: ash::Instance) -> DeviceOwner {
+        DeviceOwner {
+            _entry: entry,
+            instance,
+            device: self.device,
+            physical: self.physical,
+            queue: self.queue,
+            queue_family: self.queue_family,
+            memory: self.memory,
+            limits: self.limits,
+            timestamp_bits: self.timestamp_bits,
+            description: self.description,
+        }
+    }
+}
+
 impl DeviceOwner {
     /// Opens the Vulkan loader, picks a device (a GPU before a CPU implementation such as lavapipe,
     /// or `JK_VULKAN_DEVICE=<index>`), and creates a device with one compute queue.
@@ -55,17 +104,21 @@ impl DeviceOwner {
             vk::Result::ERROR_INCOMPATIBLE_DRIVER => GpuError::NoDevice,
             e => GpuError::Vulkan("vkCreateInstance", e),
         })?;
-        match Self::with_instance(entry, instance.clone()) {
-            Ok(owner) => Ok(owner),
+        match Self::with_instance(&instance) {
+            Ok(parts) => Ok(parts.into_owner(entry, instance)),
             Err(e) => {
-                // SAFETY: no child objects were created from this instance.
+                // SAFETY: no child objects were created from this instance. `entry` (the loaded
+                // loader library) is still alive here: destroying the instance after dropping it
+                // called into unmapped code (the segfault of a bad JK_VULKAN_DEVICE).
                 unsafe { instance.destroy_instance(None) };
+                drop(entry);
                 Err(e)
             }
         }
     }
 
-    fn with_instance(entry: ash::Entry, instance: ash::Instance) -> Result<Self, GpuError> {
+    /// Picks the physical device, checks what the kernels need and creates the logical device.
+    fn with_instance(instance: &ash::Instance) -> Result<DeviceParts, GpuError> {
         // SAFETY: plain queries on a live instance.
         let devices = unsafe { instance.enumerate_physical_devices() }
             .map_err(|e| GpuError::Vulkan("vkEnumeratePhysicalDevices", e))?;
@@ -74,14 +127,7 @@ impl DeviceOwner {
         }
         let forced = std::env::var("JK_VULKAN_DEVICE").ok();
         let physical = match forced {
-            Some(s) => {
-                let i: usize = s
-                    .parse()
-                    .map_err(|_| GpuError::BadDeviceIndex(s.clone(), devices.len()))?;
-                *devices
-                    .get(i)
-                    .ok_or(GpuError::BadDeviceIndex(s, devices.len()))?
-            }
+            Some(s) => devices[forced_index(&s, devices.len())?],
             None => *devices
                 .iter()
                 .min_by_key(|&&d| {
@@ -126,11 +172,8 @@ impl DeviceOwner {
         unsafe { instance.get_physical_device_features2(physical, &mut have) };
         let int64 = have.features.shader_int64 == vk::TRUE;
         let memory_model = have12.vulkan_memory_model == vk::TRUE;
-        if !int64 {
-            return Err(GpuError::Unsupported(description, "shaderInt64"));
-        }
-        if !memory_model {
-            return Err(GpuError::Unsupported(description, "vulkanMemoryModel"));
+        if let Some(feature) = missing_feature(int64, memory_model) {
+            return Err(GpuError::Unsupported(description, feature));
         }
 
         let priorities = [1.0f32];
@@ -149,9 +192,7 @@ impl DeviceOwner {
             .map_err(|e| GpuError::Vulkan("vkCreateDevice", e))?;
         // SAFETY: queue 0 of a family we requested.
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
-        Ok(DeviceOwner {
-            _entry: entry,
-            instance,
+        Ok(DeviceParts {
             device,
             physical,
             queue,
@@ -201,5 +242,30 @@ impl Drop for DeviceOwner {
             self.device.destroy_device(None);
             self.instance.destroy_instance(None);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn forced_index_accepts_only_existing_devices() {
+        assert_eq!(forced_index("0", 1).unwrap(), 0);
+        assert_eq!(forced_index(" 1 ", 2).unwrap(), 1);
+        for bad in ["5", "1", "-1", "abc", "", "1e3", "99999999999999999999999"] {
+            let e = forced_index(bad, 1).unwrap_err().to_string();
+            assert!(
+                e.contains("JK_VULKAN_DEVICE") && e.contains("0 to 0"),
+                "{bad}: {e}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_device_without_a_needed_feature_is_named() {
+        assert_eq!(missing_feature(true, true), None);
+        assert_eq!(missing_feature(false, true), Some("shaderInt64"));
+        assert_eq!(missing_feature(true, false), Some("vulkanMemoryModel"));
     }
 }

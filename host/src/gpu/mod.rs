@@ -26,7 +26,9 @@ pub enum GpuError {
     #[error("no Vulkan device found; install a GPU driver or lavapipe (`apt-get install mesa-vulkan-drivers`)")]
     NoDevice,
     #[error(
-        "JK_VULKAN_DEVICE={0} is not a device index (this machine has {1} Vulkan devices: 0..{1})"
+        "JK_VULKAN_DEVICE={0:?} is not a device index: this machine has {1} Vulkan device(s), \
+         numbered 0 to {last}; unset it to pick the best device",
+        last = .1.saturating_sub(1)
     )]
     BadDeviceIndex(String, usize),
     #[error("Vulkan device {0} lacks {1}, which the kernels need")]

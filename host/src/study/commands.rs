@@ -24,8 +24,10 @@ fn check_trials(trials: u64) -> Result<()> {
 pub const NORMAL_SWEEP: [f64; 10] = [0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0, 2.25, 2.5];
 
 pub fn run_normal(a: &NormalArgs) -> Result<()> {
-    if !(a.sigma >= 0.0) || a.trials < 2 {
-        bail!("normal needs sigma >= 0 and trials >= 2");
+    if !(a.sigma >= 0.0) || !a.tau.is_finite() || a.trials < 2 || a.sweep_trials == 1 {
+        bail!(
+            "normal needs a finite --tau, --sigma >= 0, --trials >= 2 and --sweep-trials 0 or >= 2"
+        );
     }
     let sweep_len = if a.sweep_trials >= 2 {
         NORMAL_SWEEP.len() as u64
@@ -103,6 +105,9 @@ pub fn run_normal(a: &NormalArgs) -> Result<()> {
 
 pub fn run_distributions(a: &DistributionsArgs) -> Result<()> {
     check_trials(a.trials)?;
+    if a.points == 0 || !(a.sigma_max > 0.0) || !a.tau.is_finite() {
+        bail!("distributions needs --points >= 1, --sigma-max > 0 and a finite --tau");
+    }
     let dists = if a.dist.is_empty() {
         Distribution::ALL.to_vec()
     } else {
@@ -154,6 +159,9 @@ pub fn run_distributions(a: &DistributionsArgs) -> Result<()> {
 pub fn run_profile(a: &ProfileArgs) -> Result<()> {
     check_trials(a.trials)?;
     let profile = Profile::load(&a.profile.profile)?;
+    if let Some(why) = profile.constant() {
+        bail!("{why}");
+    }
     let hist_trials = a.trials.min(1_000_000);
     let schemes = [Sampling::Stratified, Sampling::Uniform];
     let bar = progress(2 * (a.trials + hist_trials), "profile", a.out.quiet);
@@ -297,7 +305,16 @@ pub fn run_table1(a: &Table1Args) -> Result<()> {
 
 pub fn run_histogram(a: &HistogramArgs) -> Result<()> {
     check_trials(a.trials)?;
+    if a.n.len() > 16 || a.sampling.len() > 8 {
+        bail!("--n takes at most 16 values and --sampling at most 8");
+    }
+    if a.sampling.contains(&Sampling::Midpoint) {
+        bail!("--sampling midpoint is deterministic: no histogram; use uniform, stratified or iid");
+    }
     let profile = Profile::load(&a.profile.profile)?;
+    if let Some(why) = profile.constant() {
+        bail!("{why}");
+    }
     let combos: Vec<(Sampling, usize)> = a
         .sampling
         .iter()
@@ -363,9 +380,12 @@ pub fn run_histogram(a: &HistogramArgs) -> Result<()> {
 
 pub fn run_convergence(a: &ConvergenceArgs) -> Result<()> {
     check_trials(a.trials)?;
+    if a.max_n < 1 || a.points < 2 || a.sampling.is_empty() || a.sampling.len() > 8 {
+        bail!("convergence needs --max-n >= 1, --points >= 2 and 1 to 8 --sampling schemes");
+    }
     let profile = Profile::load(&a.profile.profile)?;
-    if a.max_n < 1 || a.points < 2 {
-        bail!("convergence needs --max-n >= 1 and --points >= 2");
+    if let Some(why) = profile.constant() {
+        bail!("{why}");
     }
     let ns = convergence::sample_counts(a.max_n, a.points);
     let per_n: u64 = a
@@ -412,6 +432,12 @@ pub fn run_mis_bias(a: &MisBiasArgs) -> Result<()> {
     let [u0, u1, v0, v1] = a.g[..] else {
         bail!("--g takes four numbers u0,u1,v0,v1")
     };
+    if v0 == 0.0 && v1 == 0.0 {
+        bail!("--g: v0 and v1 are both 0, so g(tau) has no finite value anywhere");
+    }
+    if a.nx == 0 || a.ny == 0 {
+        bail!("mis-bias needs --nx >= 1 and --ny >= 1");
+    }
     let g = Mobius { u0, u1, v0, v1 };
     let grid = mis_bias::Grid {
         tau_max: a.tau_max,

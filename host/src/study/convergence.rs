@@ -107,6 +107,13 @@ impl Figure for ConvergenceFigure {
     }
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<()> {
+        let has_error = self.curves.iter().flat_map(|c| &c.rmse).any(|p| p.1 > 0.0);
+        anyhow::ensure!(
+            has_error,
+            "profile {}: every estimate is exact (RMSE 0 for every N), so there is no \
+             convergence to plot on log axes: use a profile whose mu varies",
+            self.profile
+        );
         let positive = || {
             self.curves
                 .iter()

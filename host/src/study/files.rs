@@ -8,8 +8,8 @@ use std::path::{Path, PathBuf};
 /// `--seed`, `--json`, `--plot`, `--quiet` of every study.
 #[derive(Args, Debug, Clone)]
 pub struct Output {
-    /// Seed of the random numbers; results are bit-identical for any thread count.
-    #[arg(long, default_value_t = 1)]
+    /// Seed of the random numbers, 0 to 2^64 - 1; results are bit-identical for any thread count.
+    #[arg(long, default_value_t = 1, allow_hyphen_values = true)]
     pub seed: u64,
     /// Also write the numbers as JSON to this file.
     #[arg(long)]

@@ -72,6 +72,15 @@ pub fn measure(
     xs.iter().for_each(|&x| m.push(x));
     xs.sort_by(f64::total_cmp);
     let (mean, std) = (m.mean(), m.std());
+    let (lo, hi) = (xs[0], xs[xs.len() - 1]);
+    if !(hi - lo > 1e-12 * mean.abs()) || !(std > 0.0) || !std.is_finite() {
+        bail!(
+            "profile {}: every {} estimate with N = {n} is {lo} (to 12 digits); a histogram and \
+             a normal fit (KS test) of a constant are undefined: use a profile whose mu varies",
+            profile.name,
+            sampling.label()
+        );
+    }
     let count = xs.len() as f64;
     let ks_distance = xs
         .iter()
@@ -83,12 +92,6 @@ pub fn measure(
                 .max(((i + 1) as f64 / count - f).abs())
         })
         .fold(0.0, f64::max);
-    let (lo, hi) = (xs[0], xs[xs.len() - 1]);
-    let (lo, hi) = if hi > lo {
-        (lo, hi)
-    } else {
-        (lo - 0.5, hi + 0.5)
-    };
     let mut counts = vec![0u64; bins];
     for &x in &xs {
         let b = (((x - lo) / (hi - lo)) * bins as f64) as usize;

@@ -171,6 +171,7 @@ impl LinePanel {
 
     /// Draws the panel into `area`.
     pub fn draw<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>) -> Result<()> {
+        self.check_ranges()?;
         let mut builder = ChartBuilder::on(area);
         builder
             .caption(&self.title, (FONT, 18))
@@ -188,6 +189,27 @@ impl LinePanel {
                     .drawn()?,
             ),
         }
+    }
+
+    /// Refuses axis ranges plotters cannot draw (it panics or loops on them): non-finite,
+    /// empty, or not positive on a log axis.
+    fn check_ranges(&self) -> Result<()> {
+        for (axis, (lo, hi), log) in [("x", self.x, self.log_x), ("y", self.y, self.log_y)] {
+            let ok = lo.is_finite() && hi.is_finite() && lo < hi && (!log || lo > 0.0);
+            if !ok {
+                bail!(
+                    "cannot plot {:?}: its {axis} range [{lo}, {hi}] is empty or not finite{} \
+                     (the data are constant, zero or not finite)",
+                    self.title,
+                    if log {
+                        " or not positive on a log axis"
+                    } else {
+                        ""
+                    }
+                );
+            }
+        }
+        Ok(())
     }
 
     fn fill<'a, DB, X, Y>(&self, chart: &mut ChartContext<'a, DB, Cartesian2d<X, Y>>) -> Result<()>

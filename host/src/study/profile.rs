@@ -63,6 +63,14 @@ impl Profile {
         if mu.iter().any(|&m| m < 0.0) {
             bail!("{name}: extinction mu must be non-negative");
         }
+        let length = t[t.len() - 1] - t[0];
+        let mu_max = mu.iter().copied().fold(0.0, f64::max);
+        if !(length * mu_max * 2.0).is_finite() {
+            bail!(
+                "{name}: the optical depth overflows (t spans {length:e}, mu reaches {mu_max:e}); \
+                 rescale t or mu"
+            );
+        }
         let h = (t[t.len() - 1] - t[0]) / (t.len() - 1) as f64;
         let equidistant = t
             .iter()
@@ -81,9 +89,22 @@ impl Profile {
         if let Some((name, text)) = BUILTIN.iter().find(|(n, _)| *n == spec) {
             return Profile::parse(name, text);
         }
-        let text = std::fs::read_to_string(Path::new(spec))
+        let text = read_profile_file(Path::new(spec))
             .with_context(|| format!("reading profile {spec} (built-in: smooth, cloud, sparse)"))?;
         Profile::parse(spec, &text)
+    }
+
+    /// Why ray marching estimates of this profile are all exact (mu constant, e.g. all zero), so
+    /// that their spread, histogram or convergence is undefined; `None` if mu varies.
+    pub fn constant(&self) -> Option<String> {
+        let first = self.mu[0];
+        self.mu.iter().all(|&m| m == first).then(|| {
+            format!(
+                "profile {} is constant (mu = {first} everywhere), so every ray marching estimate \
+                 is exact: no spread to histogram or converge; use a profile whose mu varies",
+                self.name
+            )
+        })
     }
 
     pub fn t_min(&self) -> f64 {
@@ -154,6 +175,26 @@ impl Profile {
         };
         h * sum
     }
+}
+
+/// Largest profile CSV file read (about 3 million `t,mu` lines).
+pub const MAX_PROFILE_BYTES: u64 = 64 << 20;
+
+/// Reads a profile CSV: a regular file of at most [`MAX_PROFILE_BYTES`], never more than its size.
+fn read_profile_file(path: &Path) -> Result<String> {
+    use std::io::Read;
+    let kind = std::fs::metadata(path)?.file_type();
+    if !kind.is_file() {
+        bail!("not a regular file (a directory, FIFO or device); pass a CSV file of `t,mu` lines");
+    }
+    let file = std::fs::File::open(path)?;
+    let len = file.metadata()?.len();
+    if len > MAX_PROFILE_BYTES {
+        bail!("{len} bytes is more than a profile may have ({MAX_PROFILE_BYTES} bytes)");
+    }
+    let mut text = String::new();
+    file.take(len).read_to_string(&mut text)?;
+    Ok(text)
 }
 
 /// How ray marching places its N samples along the segment (Sec. 4.1, Fig. 5).
