@@ -5,12 +5,15 @@
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use host::bricks::pack;
 use host::render::world_to_index;
-use shared::dda::{clip_to_box, GridDda, Ray};
-use shared::grid::Lookup;
-use shared::optical_depth::{estimate_pair, prepare, Importance, Jitter};
-use shared::render::{ray_transmittance, Estimator, RenderParams};
+use shared::estimators::estimate::Estimator;
+use shared::estimators::optical_depth::{estimate_pair, prepare, Importance, Jitter};
+use shared::geometry::Ray;
+use shared::geometry::V3;
+use shared::kernels::render::ray_transmittance;
+use shared::params::RenderParams;
 use shared::rng::{pcg_hash, unit_f32, HashRng};
-use shared::vec3::V3;
+use shared::volume::dda::{clip_to_box, GridDda};
+use shared::volume::grid::Lookup;
 use std::hint::black_box;
 
 /// 1024 arguments spread over a function's useful range.
@@ -55,7 +58,9 @@ fn math(c: &mut Criterion) {
         b.iter(|| {
             pairs
                 .iter()
-                .map(|&(a, c)| shared::transmittance::jackknife(black_box(a), black_box(c)))
+                .map(|&(a, c)| {
+                    shared::estimators::transmittance::jackknife(black_box(a), black_box(c))
+                })
                 .sum::<f32>()
         })
     });
@@ -96,7 +101,7 @@ fn traversal(c: &mut Criterion) {
     let vol = packed.view();
     let index_rays: Vec<Ray> = rays
         .iter()
-        .map(|r| shared::camera::to_index_space(r, &params.world_to_index))
+        .map(|r| shared::geometry::to_index_space(r, &params.world_to_index))
         .collect();
     let d = packed.desc.dims;
     let hi = V3::new(d[0] as f32, d[1] as f32, d[2] as f32);

@@ -4,7 +4,7 @@ use crate::cpu;
 use crate::gpu::{Gpu, GpuError};
 use anyhow::{Context, Result};
 use bytemuck::{Pod, Zeroable};
-use shared::probe::{self, DepthPair, MathValues, RngDraws, TransmittancePair};
+use shared::kernels::probe::{self, DepthPair, MathValues, RngDraws, TransmittancePair};
 
 /// Which backend the user asked for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]

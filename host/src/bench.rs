@@ -10,7 +10,8 @@ use crate::study::plot::{self, Figure, Legend, LinePanel, Series, Style};
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use serde::Serialize;
-use shared::render::{PixelOut, RenderParams};
+use shared::kernels::render::PixelOut;
+use shared::params::RenderParams;
 use std::path::PathBuf;
 use std::time::Instant;
 

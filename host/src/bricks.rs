@@ -3,12 +3,12 @@
 use crate::volume::DenseVolume;
 use anyhow::{bail, Result};
 use half::f16;
-use shared::grid::{Brick, GridDesc, Lookup};
+use shared::volume::grid::{Brick, GridDesc, Lookup};
 
 /// Default brick size B (voxels per axis), as in the paper.
 pub const DEFAULT_BRICK_SIZE: u32 = 16;
 
-/// A volume ready for the kernels: what [`shared::grid::VolumeView`] borrows.
+/// A volume ready for the kernels: what [`shared::volume::grid::VolumeView`] borrows.
 #[derive(Clone, Debug)]
 pub struct PackedVolume {
     pub desc: GridDesc,
@@ -21,8 +21,8 @@ pub struct PackedVolume {
 
 impl PackedVolume {
     /// Borrow as the kernels' view.
-    pub fn view(&self) -> shared::grid::VolumeView<'_> {
-        shared::grid::VolumeView {
+    pub fn view(&self) -> shared::volume::grid::VolumeView<'_> {
+        shared::volume::grid::VolumeView {
             desc: &self.desc,
             voxels: &self.voxels,
             bricks: &self.bricks,
@@ -90,7 +90,7 @@ pub fn pack(
         density_scale: stored_scale,
         _pad: 0,
     };
-    let view = shared::grid::VolumeView {
+    let view = shared::volume::grid::VolumeView {
         desc: &desc,
         voxels: &voxels,
         bricks: &[],
@@ -238,7 +238,7 @@ fn unflatten(i: usize, dims: [u32; 3]) -> (u32, u32, u32) {
 }
 
 /// Statistics of brick b over its widened, clamped window.
-fn brick_stats(view: &shared::grid::VolumeView, b: [u32; 3], size: u32) -> Brick {
+fn brick_stats(view: &shared::volume::grid::VolumeView, b: [u32; 3], size: u32) -> Brick {
     let d = view.desc.dims;
     let lo = [0, 1, 2].map(|a| (b[a] * size).saturating_sub(1));
     let hi = [0, 1, 2].map(|a| ((b[a] + 1) * size + 1).min(d[a]));

@@ -53,8 +53,8 @@ pub enum THatArg {
 }
 
 /// Integrator names of `--integrator`.
-pub const INTEGRATORS: &[(&str, shared::integrator::Integrator)] = {
-    use shared::integrator::Integrator as I;
+pub const INTEGRATORS: &[(&str, shared::integrators::Integrator)] = {
+    use shared::integrators::Integrator as I;
     &[
         ("free-flight", I::FreeFlight),
         ("equiangular", I::Equiangular),
@@ -68,7 +68,7 @@ pub const INTEGRATORS: &[(&str, shared::integrator::Integrator)] = {
 };
 
 /// Parses an integrator name.
-pub fn parse_integrator(s: &str) -> Result<shared::integrator::Integrator, String> {
+pub fn parse_integrator(s: &str) -> Result<shared::integrators::Integrator, String> {
     INTEGRATORS
         .iter()
         .find(|(n, _)| *n == s)
@@ -83,7 +83,7 @@ pub fn parse_integrator(s: &str) -> Result<shared::integrator::Integrator, Strin
 }
 
 /// Name of an integrator.
-pub fn integrator_name(i: shared::integrator::Integrator) -> &'static str {
+pub fn integrator_name(i: shared::integrators::Integrator) -> &'static str {
     INTEGRATORS
         .iter()
         .find(|(_, x)| *x == i)
@@ -92,7 +92,7 @@ pub fn integrator_name(i: shared::integrator::Integrator) -> &'static str {
 }
 
 /// Parses "x,y,z,intensity" into a point light.
-pub fn parse_light(s: &str) -> Result<shared::lights::PointLight, String> {
+pub fn parse_light(s: &str) -> Result<shared::sampling::lights::PointLight, String> {
     let v: Vec<f32> = s
         .split(',')
         .map(|p| {
@@ -106,8 +106,8 @@ pub fn parse_light(s: &str) -> Result<shared::lights::PointLight, String> {
             "expected x,y,z,intensity (finite, intensity >= 0), got {s:?}"
         ));
     }
-    Ok(shared::lights::PointLight {
-        position: shared::vec3::V3::new(v[0], v[1], v[2]),
+    Ok(shared::sampling::lights::PointLight {
+        position: shared::geometry::V3::new(v[0], v[1], v[2]),
         intensity: v[3],
     })
 }
@@ -173,11 +173,11 @@ pub struct RenderArgs {
     /// transmittance: free-flight, equiangular, mis-jackknife, mis-naive, combined-jackknife,
     /// combined-naive, miller, mis-power (see README).
     #[arg(long, value_parser = parse_integrator)]
-    pub integrator: Option<shared::integrator::Integrator>,
+    pub integrator: Option<shared::integrators::Integrator>,
     /// A point light "x,y,z,intensity" in world units (repeat for more; default: two lights
     /// inside the volume).
     #[arg(long = "light", value_parser = parse_light, allow_hyphen_values = true)]
-    pub lights: Vec<shared::lights::PointLight>,
+    pub lights: Vec<shared::sampling::lights::PointLight>,
     /// Single-scattering albedo, in [0, 1].
     #[arg(long, default_value_t = 0.8, allow_hyphen_values = true, value_parser = f32_in(0.0, 1.0))]
     pub albedo: f32,
@@ -266,7 +266,7 @@ pub struct EvalArgs {
     pub t_hat: THatArg,
     /// A point light "x,y,z,intensity" (repeatable; default: two lights inside the volume).
     #[arg(long = "light", value_parser = parse_light, allow_hyphen_values = true)]
-    pub lights: Vec<shared::lights::PointLight>,
+    pub lights: Vec<shared::sampling::lights::PointLight>,
     /// Single-scattering albedo, in [0, 1].
     #[arg(long, default_value_t = 0.8, allow_hyphen_values = true, value_parser = f32_in(0.0, 1.0))]
     pub albedo: f32,

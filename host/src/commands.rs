@@ -7,9 +7,9 @@ use crate::output::{write_exr, write_json, write_png, OutputPlan};
 use crate::render::{make_camera, occupied_world_bounds, world_to_index, CameraSpec};
 use crate::volume::DenseVolume;
 use anyhow::{bail, Context, Result};
-use shared::grid::Lookup;
-use shared::probe::{self, DepthPair};
-use shared::render::RenderParams;
+use shared::kernels::probe::{self, DepthPair};
+use shared::params::RenderParams;
+use shared::volume::grid::Lookup;
 use std::path::Path;
 use std::time::Instant;
 
@@ -45,7 +45,10 @@ pub fn load_volume(scene: &crate::cli::SceneArgs) -> Result<(DenseVolume, f32, O
 }
 
 /// The lights of `--light`, or two default lights inside the volume's occupied bounds.
-fn scene_lights(args: &RenderArgs, vol: &DenseVolume) -> Result<Vec<shared::lights::PointLight>> {
+fn scene_lights(
+    args: &RenderArgs,
+    vol: &DenseVolume,
+) -> Result<Vec<shared::sampling::lights::PointLight>> {
     anyhow::ensure!(
         args.hg_g.is_finite() && args.hg_g > -1.0 && args.hg_g < 1.0,
         "--hg-g must be in (-1, 1) (got {})",
@@ -56,11 +59,11 @@ fn scene_lights(args: &RenderArgs, vol: &DenseVolume) -> Result<Vec<shared::ligh
 
 /// Validates light flags; `--light` values or two default lights inside the occupied bounds.
 fn lights_or_default(
-    lights: &[shared::lights::PointLight],
+    lights: &[shared::sampling::lights::PointLight],
     albedo: f32,
     exposure: f32,
     vol: &DenseVolume,
-) -> Result<Vec<shared::lights::PointLight>> {
+) -> Result<Vec<shared::sampling::lights::PointLight>> {
     anyhow::ensure!(
         albedo.is_finite() && (0.0..=1.0).contains(&albedo),
         "--albedo must be in [0, 1] (got {albedo})"
@@ -70,9 +73,9 @@ fn lights_or_default(
         "--exposure must be > 0 (got {exposure})"
     );
     anyhow::ensure!(
-        lights.len() <= shared::lights::MAX_LIGHTS as usize,
+        lights.len() <= shared::sampling::lights::MAX_LIGHTS as usize,
         "--light: at most {} lights (got {})",
-        shared::lights::MAX_LIGHTS,
+        shared::sampling::lights::MAX_LIGHTS,
         lights.len()
     );
     if !lights.is_empty() {
@@ -80,7 +83,7 @@ fn lights_or_default(
     }
     let (lo, hi) = crate::render::occupied_world_bounds(vol);
     let at = |f: [f64; 3]| {
-        shared::vec3::V3::new(
+        shared::geometry::V3::new(
             (lo[0] + f[0] * (hi[0] - lo[0])) as f32,
             (lo[1] + f[1] * (hi[1] - lo[1])) as f32,
             (lo[2] + f[2] * (hi[2] - lo[2])) as f32,
@@ -89,11 +92,11 @@ fn lights_or_default(
     let size = ((hi[0] - lo[0]) + (hi[1] - lo[1]) + (hi[2] - lo[2])) as f32 / 3.0;
     // Intensity scales with size^2 so images look alike at any world scale.
     Ok(vec![
-        shared::lights::PointLight {
+        shared::sampling::lights::PointLight {
             position: at([0.35, 0.55, 0.45]),
             intensity: 1.5 * size * size,
         },
-        shared::lights::PointLight {
+        shared::sampling::lights::PointLight {
             position: at([0.68, 0.4, 0.55]),
             intensity: 0.8 * size * size,
         },
@@ -193,7 +196,7 @@ pub fn check_render_flags(args: &RenderArgs) -> Result<()> {
     }
     let uses_ratio = match args.integrator {
         Some(_) => args.t_hat == crate::cli::THatArg::Ratio,
-        None => args.estimator.estimator == shared::render::Estimator::RatioTracking,
+        None => args.estimator.estimator == shared::estimators::estimate::Estimator::RatioTracking,
     };
     if given("ratio_roulette") && !uses_ratio {
         bail!(
@@ -233,8 +236,8 @@ pub fn plan_render_outputs(args: &RenderArgs) -> Result<std::path::PathBuf> {
 /// The integrator settings for the JSON summary.
 fn integrator_settings(
     args: &RenderArgs,
-    integrator: shared::integrator::Integrator,
-    lights: &[shared::lights::PointLight],
+    integrator: shared::integrators::Integrator,
+    lights: &[shared::sampling::lights::PointLight],
 ) -> IntegratorSettings {
     IntegratorSettings {
         name: crate::cli::integrator_name(integrator).into(),
@@ -296,8 +299,8 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderSummary> {
         params.albedo = args.albedo;
         params.hg_g = args.hg_g;
         params.t_hat = match args.t_hat {
-            crate::cli::THatArg::Jackknife => shared::integrator::TransmittanceHat::Jackknife,
-            crate::cli::THatArg::Ratio => shared::integrator::TransmittanceHat::Ratio,
+            crate::cli::THatArg::Jackknife => shared::integrators::TransmittanceHat::Jackknife,
+            crate::cli::THatArg::Ratio => shared::integrators::TransmittanceHat::Ratio,
         } as u32;
     }
     let start = Instant::now();
@@ -445,7 +448,7 @@ pub struct Scene {
     pub packed: crate::bricks::PackedVolume,
     pub density_scale: f32,
     pub camera: shared::camera::Camera,
-    pub world_to_index: shared::camera::Affine3x4,
+    pub world_to_index: shared::geometry::Affine3x4,
     /// The grid read from a volume file (None for embedded volumes).
     pub grid: Option<String>,
 }
@@ -577,7 +580,7 @@ pub fn run_eval(args: &EvalArgs) -> Result<()> {
 
 /// `host eval --integrators`: single scattering against an unbiased high-spp reference.
 /// Parses `--integrators`: comma-separated names or "all".
-fn parse_integrators(list: &str) -> Result<Vec<(&'static str, shared::integrator::Integrator)>> {
+fn parse_integrators(list: &str) -> Result<Vec<(&'static str, shared::integrators::Integrator)>> {
     if list == "all" {
         return Ok(crate::cli::INTEGRATORS.to_vec());
     }
@@ -612,7 +615,7 @@ fn plan_eval_outputs(args: &EvalArgs, images: &[std::path::PathBuf]) -> Result<s
 
 fn run_eval_integrators(
     args: &EvalArgs,
-    integrators: &[(&'static str, shared::integrator::Integrator)],
+    integrators: &[(&'static str, shared::integrators::Integrator)],
     json: &std::path::Path,
     vol: &DenseVolume,
     packed: &crate::bricks::PackedVolume,
@@ -624,8 +627,8 @@ fn run_eval_integrators(
     params.albedo = args.albedo;
     params.pixel_jitter = 1;
     params.t_hat = match args.t_hat {
-        crate::cli::THatArg::Jackknife => shared::integrator::TransmittanceHat::Jackknife,
-        crate::cli::THatArg::Ratio => shared::integrator::TransmittanceHat::Ratio,
+        crate::cli::THatArg::Jackknife => shared::integrators::TransmittanceHat::Jackknife,
+        crate::cli::THatArg::Ratio => shared::integrators::TransmittanceHat::Ratio,
     } as u32;
     let setup = crate::eval::EvalSetup {
         backend,

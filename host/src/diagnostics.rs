@@ -2,7 +2,11 @@
 //! a loop bound changed, and jackknife estimates outside the regime where the paper's analysis
 //! holds. They go into every JSON summary and, when non-zero, into a warning.
 
-use shared::render::{Estimator, PixelOut, RenderParams};
+use shared::estimators::estimate::Estimator;
+
+use shared::kernels::render::PixelOut;
+
+use shared::params::RenderParams;
 
 /// Fraction of rays outside the jackknife's regime above which a render warns.
 pub const OUTSIDE_WARN_FRACTION: f64 = 0.01;
@@ -15,7 +19,7 @@ pub struct RayFlags {
     pub rays: u64,
     /// Rays whose estimate a loop bound of `shared` changed (see [`capped_advice`]).
     pub capped_rays: u64,
-    /// Rays with a jackknife estimate whose S exceeds `shared::transmittance::S_REGIME`.
+    /// Rays with a jackknife estimate whose S exceeds `shared::estimators::transmittance::S_REGIME`.
     pub jackknife_outside_rays: u64,
 }
 
@@ -52,7 +56,7 @@ impl RayFlags {
                 self.jackknife_outside_rays,
                 self.rays,
                 100.0 * outside,
-                shared::transmittance::S_REGIME
+                shared::estimators::transmittance::S_REGIME
             ));
         }
         out
@@ -68,8 +72,8 @@ impl RayFlags {
 
 /// What the loop bound of this render's estimator does when reached, and what to change.
 pub fn capped_advice(params: &RenderParams) -> String {
-    use shared::ray_marching::{MAX_BIASED_SAMPLES, MAX_UNBIASED_SAMPLES};
-    use shared::tracking::MAX_TENTATIVE_COLLISIONS;
+    use shared::estimators::ray_marching::{MAX_BIASED_SAMPLES, MAX_UNBIASED_SAMPLES};
+    use shared::estimators::tracking::MAX_TENTATIVE_COLLISIONS;
     let tracking = format!(
         "after {MAX_TENTATIVE_COLLISIONS} tentative collisions the rest of the ray was finished \
          by regular tracking (exact for --lookup nearest, approximate for stochastic lookups); \
@@ -93,7 +97,7 @@ pub fn capped_advice(params: &RenderParams) -> String {
         Estimator::JackknifeAdaptive => format!(
             "F / F_delta exceeded {} strata, so the CDF step was widened (fewer samples than \
              --f-delta asks for); raise --f-delta",
-            shared::optical_depth::MAX_ADAPTIVE_STRATA
+            shared::estimators::optical_depth::MAX_ADAPTIVE_STRATA
         ),
         _ => "an internal loop bound was reached".into(),
     }

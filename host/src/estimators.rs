@@ -1,7 +1,8 @@
 //! The named estimator variants of the CLI: each is an [`Estimator`] plus its settings.
 
-use shared::optical_depth::{Importance, Jitter};
-use shared::render::{Estimator, RenderParams};
+use shared::estimators::estimate::Estimator;
+use shared::estimators::optical_depth::{Importance, Jitter};
+use shared::params::RenderParams;
 
 /// One selectable transmittance estimator.
 #[derive(Clone, Copy, Debug)]

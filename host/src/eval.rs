@@ -7,7 +7,8 @@ use crate::estimators::{by_name, EstimatorSpec};
 use crate::output::{write_exr, write_json};
 use crate::render::render;
 use anyhow::{Context, Result};
-use shared::render::{PixelOut, RenderParams};
+use shared::kernels::render::PixelOut;
+use shared::params::RenderParams;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -435,11 +436,11 @@ const SMAPE_EPS: f64 = 0.01;
 /// Renders the reference and each integrator; measures SMAPE, bias and time.
 pub fn evaluate_integrators(
     setup: &EvalSetup,
-    lights: &[shared::lights::PointLight],
-    integrators: &[(&'static str, shared::integrator::Integrator)],
+    lights: &[shared::sampling::lights::PointLight],
+    integrators: &[(&'static str, shared::integrators::Integrator)],
     exposure: f32,
 ) -> Result<IntegratorEvalReport> {
-    use shared::integrator::{Integrator, TransmittanceHat};
+    use shared::integrators::{Integrator, TransmittanceHat};
     std::fs::create_dir_all(setup.out_dir)
         .with_context(|| format!("creating {}", setup.out_dir.display()))?;
     let (w, h) = (setup.params.width, setup.params.height);

@@ -6,12 +6,14 @@ use crate::gpu::Binding;
 use crate::volume::{Affine, DenseVolume};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
-use shared::camera::{Affine3x4, Camera};
-use shared::lights::PointLight;
-use shared::render::{
-    finish_pixel, render_pixel_pass, tile_order_pixel, PixelOut, PixelSums, RenderParams,
+use shared::camera::Camera;
+use shared::geometry::Affine3x4;
+use shared::geometry::V3;
+use shared::kernels::render::{
+    finish_pixel, render_pixel_pass, tile_order_pixel, PixelOut, PixelSums,
 };
-use shared::vec3::V3;
+use shared::params::RenderParams;
+use shared::sampling::lights::PointLight;
 
 /// Axis-aligned world-space bounds of the volume's grid box [0, dims].
 pub fn world_bounds(vol: &DenseVolume) -> ([f64; 3], [f64; 3]) {
@@ -198,42 +200,50 @@ fn progress_bar(len: u64, enabled: bool) -> ProgressBar {
     bar
 }
 
-/// Most samples per pixel per pass (see [`shared::render::RenderPass`] for why passes exist).
+/// Most samples per pixel per pass (see [`shared::kernels::render::RenderPass`] for why passes exist).
 pub const SPP_PER_PASS: u32 = 16;
 /// Loop iterations one invocation may run: lavapipe's gallivm ends a shader after 65535
 /// iterations summed over all its loops; the rest is margin for small fixed loops.
 const LOOP_BUDGET: u64 = 60_000;
 
 /// Upper bound on the loop iterations one primary ray of this estimator can take.
-pub fn loop_iterations_per_ray(params: &RenderParams, desc: &shared::grid::GridDesc) -> u64 {
-    use shared::render::Estimator as E;
+pub fn loop_iterations_per_ray(
+    params: &RenderParams,
+    desc: &shared::volume::grid::GridDesc,
+) -> u64 {
+    use shared::estimators::estimate::Estimator as E;
     let bricks = (desc.brick_dims[0] + desc.brick_dims[1] + desc.brick_dims[2] + 3) as u64;
     let voxels = (desc.dims[0] + desc.dims[1] + desc.dims[2] + 3) as u64;
     let fixed = 64;
     // A tracking loop: two iterations per tentative collision (the collision loop and the
     // sampler's), one sampler iteration per brick segment, and at the cap the completion by a
     // voxel DDA (two for free-flight sampling: the flight, then T up to it).
-    let tracking = 2 * shared::tracking::MAX_TENTATIVE_COLLISIONS as u64 + bricks + 2 * voxels;
+    let tracking =
+        2 * shared::estimators::tracking::MAX_TENTATIVE_COLLISIONS as u64 + bricks + 2 * voxels;
     if params.integrator != 0 {
         // Free-flight sampling and one ratio tracking (Miller, --t-hat ratio), up to four pairs
         // of estimates on the camera ray and two shadow rays, and two passes over the lights.
         return fixed
             + 2 * tracking
             + 6 * (3 * bricks + 2 * params.n as u64)
-            + 2 * shared::lights::MAX_LIGHTS as u64;
+            + 2 * shared::sampling::lights::MAX_LIGHTS as u64;
     }
     fixed
         + match E::from_u32(params.estimator) {
             E::Jackknife | E::NaiveMean | E::NaiveSingle => 3 * bricks + 2 * params.n as u64,
             E::JackknifeAdaptive => {
-                3 * bricks + 2 * shared::optical_depth::MAX_ADAPTIVE_STRATA as u64
+                3 * bricks + 2 * shared::estimators::optical_depth::MAX_ADAPTIVE_STRATA as u64
             }
             E::RegularTracking => voxels,
-            E::BiasedRayMarching => 3 * bricks + shared::ray_marching::MAX_BIASED_SAMPLES as u64,
+            E::BiasedRayMarching => {
+                3 * bricks + shared::estimators::ray_marching::MAX_BIASED_SAMPLES as u64
+            }
             E::UnbiasedRayMarching => {
-                let estimates = shared::ray_marching::MAX_DEGREE as u64 + 1;
+                let estimates = shared::estimators::ray_marching::MAX_DEGREE as u64 + 1;
                 bricks
-                    + estimates * (2 * bricks + shared::ray_marching::MAX_UNBIASED_SAMPLES as u64)
+                    + estimates
+                        * (2 * bricks
+                            + shared::estimators::ray_marching::MAX_UNBIASED_SAMPLES as u64)
                     + 100
             }
             E::TrackLength | E::RatioTracking => bricks + tracking,
@@ -241,7 +251,7 @@ pub fn loop_iterations_per_ray(params: &RenderParams, desc: &shared::grid::GridD
 }
 
 /// Samples per pixel per pass so that one invocation stays within the loop budget.
-pub fn spp_per_pass(params: &RenderParams, desc: &shared::grid::GridDesc) -> Result<u32> {
+pub fn spp_per_pass(params: &RenderParams, desc: &shared::volume::grid::GridDesc) -> Result<u32> {
     let per_ray = loop_iterations_per_ray(params, desc);
     anyhow::ensure!(
         per_ray <= LOOP_BUDGET,
@@ -321,9 +331,9 @@ pub fn render_resident(
     let (backend, vol) = (resident.backend, resident.vol);
     anyhow::ensure!(
         params.light_count as usize <= lights.len()
-            && params.light_count <= shared::lights::MAX_LIGHTS,
+            && params.light_count <= shared::sampling::lights::MAX_LIGHTS,
         "at most {} lights",
-        shared::lights::MAX_LIGHTS
+        shared::sampling::lights::MAX_LIGHTS
     );
     let count = params
         .width

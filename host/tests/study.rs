@@ -160,7 +160,7 @@ fn eq3_for_m2_equals_eq4() {
         let k = umvu::jackknife(&[x0, x1]);
         let eq4 = ((x0 - x1) / 2.0f64).abs().cos() * (-(x0 + x1) / 2.0f64).exp();
         assert!((k - eq4).abs() < 1e-14, "({x0}, {x1}): {k} vs {eq4}");
-        let shared = shared::transmittance::jackknife(x0 as f32, x1 as f32) as f64;
+        let shared = shared::estimators::transmittance::jackknife(x0 as f32, x1 as f32) as f64;
         assert!(
             (k - shared).abs() < 1e-6,
             "shared f32 Eq. 4 {shared} vs {k}"

@@ -2,11 +2,12 @@
 //! the CPU backend calls the same functions over the same ids.
 #![cfg_attr(target_arch = "spirv", no_std)]
 
-use shared::grid::{Brick, GridDesc, VolumeView};
-use shared::launch::Launch;
-use shared::lights::PointLight;
-use shared::probe::{self, DepthPair, MathValues, RngDraws, TransmittancePair};
-use shared::render::{self, PixelSums, RenderParams, RenderPass};
+use shared::kernels::launch::Launch;
+use shared::kernels::probe::{self, DepthPair, MathValues, RngDraws, TransmittancePair};
+use shared::kernels::render::{self, PixelSums, RenderPass};
+use shared::params::RenderParams;
+use shared::sampling::lights::PointLight;
+use shared::volume::grid::{Brick, GridDesc, VolumeView};
 use spirv_std::glam::UVec3;
 use spirv_std::spirv;
 

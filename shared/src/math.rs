@@ -260,7 +260,7 @@ pub fn atan(x: f32) -> f32 {
     // exact. (The textbook pi/4 + atan((r - 1)/(r + 1)) gave different bits on lavapipe: Mesa's
     // NIR reassociates the constant addition in shaders without NoContraction.)
     let mut v = if r > 0.414_213_57 {
-        2.0 * atan_kernel(r / (1.0 + crate::camera::sqrt(1.0 + r * r)))
+        2.0 * atan_kernel(r / (1.0 + sqrt(1.0 + r * r)))
     } else {
         atan_kernel(r)
     };
@@ -279,4 +279,68 @@ pub fn atan(x: f32) -> f32 {
 pub fn tan(x: f32) -> f32 {
     let (s, c) = sin_cos(x);
     s / c
+}
+
+/// 2^k as f32 for -126 <= k <= 127 (exact).
+#[inline]
+fn pow2(k: i32) -> f32 {
+    f32::from_bits(((k + 127) as u32) << 23)
+}
+
+/// sqrt(x), correctly rounded (IEEE 754), from integer and + - * / arithmetic only, so it is the
+/// same function on every target and builds without `core::f32::math` (stable Rust). For
+/// x = m 2^(E - 23) with E even and m in [2^23, 2^25), sqrt(x) = sqrt(m 2^23) 2^(E/2 - 23); the
+/// 24-bit root r = round(sqrt(N)), N = m 2^23 < 2^48, comes from an f32 Newton estimate made
+/// exact by integer corrections (N > r^2 + r rounds up; ties cannot occur).
+#[inline]
+pub fn sqrt(x: f32) -> f32 {
+    if !(x > 0.0) || x == f32::INFINITY {
+        // NaN and negative: NaN; +-0: itself; +inf: itself.
+        return if x == 0.0 || x == f32::INFINITY {
+            x
+        } else {
+            f32::NAN
+        };
+    }
+    // Subnormals: scale by 2^64 (exact), take the root, scale by 2^-32.
+    let tiny = x < f32::MIN_POSITIVE;
+    let v = if tiny { x * pow2(64) } else { x };
+    let bits = v.to_bits();
+    let mut e = ((bits >> 23) & 0xff) as i32 - 127;
+    let mut m = ((bits & 0x7f_ffff) | 0x80_0000) as u64;
+    if e & 1 != 0 {
+        m <<= 1;
+        e -= 1;
+    }
+    let n = m << 23;
+    // f32 estimate of sqrt(m 2^-23) in [1, 2): bit trick, then three Newton steps.
+    let a = (m as f32) * pow2(-23);
+    let mut y = f32::from_bits((a.to_bits() >> 1) + 0x1fbd_1df5);
+    y = 0.5 * (y + a / y);
+    y = 0.5 * (y + a / y);
+    y = 0.5 * (y + a / y);
+    let mut r = (y * pow2(23)) as u64;
+    // Exact floor(sqrt(n)): the estimate is within 2 of it.
+    if r * r > n {
+        r -= 1;
+    }
+    if r * r > n {
+        r -= 1;
+    }
+    if (r + 1) * (r + 1) <= n {
+        r += 1;
+    }
+    if (r + 1) * (r + 1) <= n {
+        r += 1;
+    }
+    // Round to nearest: sqrt(n) > r + 1/2 exactly when n > r^2 + r.
+    if n > r * r + r {
+        r += 1;
+    }
+    let root = (r as f32) * pow2(e / 2 - 23);
+    if tiny {
+        root * pow2(-32)
+    } else {
+        root
+    }
 }

@@ -2,8 +2,8 @@
 //! sampling, g(tau) = (u0 e^-tau + u1) / (v0 e^-tau + v1) (Eq. 11, 12, App. F).
 
 use crate::complex::Complex;
+use crate::estimators::transmittance::{s, x_bar};
 use crate::math;
-use crate::transmittance::{s, x_bar};
 
 /// Coefficients of g(tau) = (u0 e^-tau + u1) / (v0 e^-tau + v1) (Eq. 11).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -126,7 +126,7 @@ mod tests {
             v1: 1.0,
         };
         for &(x0, x1) in &[(0.3f32, 1.7f32), (2.0, 2.5), (0.0, 4.0)] {
-            let k = crate::transmittance::jackknife(x0, x1);
+            let k = crate::estimators::transmittance::jackknife(x0, x1);
             assert!((g.jackknife(x0, x1) - k).abs() < 1e-7);
         }
     }

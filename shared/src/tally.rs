@@ -9,7 +9,7 @@ pub struct Tally {
     /// 1 if a loop bound of `shared` (collision cap, sample cap, strata cap) changed the estimate.
     pub capped: u32,
     /// 1 if a jackknife estimate of the ray lies outside the regime where the paper's analysis
-    /// holds ([`crate::transmittance::outside_regime`]).
+    /// holds ([`crate::estimators::transmittance::outside_regime`]).
     pub outside: u32,
 }
 

@@ -8,12 +8,14 @@ use host::render::{make_camera, render_scene, world_bounds, world_to_index, Came
 use host::volume::{Affine, DenseVolume};
 use host::Backend;
 use integration_tests::{assert_bytes_equal, gpu};
-use shared::grid::Lookup;
-use shared::integrator::{Integrator, TransmittanceHat};
-use shared::lights::PointLight;
-use shared::render::{Estimator, PixelOut, RenderParams};
+use shared::estimators::estimate::Estimator;
+use shared::geometry::V3;
+use shared::integrators::{Integrator, TransmittanceHat};
+use shared::kernels::render::PixelOut;
+use shared::params::RenderParams;
 use shared::rng::{pcg_hash, unit_f32};
-use shared::vec3::V3;
+use shared::sampling::lights::PointLight;
+use shared::volume::grid::Lookup;
 
 /// Density scales of the sweep: empty, thin, the embedded volumes' range, opaque, absurd.
 const SCALES: [f32; 9] = [0.0, 1e-6, 0.5, 8.0, 1e3, 1e5, 1e10, 1e20, 1e30];

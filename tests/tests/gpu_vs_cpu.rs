@@ -5,7 +5,7 @@
 
 use host::Backend;
 use integration_tests::{assert_bytes_equal, gpu};
-use shared::probe::{self, DepthPair};
+use shared::kernels::probe::{self, DepthPair};
 use shared::rng::{pcg_hash, Pcg32};
 
 const RANDOM_COUNT: u32 = 1 << 20;
@@ -155,12 +155,12 @@ fn equiangular_sampling_is_bit_identical() {
         .map(|c| {
             // Only the realistic-depth half of random_floats: odd indices are in [0, 64).
             let v = |i: usize| c[i | 1] / 32.0 - 1.0;
-            let dir = shared::vec3::V3::new(v(2), v(3), v(4));
+            let dir = shared::geometry::V3::new(v(2), v(3), v(4));
             let len = (dir.dot(dir)).sqrt().max(1e-3);
             probe::EquiangularIn {
-                o: shared::vec3::V3::new(v(0) * 2.0, v(1) * 2.0, -2.0),
+                o: shared::geometry::V3::new(v(0) * 2.0, v(1) * 2.0, -2.0),
                 dir: dir * (1.0 / len),
-                light: shared::vec3::V3::new(v(5), v(6), v(7)),
+                light: shared::geometry::V3::new(v(5), v(6), v(7)),
                 ta: 0.5 + v(8).abs(),
                 tb: 2.0 + v(9).abs() * 2.0,
                 u: (v(10) + 1.0) * 0.5,

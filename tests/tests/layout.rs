@@ -1,13 +1,14 @@
 //! Pins the byte layout of every struct shared between host, kernels and CPU backend.
 
-use shared::grid::{Brick, GridDesc};
-use shared::launch::Launch;
-use shared::lights::PointLight;
-use shared::probe::{
+use shared::kernels::launch::Launch;
+use shared::kernels::probe::{
     DepthPair, EquiangularIn, EquiangularOut, MathValues, RngDraws, TransmittancePair,
 };
-use shared::render::{PixelOut, PixelSums, RenderParams, RenderPass};
+use shared::kernels::render::{PixelOut, PixelSums, RenderPass};
+use shared::params::RenderParams;
 use shared::rng::Pcg32;
+use shared::sampling::lights::PointLight;
+use shared::volume::grid::{Brick, GridDesc};
 use shared::Complex;
 use std::mem::{align_of, size_of};
 
@@ -39,7 +40,7 @@ fn shared_struct_layouts() {
 
 #[test]
 fn tile_order_is_a_bijection_of_the_pixels() {
-    use shared::render::tile_order_pixel;
+    use shared::kernels::render::tile_order_pixel;
     for (w, h) in [
         (1, 1),
         (8, 8),

@@ -5,15 +5,16 @@ use host::render::{make_camera, render_scene, world_bounds, world_to_index, Came
 use host::volume::{Affine, DenseVolume};
 use host::Backend;
 use integration_tests::{assert_bytes_equal, gpu};
-use shared::dda::{clip_to_box, Ray};
-use shared::grid::Lookup;
-use shared::integrator::{radiance, Integrator, TransmittanceHat};
-use shared::lights::PointLight;
+use shared::estimators::optical_depth::{estimate_pair, prepare, Importance, Jitter};
+use shared::geometry::Ray;
+use shared::geometry::V3;
+use shared::integrators::{radiance, Integrator, TransmittanceHat};
 use shared::mis::Mobius;
-use shared::optical_depth::{estimate_pair, prepare, Importance, Jitter};
-use shared::render::RenderParams;
+use shared::params::RenderParams;
 use shared::rng::{pcg_hash, unit_f32, HashRng, Pcg32};
-use shared::vec3::V3;
+use shared::sampling::lights::PointLight;
+use shared::volume::dda::clip_to_box;
+use shared::volume::grid::Lookup;
 
 /// Lumpy 32^3 test volume spanning [-1, 1]^3 in world space.
 fn lumpy(n: u32) -> DenseVolume {
@@ -253,7 +254,7 @@ fn unbiased_integrators_agree_within_their_confidence_intervals() {
 
 /// Mean and standard error of `trials` radiance samples of one camera ray, in parallel.
 fn radiance_mean_se(
-    view: &shared::grid::VolumeView,
+    view: &shared::volume::grid::VolumeView,
     p: &RenderParams,
     l: &[PointLight],
     world: &Ray,

@@ -5,12 +5,15 @@ use host::render::{make_camera, render, world_bounds, world_to_index, CameraSpec
 use host::volume::{Affine, DenseVolume};
 use host::Backend;
 use integration_tests::{assert_bytes_equal, gpu};
-use shared::dda::{clip_to_box, GridDda, Ray};
-use shared::grid::Lookup;
-use shared::optical_depth::{estimate_pair, prepare, Importance, Jitter};
-use shared::render::{ray_transmittance, Estimator, RenderParams};
+use shared::estimators::estimate::Estimator;
+use shared::estimators::optical_depth::{estimate_pair, prepare, Importance, Jitter};
+use shared::geometry::Ray;
+use shared::geometry::V3;
+use shared::kernels::render::ray_transmittance;
+use shared::params::RenderParams;
 use shared::rng::{pcg_hash, unit_f32, HashRng};
-use shared::vec3::V3;
+use shared::volume::dda::{clip_to_box, GridDda};
+use shared::volume::grid::Lookup;
 
 /// A sparse, lumpy test volume: hashed blobs with empty regions (deterministic).
 fn lumpy(n: u32) -> DenseVolume {
@@ -150,7 +153,7 @@ fn homogeneous_medium_is_exact_for_jackknife_and_naive() {
         let exact = (-(c as f64) * (t1 - t0) as f64).exp();
         for est in [Estimator::Jackknife, Estimator::NaiveMean] {
             let mut p = params(&vol, 1, 1, 1, est);
-            p.world_to_index = shared::camera::Affine3x4 {
+            p.world_to_index = shared::geometry::Affine3x4 {
                 rows: [
                     [1.0, 0.0, 0.0, 0.0],
                     [0.0, 1.0, 0.0, 0.0],
@@ -301,7 +304,7 @@ fn optical_depth_estimates_are_unbiased_in_every_mode() {
         if !(t0 < t1) {
             continue;
         }
-        let (tau, _) = shared::tracking::regular_tracking_tau(&view, ray, t0, t1);
+        let (tau, _) = shared::estimators::tracking::regular_tracking_tau(&view, ray, t0, t1);
         for mode in [Importance::VarianceAware, Importance::Mean] {
             let prep = prepare(&view, ray, t0, t1, mode);
             for (jitter, n) in [
@@ -310,7 +313,7 @@ fn optical_depth_estimates_are_unbiased_in_every_mode() {
                 (Jitter::Uniform, 37),
             ] {
                 let (m, se) = mean_depth(20_000, |rng| {
-                    shared::optical_depth::estimate_single(
+                    shared::estimators::optical_depth::estimate_single(
                         &view,
                         ray,
                         &prep,
@@ -350,11 +353,11 @@ fn unbiased_ray_marching_matches_regular_tracking() {
         if !(t0 < t1) {
             continue;
         }
-        let (tau, _) = shared::tracking::regular_tracking_tau(&view, ray, t0, t1);
+        let (tau, _) = shared::estimators::tracking::regular_tracking_tau(&view, ray, t0, t1);
         let exact = (-(tau as f64)).exp();
         for scale in [1.0, 2.0] {
             let (m, se) = mean_depth(100_000, |rng| {
-                shared::ray_marching::unbiased_ray_marching(
+                shared::estimators::ray_marching::unbiased_ray_marching(
                     &view,
                     ray,
                     t0,

@@ -7,14 +7,17 @@ use host::render::{make_camera, render, world_bounds, world_to_index, CameraSpec
 use host::volume::{Affine, DenseVolume};
 use host::Backend;
 use integration_tests::gpu;
-use shared::dda::{clip_to_box, is_usable, Ray};
-use shared::grid::Lookup;
-use shared::optical_depth::{estimate_pair, prepare, Importance, Jitter};
-use shared::ray_marching::{biased_ray_marching, unbiased_ray_marching};
-use shared::render::{ray_transmittance, Estimator, RenderParams};
+use shared::estimators::estimate::Estimator;
+use shared::estimators::optical_depth::{estimate_pair, prepare, Importance, Jitter};
+use shared::estimators::ray_marching::{biased_ray_marching, unbiased_ray_marching};
+use shared::estimators::tracking::{ratio_tracking, regular_tracking_tau, track_length};
+use shared::geometry::Ray;
+use shared::geometry::V3;
+use shared::kernels::render::ray_transmittance;
+use shared::params::RenderParams;
 use shared::rng::{pcg_hash, unit_f32, HashRng};
-use shared::tracking::{ratio_tracking, regular_tracking_tau, track_length};
-use shared::vec3::V3;
+use shared::volume::dda::{clip_to_box, is_usable};
+use shared::volume::grid::Lookup;
 
 /// A 32^3 volume of hashed densities in [0.5, 2.5] over [-1, 1]^3.
 fn volume() -> DenseVolume {

@@ -6,13 +6,14 @@
 
 use host::bricks::{pack, PackedVolume};
 use host::volume::{Affine, DenseVolume};
-use shared::dda::{clip_to_box, Ray};
-use shared::grid::{Lookup, VolumeView};
-use shared::rng::{pcg_hash, unit_f32, HashRng};
-use shared::tracking::{
+use shared::estimators::tracking::{
     ratio_tracking, regular_tracking_tau, track_length, MajorantIter, MAX_TENTATIVE_COLLISIONS,
 };
-use shared::vec3::V3;
+use shared::geometry::Ray;
+use shared::geometry::V3;
+use shared::rng::{pcg_hash, unit_f32, HashRng};
+use shared::volume::dda::clip_to_box;
+use shared::volume::grid::{Lookup, VolumeView};
 
 /// Trials per ray in the statistical tests.
 const TRIALS: u32 = 200_000;

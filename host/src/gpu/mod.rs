@@ -11,7 +11,7 @@ pub use resources::Buffer;
 use resources::{Pipeline, Submitter, MAX_BINDINGS};
 
 use ash::vk;
-use shared::launch::{Launch, WORKGROUP_SIZE};
+use shared::kernels::launch::{Launch, WORKGROUP_SIZE};
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 

@@ -2,7 +2,7 @@
 //! not normal (Fig. 2). Every distribution has mean tau and standard deviation sigma.
 //!
 //! As in `normal`, inputs are drawn in f64, rounded to f32 and fed to the renderer's own
-//! `shared::transmittance::{jackknife, naive}`; statistics are accumulated in f64.
+//! `shared::estimators::transmittance::{jackknife, naive}`; statistics are accumulated in f64.
 
 use super::plot::{Drawn, Figure, LinePanel, Series, Style, BLUE, FONT, INK, ORANGE};
 use super::rng::{sub_seed, Rng};
@@ -118,8 +118,8 @@ pub fn measure(
             for _ in 0..count {
                 let (x0, x1) = dist.pair(tau, sigma, rng);
                 let (x0, x1) = (x0 as f32, x1 as f32);
-                acc[0].push(shared::transmittance::jackknife(x0, x1) as f64);
-                acc[1].push(shared::transmittance::naive(x0, x1) as f64);
+                acc[0].push(shared::estimators::transmittance::jackknife(x0, x1) as f64);
+                acc[1].push(shared::estimators::transmittance::naive(x0, x1) as f64);
             }
         },
     );

@@ -2,7 +2,7 @@
 //! next to the closed forms of App. A (Fig. 3).
 //!
 //! Inputs are drawn in f64 (Box-Muller), rounded to f32 and fed to the renderer's own estimators
-//! `shared::transmittance::{jackknife, naive}`; statistics are accumulated in f64.
+//! `shared::estimators::transmittance::{jackknife, naive}`; statistics are accumulated in f64.
 
 use super::plot::{Figure, Legend, LinePanel, Series, Style, BLUE, GREY, INK, ORANGE};
 use super::rng::{sub_seed, Rng};
@@ -79,8 +79,8 @@ pub fn measure(tau: f64, sigma: f64, trials: u64, seed: u64, bar: &ProgressBar) 
             let (z0, z1) = rng.normal_pair();
             let x0 = (tau + sigma * z0) as f32;
             let x1 = (tau + sigma * z1) as f32;
-            acc[0].push(shared::transmittance::jackknife(x0, x1) as f64);
-            acc[1].push(shared::transmittance::naive(x0, x1) as f64);
+            acc[0].push(shared::estimators::transmittance::jackknife(x0, x1) as f64);
+            acc[1].push(shared::estimators::transmittance::naive(x0, x1) as f64);
         }
     });
     NormalPoint {

@@ -6,12 +6,13 @@
 //! The sampler is a pull iterator rather than pbrt-v4's callback, so every loop is flat, bounded
 //! and free of closures on the GPU.
 
-use crate::dda::{GridDda, Ray};
-use crate::grid::{Lookup, VolumeView};
+use crate::estimators::optical_depth::mu_at;
+use crate::geometry::Ray;
 use crate::math;
-use crate::optical_depth::mu_at;
 use crate::rng::HashRng;
 use crate::tally::Tally;
+use crate::volume::dda::GridDda;
+use crate::volume::grid::{Lookup, VolumeView};
 
 /// Most tentative collisions per tracking loop; at the cap the rest of the ray is completed by
 /// regular tracking ([`complete_exactly`]) and the ray is counted as capped. Each collision costs

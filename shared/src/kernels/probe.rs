@@ -1,7 +1,8 @@
 //! Bodies of the foundation kernels: transmittance of optical-depth pairs, the math functions and
 //! the RNG streams, one pure function per id, so the GPU and the CPU run exactly this code.
 
-use crate::{math, rng, transmittance};
+use crate::estimators::transmittance;
+use crate::{math, rng};
 use bytemuck::{Pod, Zeroable};
 
 /// Two optical depth estimates (X0, X1) of one ray.
@@ -54,7 +55,7 @@ pub fn math_values(x: f32) -> MathValues {
         cos,
         atan: math::atan(x),
         tan: math::tan(x),
-        sqrt: crate::camera::sqrt(x),
+        sqrt: crate::math::sqrt(x),
         _pad: 0.0,
     }
 }
@@ -102,9 +103,9 @@ pub fn rng_draws(id: u32, seed: u32) -> RngDraws {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct EquiangularIn {
-    pub o: crate::vec3::V3,
-    pub dir: crate::vec3::V3,
-    pub light: crate::vec3::V3,
+    pub o: crate::geometry::V3,
+    pub dir: crate::geometry::V3,
+    pub light: crate::geometry::V3,
     pub ta: f32,
     pub tb: f32,
     pub u: f32,
@@ -126,7 +127,7 @@ pub struct EquiangularOut {
 /// Equiangular setup, sample and pdf for one configuration.
 #[inline]
 pub fn equiangular(p: EquiangularIn) -> EquiangularOut {
-    let eq = crate::lights::Equiangular::new(p.o, p.dir, p.light, p.ta, p.tb);
+    let eq = crate::sampling::equiangular::Equiangular::new(p.o, p.dir, p.light, p.ta, p.tb);
     let (t, pdf) = eq.sample(p.u);
     EquiangularOut {
         tc: eq.tc,

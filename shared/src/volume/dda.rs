@@ -1,25 +1,8 @@
 //! Ray/box clipping and Amanatides-Woo traversal of the brick grid, in voxel index space.
 
-use crate::grid::GridDesc;
+use crate::geometry::{Ray, V3};
 use crate::math;
-use crate::vec3::V3;
-
-/// A ray x(t) = o + t d in voxel index space. `d` is the world-space unit direction mapped to
-/// index space, so t stays a world-space distance and extinction stays per world unit.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct Ray {
-    pub o: V3,
-    pub d: V3,
-}
-
-impl Ray {
-    /// The point at parameter t.
-    #[inline]
-    pub fn at(&self, t: f32) -> V3 {
-        self.o + self.d * t
-    }
-}
+use crate::volume::grid::GridDesc;
 
 /// Clips [t_lo, t_hi] to the box [0, hi] (slab test). Returns (t_enter, t_exit); the ray misses
 /// when `!(t_enter < t_exit)`. Axis-parallel rays are handled without 0 * inf. Degenerate input

@@ -2,12 +2,12 @@
 //! series with aggressive Russian roulette and U-statistics), over mean-based importance sampling
 //! with tight segments and uniform jitter, as the paper compares them (Sec. 6; REFERENCE.md).
 
-use crate::dda::Ray;
-use crate::grid::{Lookup, VolumeView};
+use crate::estimators::optical_depth::{estimate_single, prepare, Importance, Jitter};
+use crate::geometry::Ray;
 use crate::math;
-use crate::optical_depth::{estimate_single, prepare, Importance, Jitter};
 use crate::rng::HashRng;
 use crate::tally::Tally;
+use crate::volume::grid::{Lookup, VolumeView};
 
 /// Highest power-series degree (the author's cap; a tiny truncation bias, stated in the paper).
 pub const MAX_DEGREE: usize = 8;

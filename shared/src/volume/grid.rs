@@ -1,7 +1,7 @@
 //! Views of the high-resolution volume (f16 voxels) and of its super-voxel ("brick") grid.
 
+use crate::geometry::V3;
 use crate::half::packed_f16;
-use crate::vec3::V3;
 use bytemuck::{Pod, Zeroable};
 
 /// How the high-resolution volume is read at a point.

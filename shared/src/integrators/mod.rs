@@ -3,22 +3,26 @@
 //! (Eq. 9), the biased combined estimate (Eq. 10), Miller et al. 2019 (balance heuristic,
 //! ratio-tracking densities) and the power heuristic through Re g (beyond the paper).
 
-use crate::camera::{sqrt, to_index_space};
 use crate::complex::Complex;
-use crate::dda::{clip_to_box, Ray};
-use crate::grid::{Lookup, VolumeView};
-use crate::lights::{phase_hg, select_light, Equiangular, PointLight};
-use crate::math;
-use crate::mis::Mobius;
-use crate::optical_depth::{
+use crate::estimators::estimate::{self, Estimator};
+use crate::estimators::optical_depth::{
     estimate_pair, estimate_single, mu_at, prepare, DepthPairEstimate, Importance, Jitter,
 };
-use crate::render::RenderParams;
+use crate::estimators::tracking::{
+    complete_exactly, exact_free_flight, ratio_tracking, MajorantSampler,
+};
+use crate::estimators::transmittance;
+use crate::geometry::{to_index_space, Ray, V3};
+use crate::math::{self, sqrt};
+use crate::mis::Mobius;
+use crate::params::{Config, RenderParams};
 use crate::rng::HashRng;
+use crate::sampling::equiangular::Equiangular;
+use crate::sampling::lights::{select_light, PointLight};
+use crate::sampling::phase::phase_hg;
 use crate::tally::Tally;
-use crate::tracking::{complete_exactly, exact_free_flight, ratio_tracking, MajorantSampler};
-use crate::transmittance;
-use crate::vec3::V3;
+use crate::volume::dda::clip_to_box;
+use crate::volume::grid::{Lookup, VolumeView};
 
 /// Light transport integrators selectable at run time (`RenderParams::integrator`).
 #[repr(u32)]
@@ -76,6 +80,7 @@ pub enum TransmittanceHat {
 struct Context<'a> {
     vol: &'a VolumeView<'a>,
     params: &'a RenderParams,
+    cfg: &'a Config,
     /// World-space unit ray.
     world: Ray,
     /// The same ray in index space (t is world distance).
@@ -173,12 +178,15 @@ fn shadow_transmittance(ctx: &Context, x: V3, rng: HashRng) -> (f32, Tally, Hash
     if !(t0 < t1) {
         return (1.0, Tally::default(), rng);
     }
-    let (est, rng) = depth_pair(ctx.vol, &ray, t0, t1, ctx.params.n, ctx.lookup, rng);
-    (
-        transmittance::jackknife(est.x0, est.x1),
-        jackknife_tally(&est),
-        rng,
-    )
+    // Shadow rays: the jackknife with variance-aware importance and stratified jitter (Sec. 5),
+    // through the same estimate as camera rays.
+    let shadow = Config {
+        estimator: Estimator::Jackknife,
+        importance: Importance::VarianceAware,
+        jitter: Jitter::Stratified,
+        ..*ctx.cfg
+    };
+    estimate::transmittance(ctx.vol, &shadow, ctx.params, &ray, t0, t1, rng)
 }
 
 /// In-scattered radiance from the selected light at distance t, divided by the light's
@@ -224,7 +232,7 @@ fn free_flight(ctx: &Context, rng: HashRng) -> (FreeFlight, HashRng) {
         ..Default::default()
     };
     let mut t_last = ctx.ta;
-    while !sampler.done && lookups < crate::tracking::MAX_TENTATIVE_COLLISIONS {
+    while !sampler.done && lookups < crate::estimators::tracking::MAX_TENTATIVE_COLLISIONS {
         let (c, r) = sampler.next_collision(ctx.vol, rng);
         rng = r;
         if c.found {
@@ -291,9 +299,29 @@ fn power_weight(mu: f32, p0: f32, est: &DepthPairEstimate, other: bool) -> f32 {
     }
 }
 
-/// Radiance along one world-space camera ray; returns (L, tally, rng).
+/// Radiance along one world-space camera ray; returns (L, tally, rng) (decodes `params`; a render
+/// decodes once per pass and calls [`trace_radiance`]).
 pub fn radiance(
     vol: &VolumeView,
+    params: &RenderParams,
+    lights: &[PointLight],
+    world: &Ray,
+    rng: HashRng,
+) -> (f32, Tally, HashRng) {
+    trace_radiance(
+        vol,
+        &Config::decode(params, vol.desc),
+        params,
+        lights,
+        world,
+        rng,
+    )
+}
+
+/// [`radiance`] with the enums already decoded.
+pub fn trace_radiance(
+    vol: &VolumeView,
+    cfg: &Config,
     params: &RenderParams,
     lights: &[PointLight],
     world: &Ray,
@@ -310,6 +338,7 @@ pub fn radiance(
     let ctx = Context {
         vol,
         params,
+        cfg,
         world: *world,
         ray,
         ta,
@@ -317,9 +346,9 @@ pub fn radiance(
         light,
         p_light,
         eq: Equiangular::new(world.o, world.d, light.position, ta, tb),
-        lookup: Lookup::from_u32(vol.desc.lookup),
+        lookup: cfg.lookup,
     };
-    let which = Integrator::from_u32(params.integrator);
+    let which = cfg.integrator;
     let mut total = 0.0f32;
     let mut tally = Tally::default();
     let mut rng = rng;
@@ -379,8 +408,8 @@ fn equiangular_strategy(ctx: &Context, which: Integrator, rng: HashRng) -> (f32,
                     }
                 }
             };
-            let (t_hat, t, r) = if params.t_hat == TransmittanceHat::Ratio as u32 {
-                ratio_tracking(vol, ray, ta, t0, ctx.lookup, params.roulette != 0, rng)
+            let (t_hat, t, r) = if ctx.cfg.t_hat == TransmittanceHat::Ratio {
+                ratio_tracking(vol, ray, ta, t0, ctx.lookup, ctx.cfg.roulette, rng)
             } else {
                 let (est, r) = depth_pair(vol, ray, ta, t0, params.n, ctx.lookup, rng);
                 (

@@ -1,11 +1,12 @@
 //! Optical depth estimation along a ray: Alg. 2 (preparation) and Alg. 1 (two interleaved,
 //! stratified, importance-sampled estimates with the mu_min control variate), Sec. 4.
 
-use crate::dda::{GridDda, Ray};
-use crate::grid::{Brick, Lookup, VolumeView};
+use crate::geometry::Ray;
+use crate::geometry::V3;
 use crate::math;
 use crate::rng::{pcg3d, unit_f32, HashRng};
-use crate::vec3::V3;
+use crate::volume::dda::GridDda;
+use crate::volume::grid::{Brick, Lookup, VolumeView};
 
 /// Which super-voxel statistic drives importance sampling and whether mu_min is subtracted.
 #[repr(u32)]

@@ -1,0 +1,6 @@
+//! What the kernels run per invocation: launch headers, pixel passes of a render, and the probe
+//! kernels' functions (math, rng, Eq. 4, equiangular sampling on given inputs).
+
+pub mod launch;
+pub mod probe;
+pub mod render;

@@ -1,0 +1,4 @@
+//! The volume as the kernels see it: grid descriptor, brick statistics, lookups, and the DDA.
+
+pub mod dda;
+pub mod grid;
