@@ -468,7 +468,7 @@ pub fn prepare_scene(
     let (volume, default_scale, grid) = load_volume(args)?;
     let density_scale = args.density_scale.unwrap_or(default_scale);
     let packed = pack(&volume, density_scale, args.brick_size, lookup)?;
-    report_underflow(&volume.name, &packed.underflow, density_scale)?;
+    report_underflow(&volume, &packed.underflow, density_scale)?;
     let spec = CameraSpec {
         position: args.camera,
         look_at: args.look_at,
@@ -488,10 +488,11 @@ pub fn prepare_scene(
 
 /// Warns (with a count) about nonzero densities that became 0 as scaled f16 values; refuses a
 /// volume all of whose nonzero densities did, which would render as empty.
-fn report_underflow(name: &str, u: &crate::bricks::Underflow, scale: f32) -> Result<()> {
-    let Some((voxel, density)) = &u.first else {
+fn report_underflow(vol: &DenseVolume, u: &crate::bricks::Underflow, scale: f32) -> Result<()> {
+    let Some(([x, y, z], density)) = u.first else {
         return Ok(());
     };
+    let (name, voxel) = (&vol.name, vol.describe_voxel(x, y, z));
     let what = format!(
         "{name}: {} of {} nonzero densities (first: {voxel}, density {density}) become 0: \
          times --density-scale {scale:e} they are below f32's smallest value, or more than 2^40 \

@@ -1,0 +1,404 @@
+//! The brick grid the estimators traverse: f16 voxels and per-brick statistics (min, max, mean
+//! and the variance-aware importance P of Eq. 5), built from a user's dense or sparse densities.
+
+use half::f16;
+use shared::volume::grid::{Brick, GridDesc, Lookup, VolumeView};
+
+/// Default brick (super-voxel) size B in voxels per axis, as in the paper.
+pub const DEFAULT_BRICK_SIZE: u32 = 16;
+
+/// Largest optical depth the estimators may meet: sums of up to ~1000 such terms (two estimates,
+/// squares of half of it in the MIS weights' complex exponentials) stay within f32.
+pub const MAX_OPTICAL_DEPTH: f64 = 1e35;
+
+/// Why a grid cannot be built. Voxels are given in the builder's index coordinates.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum BuildError {
+    /// The density scale is negative or not finite.
+    #[error("the density scale must be finite and >= 0 (got {0})")]
+    Scale(f32),
+    /// The brick size is outside 2..=256.
+    #[error("the brick size must be in 2..=256 (got {0})")]
+    BrickSize(u32),
+    /// A dimension is 0, or the voxel count does not fit memory indices.
+    #[error("grid dimensions {0:?} are empty or too large")]
+    Dims([u32; 3]),
+    /// The dense array's length is not the product of the dimensions.
+    #[error("{len} densities for a {dims:?} grid (expected {expected})")]
+    Length {
+        /// Values given.
+        len: usize,
+        /// Grid dimensions.
+        dims: [u32; 3],
+        /// Their product.
+        expected: usize,
+    },
+    /// A density is NaN, infinite or negative.
+    #[error("voxel {voxel:?} has density {density}: densities must be finite and >= 0")]
+    Density {
+        /// The voxel.
+        voxel: [u32; 3],
+        /// Its density.
+        density: f32,
+    },
+    /// The densest voxel's extinction (density x scale) exceeds f32's range.
+    #[error("voxel {voxel:?} has density {density}, which times the density scale {scale} exceeds the f32 range of extinctions (3.4e38)")]
+    Extinction {
+        /// The densest voxel.
+        voxel: [u32; 3],
+        /// Its density.
+        density: f32,
+        /// The density scale.
+        scale: f32,
+    },
+    /// The densest voxel times the scale gives optical depths f32 cannot sum.
+    #[error("voxel {voxel:?} has density {density}, which times the density scale {scale} gives optical depths up to {depth:.1e} through the volume, beyond the {MAX_OPTICAL_DEPTH:e} that f32 arithmetic can sum")]
+    OpticalDepth {
+        /// The densest voxel.
+        voxel: [u32; 3],
+        /// Its density.
+        density: f32,
+        /// The density scale.
+        scale: f32,
+        /// Largest optical depth through the grid.
+        depth: f64,
+    },
+}
+
+/// Nonzero densities whose extinction (scale x stored f16) is 0: how many, and the first one.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Underflow {
+    /// Voxels with density > 0 whose extinction is 0.
+    pub count: u64,
+    /// Voxels with density > 0.
+    pub nonzero: u64,
+    /// The first such voxel and its density.
+    pub first: Option<([u32; 3], f32)>,
+}
+
+/// A volume ready for the estimators: what [`VolumeView`] borrows.
+#[derive(Clone, Debug)]
+pub struct Grid {
+    /// Shape, brick shape, lookup mode and the scale applied to the f16 voxels.
+    pub desc: GridDesc,
+    /// f16 voxel bits, two per word, x fastest (padded to whole words).
+    pub voxels: Vec<u32>,
+    /// Statistics of every brick, x fastest.
+    pub bricks: Vec<Brick>,
+    /// Nonzero densities lost to underflow.
+    pub underflow: Underflow,
+}
+
+impl Grid {
+    /// Borrows the grid as the estimators' view.
+    pub fn view(&self) -> VolumeView<'_> {
+        VolumeView {
+            desc: &self.desc,
+            voxels: &self.voxels,
+            bricks: &self.bricks,
+        }
+    }
+
+    /// The part [t0, t1] of an index-space ray inside the grid's box (t0 >= t1: a miss).
+    pub fn clip(&self, ray: &shared::geometry::Ray) -> (f32, f32) {
+        let d = &self.desc.dims;
+        let hi = shared::geometry::V3::new(d[0] as f32, d[1] as f32, d[2] as f32);
+        shared::volume::dda::clip_to_box(ray, hi, 0.0, f32::INFINITY)
+    }
+}
+
+/// Where the densities come from.
+enum Source<'a> {
+    Dense(&'a [f32]),
+    Func(Box<dyn Fn(u32, u32, u32) -> f32 + Sync + 'a>),
+}
+
+/// Builds a [`Grid`] from densities: extinction = density x `density_scale`.
+///
+/// Voxels are stored as f16 (as in the author's code), prescaled by an exact power of two where
+/// the densities do not fit f16 as they are, so any scale up to f32's range keeps 11 significant
+/// bits. Brick statistics come from exactly the values the estimators read, over each brick
+/// widened by one voxel per side (conservative for stochastic filtering); mu_min is exact, mean,
+/// max and P are rounded up, and P >= 0.01 mu_min so non-empty bricks get samples.
+pub struct GridBuilder<'a> {
+    dims: [u32; 3],
+    source: Source<'a>,
+    density_scale: f32,
+    brick_size: u32,
+    lookup: Lookup,
+    chord: Option<f64>,
+}
+
+impl<'a> GridBuilder<'a> {
+    /// Densities of a dense `dims` grid, x fastest (`values.len()` = dims product).
+    pub fn dense(dims: [u32; 3], values: &'a [f32]) -> Self {
+        Self::with_source(dims, Source::Dense(values))
+    }
+
+    /// Densities from a function of the voxel (x, y, z), e.g. a lookup in a sparse structure.
+    pub fn from_fn(dims: [u32; 3], f: impl Fn(u32, u32, u32) -> f32 + Sync + 'a) -> Self {
+        Self::with_source(dims, Source::Func(Box::new(f)))
+    }
+
+    fn with_source(dims: [u32; 3], source: Source<'a>) -> Self {
+        GridBuilder {
+            dims,
+            source,
+            density_scale: 1.0,
+            brick_size: DEFAULT_BRICK_SIZE,
+            lookup: Lookup::Stochastic,
+            chord: None,
+        }
+    }
+
+    /// Extinction per unit of density (default 1).
+    pub fn density_scale(mut self, scale: f32) -> Self {
+        self.density_scale = scale;
+        self
+    }
+
+    /// Voxels per brick axis, 2..=256 (default 16).
+    pub fn brick_size(mut self, b: u32) -> Self {
+        self.brick_size = b;
+        self
+    }
+
+    /// How the estimators read voxels (default: stochastic filtering, as in the paper).
+    pub fn lookup(mut self, lookup: Lookup) -> Self {
+        self.lookup = lookup;
+        self
+    }
+
+    /// Length of the longest ray segment through the grid in the units of the rays' t (default:
+    /// the sum of the dimensions, for rays with unit direction in index space); bounds the
+    /// optical depths checked against [`MAX_OPTICAL_DEPTH`].
+    pub fn max_chord(mut self, length: f64) -> Self {
+        self.chord = Some(length);
+        self
+    }
+
+    /// Density of voxel `i` (x fastest).
+    fn value(&self, i: usize) -> f32 {
+        match &self.source {
+            Source::Dense(v) => v[i],
+            Source::Func(f) => {
+                let [x, y, z] = unflatten(i, self.dims);
+                f(x, y, z)
+            }
+        }
+    }
+
+    /// Checks everything, quantizes and computes the brick statistics.
+    pub fn build(&self) -> Result<Grid, BuildError> {
+        let scale = self.density_scale;
+        if !(scale.is_finite() && scale >= 0.0) {
+            return Err(BuildError::Scale(scale));
+        }
+        if !(2..=256).contains(&self.brick_size) {
+            return Err(BuildError::BrickSize(self.brick_size));
+        }
+        let dims = self.dims;
+        let count = dims
+            .iter()
+            .try_fold(1usize, |n, &d| n.checked_mul(d as usize))
+            .filter(|&n| n > 0 && n < u32::MAX as usize)
+            .ok_or(BuildError::Dims(dims))?;
+        if let Source::Dense(v) = &self.source {
+            if v.len() != count {
+                return Err(BuildError::Length {
+                    len: v.len(),
+                    dims,
+                    expected: count,
+                });
+            }
+        }
+        let (max_i, max) = self.checked_max(count)?;
+        self.check_optical_depth(max_i, max)?;
+        let k = self.f16_exponent(count, max);
+        let stored_scale = (scale as f64 * pow2(-k)) as f32;
+        let (mut halves, underflow) = self.to_f16(count, k, stored_scale);
+        if !halves.len().is_multiple_of(2) {
+            halves.push(0);
+        }
+        let voxels: Vec<u32> = halves
+            .as_chunks::<2>()
+            .0
+            .iter()
+            .map(|&[lo, hi]| lo as u32 | (hi as u32) << 16)
+            .collect();
+        let b = self.brick_size;
+        let brick_dims = [0, 1, 2].map(|a| dims[a].div_ceil(b));
+        let desc = GridDesc {
+            dims: [dims[0], dims[1], dims[2], 0],
+            brick_dims: [brick_dims[0], brick_dims[1], brick_dims[2], 0],
+            brick_size: b,
+            lookup: self.lookup as u32,
+            density_scale: stored_scale,
+            _pad: 0,
+        };
+        let view = VolumeView {
+            desc: &desc,
+            voxels: &voxels,
+            bricks: &[],
+        };
+        let n_bricks = brick_dims.iter().map(|&d| d as usize).product::<usize>();
+        use rayon::prelude::*;
+        let bricks: Vec<Brick> = (0..n_bricks)
+            .into_par_iter()
+            .map(|i| brick_stats(&view, unflatten(i, brick_dims), b))
+            .collect();
+        Ok(Grid {
+            desc,
+            voxels,
+            bricks,
+            underflow,
+        })
+    }
+
+    /// The densest voxel (index, density); refuses NaN, infinite and negative densities.
+    fn checked_max(&self, count: usize) -> Result<(usize, f32), BuildError> {
+        let mut best = (0usize, 0.0f32);
+        for i in 0..count {
+            let v = self.value(i);
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(BuildError::Density {
+                    voxel: unflatten(i, self.dims),
+                    density: v,
+                });
+            }
+            if v > best.1 {
+                best = (i, v);
+            }
+        }
+        Ok(best)
+    }
+
+    /// Refuses a scale whose largest extinction exceeds f32 or, times the longest chord through
+    /// the grid ([`GridBuilder::max_chord`]), exceeds [`MAX_OPTICAL_DEPTH`].
+    fn check_optical_depth(&self, max_i: usize, max: f32) -> Result<(), BuildError> {
+        let mu = max as f64 * self.density_scale as f64;
+        if mu > f32::MAX as f64 {
+            return Err(BuildError::Extinction {
+                voxel: unflatten(max_i, self.dims),
+                density: max,
+                scale: self.density_scale,
+            });
+        }
+        let chord = self
+            .chord
+            .unwrap_or_else(|| self.dims.iter().map(|&d| d as f64).sum());
+        let depth = mu * chord;
+        if depth > MAX_OPTICAL_DEPTH {
+            return Err(BuildError::OpticalDepth {
+                voxel: unflatten(max_i, self.dims),
+                density: max,
+                scale: self.density_scale,
+                depth,
+            });
+        }
+        Ok(())
+    }
+
+    /// The exponent k of the f16 voxels' power-of-two prescale: 0 when every density fits f16
+    /// as it is (none above 65504, none nonzero that rounds to 0); otherwise the largest k for
+    /// which the largest density x 2^k stays within 65504 (fewest values lost to underflow).
+    fn f16_exponent(&self, count: usize, max: f32) -> i32 {
+        if !(max > 0.0) {
+            return 0;
+        }
+        let fits = |v: f32| f16::from_f32(v).is_finite();
+        let keeps = |v: f32| !(v > 0.0) || f16::from_f32(v).to_f32() != 0.0;
+        if fits(max) && (0..count).all(|i| keeps(self.value(i))) {
+            return 0;
+        }
+        let mut k = (f16::MAX.to_f32() as f64 / max as f64).log2().floor() as i32;
+        while !fits((max as f64 * pow2(k)) as f32) {
+            k -= 1;
+        }
+        k
+    }
+
+    /// Every voxel's density x 2^k as f16 bits, and the nonzero densities whose extinction
+    /// (`stored_scale` x f16) is 0.
+    fn to_f16(&self, count: usize, k: i32, stored_scale: f32) -> (Vec<u16>, Underflow) {
+        let mut halves = Vec::with_capacity(count + 1);
+        let mut underflow = Underflow::default();
+        let prescale = pow2(k);
+        for i in 0..count {
+            let v = self.value(i);
+            let h = f16::from_f32((v as f64 * prescale) as f32);
+            // A scale of 0 empties the volume on purpose: nothing to report.
+            if v > 0.0 && self.density_scale > 0.0 {
+                underflow.nonzero += 1;
+                if stored_scale * h.to_f32() == 0.0 {
+                    underflow.count += 1;
+                    if underflow.first.is_none() {
+                        underflow.first = Some((unflatten(i, self.dims), v));
+                    }
+                }
+            }
+            halves.push(h.to_bits());
+        }
+        (halves, underflow)
+    }
+}
+
+/// 2^k exactly, for |k| < 1000.
+fn pow2(k: i32) -> f64 {
+    2f64.powi(k)
+}
+
+/// (x, y, z) of flat index i in a grid of `dims`, x fastest.
+fn unflatten(i: usize, dims: [u32; 3]) -> [u32; 3] {
+    let (dx, dy) = (dims[0] as usize, dims[1] as usize);
+    [
+        (i % dx) as u32,
+        (i / dx % dy) as u32,
+        (i / (dx * dy)) as u32,
+    ]
+}
+
+/// Smallest f32 >= v (v rounded up from f64).
+fn round_up(v: f64) -> f32 {
+    let f = v as f32;
+    if (f as f64) < v {
+        f.next_up()
+    } else {
+        f
+    }
+}
+
+/// Statistics of brick b over its widened, clamped window ([-1, B+1) per axis): exact min,
+/// max, mean and P of Eq. 5 (RMS of mu - mu_min) rounded up, P >= 0.01 mu_min.
+fn brick_stats(view: &VolumeView, b: [u32; 3], size: u32) -> Brick {
+    let d = view.desc.dims;
+    let lo = [0, 1, 2].map(|a| (b[a] * size).saturating_sub(1));
+    let hi = [0, 1, 2].map(|a| ((b[a] + 1) * size + 1).min(d[a]));
+    let (mut mn, mut mx) = (f32::INFINITY, 0.0f32);
+    let (mut sum, mut sum2, mut n) = (0.0f64, 0.0f64, 0u64);
+    for z in lo[2]..hi[2] {
+        for y in lo[1]..hi[1] {
+            for x in lo[0]..hi[0] {
+                let mu = view.voxel(x, y, z);
+                mn = mn.min(mu);
+                mx = mx.max(mu);
+                sum += mu as f64;
+                sum2 += mu as f64 * mu as f64;
+                n += 1;
+            }
+        }
+    }
+    let mean = sum / n as f64;
+    let m2 = sum2 / n as f64;
+    let min = mn as f64;
+    let p = (m2 + min * (min - 2.0 * mean))
+        .max(0.0)
+        .sqrt()
+        .max(0.01 * min);
+    Brick {
+        mu_min: mn,
+        mu_max: mx,
+        mean: round_up(mean),
+        p: round_up(p),
+    }
+}
