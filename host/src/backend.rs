@@ -1,7 +1,7 @@
 //! Backend selection and the operations every backend runs identically.
 
 use crate::cpu;
-use crate::gpu::{Gpu, GpuError};
+use crate::gpu::{Gpu, GpuError, Kernel};
 use anyhow::{Context, Result};
 use bytemuck::{Pod, Zeroable};
 use shared::probe::{self, DepthPair, MathValues, RngDraws, TransmittancePair};
@@ -103,7 +103,7 @@ impl Backend {
     pub fn transmittance_pairs(&self, input: &[DepthPair]) -> Result<Vec<TransmittancePair>> {
         match self {
             Backend::Cpu => Ok(cpu::map(input, probe::transmittance_pair)),
-            Backend::Gpu(g) => map_on_gpu(g, "transmittance_pair_cs", input),
+            Backend::Gpu(g) => map_on_gpu(g, Kernel::TransmittancePairCs, input),
         }
     }
 
@@ -111,7 +111,7 @@ impl Backend {
     pub fn math_values(&self, input: &[f32]) -> Result<Vec<MathValues>> {
         match self {
             Backend::Cpu => Ok(cpu::map(input, probe::math_values)),
-            Backend::Gpu(g) => map_on_gpu(g, "math_values_cs", input),
+            Backend::Gpu(g) => map_on_gpu(g, Kernel::MathValuesCs, input),
         }
     }
 
@@ -122,7 +122,7 @@ impl Backend {
     ) -> Result<Vec<probe::EquiangularOut>> {
         match self {
             Backend::Cpu => Ok(cpu::map(input, probe::equiangular)),
-            Backend::Gpu(g) => map_on_gpu(g, "equiangular_cs", input),
+            Backend::Gpu(g) => map_on_gpu(g, Kernel::EquiangularCs, input),
         }
     }
 
@@ -133,14 +133,14 @@ impl Backend {
             Backend::Gpu(g) => {
                 let mut out = vec![RngDraws::zeroed(); count as usize];
                 g.dispatch(
-                    "rng_draws_cs",
+                    Kernel::RngDrawsCs,
                     count,
                     seed,
                     &[],
                     &[],
                     &mut [bytemuck::cast_slice_mut(&mut out)],
                 )
-                .map_err(gpu_err("rng_draws_cs"))?;
+                .map_err(gpu_err(Kernel::RngDrawsCs))?;
                 Ok(out)
             }
         }
@@ -148,7 +148,7 @@ impl Backend {
 }
 
 /// One input buffer to one output buffer of the same length on the GPU.
-fn map_on_gpu<I: Pod, O: Pod>(g: &Gpu, entry: &str, input: &[I]) -> Result<Vec<O>> {
+fn map_on_gpu<I: Pod, O: Pod>(g: &Gpu, entry: Kernel, input: &[I]) -> Result<Vec<O>> {
     let count = u32::try_from(input.len()).context("more than 2^32 ids in one launch")?;
     let mut out = vec![O::zeroed(); input.len()];
     g.dispatch(
@@ -163,6 +163,6 @@ fn map_on_gpu<I: Pod, O: Pod>(g: &Gpu, entry: &str, input: &[I]) -> Result<Vec<O
     Ok(out)
 }
 
-fn gpu_err(entry: &str) -> impl FnOnce(GpuError) -> anyhow::Error + '_ {
-    move |e| anyhow::Error::new(e).context(format!("GPU kernel {entry}"))
+fn gpu_err(entry: Kernel) -> impl FnOnce(GpuError) -> anyhow::Error {
+    move |e| anyhow::Error::new(e).context(format!("GPU kernel {}", entry.name()))
 }

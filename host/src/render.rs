@@ -2,7 +2,7 @@
 
 use crate::backend::Backend;
 use crate::bricks::PackedVolume;
-use crate::gpu::Binding;
+use crate::gpu::{Binding, Kernel};
 use crate::volume::{Affine, DenseVolume};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -405,14 +405,14 @@ pub fn render_resident(
                             Binding::Resident(output),
                         ];
                         gpu.dispatch_range(
-                            "render_cs",
+                            Kernel::RenderCs,
                             start..end,
                             count,
                             params.seed,
                             bytemuck::cast_slice(&extra),
                             &mut bindings,
                         )
-                        .context("GPU kernel render_cs")?;
+                        .with_context(|| format!("GPU kernel {}", Kernel::RenderCs.name()))?;
                         bar.inc((end - start) as u64 * (s1 - s0) as u64);
                         start = end;
                     }

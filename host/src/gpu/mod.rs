@@ -4,9 +4,11 @@
 //! bytes; storage buffers are bound at set 0, inputs first (bindings 0..i), then outputs.
 
 mod device;
+mod kernels;
 mod resources;
 
 pub use device::DeviceOwner;
+pub use kernels::Kernel;
 pub use resources::Buffer;
 use resources::{Pipeline, Submitter, MAX_BINDINGS};
 
@@ -39,8 +41,6 @@ pub enum GpuError {
     OutOfMemory(u64, vk::Result),
     #[error("buffer of {size} bytes exceeds this device's maxStorageBufferRange of {limit} bytes")]
     TooLarge { size: u64, limit: u64 },
-    #[error("kernel entry point {0:?} is not in the compiled module")]
-    BadEntryPoint(String),
     #[error("the GPU was lost (VK_ERROR_DEVICE_LOST) while running {0}; a driver reset or watchdog ended it")]
     DeviceLost(String),
     #[error("internal: {0}")]
@@ -51,7 +51,7 @@ pub enum GpuError {
 pub struct Gpu {
     owner: Arc<DeviceOwner>,
     module: vk::ShaderModule,
-    pipelines: Mutex<HashMap<String, Arc<Pipeline>>>,
+    pipelines: Mutex<HashMap<Kernel, Arc<Pipeline>>>,
     submitter: Mutex<Submitter>,
     /// Kernel time measured by timestamp queries since the last [`Gpu::take_kernel_ns`].
     kernel_ns: std::sync::atomic::AtomicU64,
@@ -91,7 +91,7 @@ impl Gpu {
 
     fn pipeline(
         &self,
-        entry: &str,
+        entry: Kernel,
         bindings: u32,
         push_size: u32,
     ) -> Result<Arc<Pipeline>, GpuError> {
@@ -99,26 +99,23 @@ impl Gpu {
             .pipelines
             .lock()
             .map_err(|_| GpuError::Internal("poisoned".into()))?;
-        if let Some(p) = cache.get(entry) {
+        if let Some(p) = cache.get(&entry) {
             if p.bindings != bindings || p.push_size != push_size {
                 return Err(GpuError::Internal(format!(
-                    "{entry} called with {bindings} buffers / {push_size} push bytes, first with {} / {}",
+                    "{entry:?} called with {bindings} buffers / {push_size} push bytes, first with {} / {}",
                     p.bindings, p.push_size
                 )));
             }
             return Ok(p.clone());
         }
-        if !kernel_names().any(|n| n == entry) {
-            return Err(GpuError::BadEntryPoint(entry.into()));
-        }
         let p = Arc::new(Pipeline::new(
             &self.owner,
             self.module,
-            entry,
+            entry.c_name(),
             bindings,
             push_size,
         )?);
-        cache.insert(entry.to_string(), p.clone());
+        cache.insert(entry, p.clone());
         Ok(p)
     }
 
@@ -164,7 +161,7 @@ impl Gpu {
     /// the [`Launch`] header in push constants.
     pub fn dispatch(
         &self,
-        entry: &str,
+        entry: Kernel,
         count: u32,
         seed: u32,
         extra_push: &[u8],
@@ -181,7 +178,7 @@ impl Gpu {
     /// workgroup-count limit needs; waits for completion and copies `Output` bindings back.
     pub fn dispatch_range(
         &self,
-        entry: &str,
+        entry: Kernel,
         ids: std::ops::Range<u32>,
         count: u32,
         seed: u32,
@@ -194,7 +191,7 @@ impl Gpu {
         let n_bindings = bindings.len() as u32;
         if n_bindings > MAX_BINDINGS || !extra_push.len().is_multiple_of(4) || ids.end > count {
             return Err(GpuError::Internal(format!(
-                "bad dispatch shape for {entry}"
+                "bad dispatch shape for {entry:?}"
             )));
         }
         let push_size = (std::mem::size_of::<Launch>() + extra_push.len()) as u32;
@@ -362,42 +359,12 @@ pub enum Binding<'a> {
     Output(&'a mut [u8]),
 }
 
-fn lost_or(e: vk::Result, entry: &str, call: &'static str) -> GpuError {
+fn lost_or(e: vk::Result, entry: Kernel, call: &'static str) -> GpuError {
     if e == vk::Result::ERROR_DEVICE_LOST {
-        GpuError::DeviceLost(entry.to_string())
+        GpuError::DeviceLost(entry.name().to_string())
     } else {
         GpuError::Vulkan(call, e)
     }
-}
-
-/// Entry-point names in the embedded module (from its OpEntryPoint instructions).
-pub fn kernel_names() -> impl Iterator<Item = String> {
-    let words: Vec<u32> = KERNELS_SPV
-        .as_chunks::<4>()
-        .0
-        .iter()
-        .map(|c| u32::from_le_bytes(*c))
-        .collect();
-    let mut names = Vec::new();
-    let mut i = 5;
-    while i < words.len() {
-        let len = (words[i] >> 16) as usize;
-        let op = words[i] & 0xffff;
-        if len == 0 {
-            break;
-        }
-        // OpEntryPoint = 15: execution model, function id, then the name as a literal string.
-        if op == 15 && i + 3 < words.len() {
-            let bytes: Vec<u8> = words[i + 3..(i + len).min(words.len())]
-                .iter()
-                .flat_map(|w| w.to_le_bytes())
-                .take_while(|&b| b != 0)
-                .collect();
-            names.push(String::from_utf8_lossy(&bytes).into_owned());
-        }
-        i += len;
-    }
-    names.into_iter()
 }
 
 impl Drop for Gpu {

@@ -134,7 +134,7 @@ impl Pipeline {
     pub fn new(
         owner: &Arc<DeviceOwner>,
         module: vk::ShaderModule,
-        entry: &str,
+        entry: &std::ffi::CStr,
         bindings: u32,
         push_size: u32,
     ) -> Result<Self, GpuError> {
@@ -169,16 +169,14 @@ impl Pipeline {
                 return Err(GpuError::Vulkan("vkCreatePipelineLayout", e));
             }
         };
-        let name =
-            std::ffi::CString::new(entry).map_err(|_| GpuError::BadEntryPoint(entry.into()))?;
         let stage = vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::COMPUTE)
             .module(module)
-            .name(&name);
+            .name(entry);
         let info = [vk::ComputePipelineCreateInfo::default()
             .stage(stage)
             .layout(layout)];
-        // SAFETY: the module outlives this call; the entry name was checked by the caller.
+        // SAFETY: the module outlives this call; the entry name comes from the module's metadata.
         let pipeline = match unsafe {
             device.create_compute_pipelines(vk::PipelineCache::null(), &info, None)
         } {
