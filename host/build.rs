@@ -147,8 +147,10 @@ const STORAGE_STORAGE_BUFFER: u32 = 12;
 /// Every entry point of the module with its bindings and push-constant size.
 fn reflect(spv: &[u8]) -> Result<Vec<EntryInfo>, BoxError> {
     let words: Vec<u32> = spv
-        .chunks_exact(4)
-        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .as_chunks::<4>()
+        .0
+        .iter()
+        .map(|c| u32::from_le_bytes(*c))
         .collect();
     let mut m = Module::default();
     let mut entries: Vec<(String, Vec<u32>)> = Vec::new();

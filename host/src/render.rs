@@ -2,14 +2,16 @@
 
 use crate::backend::Backend;
 use crate::bricks::PackedVolume;
-use crate::gpu::{Binding, Kernel};
+use crate::gpu::{Gpu, RenderBuffers, Step, Work, RENDER};
 use crate::volume::{Affine, DenseVolume};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use shared::camera::{Affine3x4, Camera};
+use shared::launch::Launch;
 use shared::lights::PointLight;
 use shared::render::{
     finish_pixel, render_pixel_pass, tile_order_pixel, PixelOut, PixelSums, RenderParams,
+    RenderPass,
 };
 use shared::vec3::V3;
 
@@ -366,61 +368,15 @@ pub fn render_resident(
                 .gpu
                 .as_ref()
                 .context("internal: a GPU render of a volume made resident on the CPU")?;
-            let (voxels, bricks, d) = (&dev.voxels, &dev.bricks, &dev.desc);
-            let p = gpu.upload(bytemuck::bytes_of(params))?;
-            let l = gpu.upload(bytemuck::cast_slice(lights))?;
-            let mut tiles = dev
-                .tiles
-                .lock()
-                .map_err(|_| anyhow::anyhow!("internal: poisoned tile cache"))?;
-            // Tiles of whole workgroups, each small enough for one storage buffer.
-            let sums_size = std::mem::size_of::<PixelSums>() as u64;
-            let tile = (gpu.max_buffer_bytes() / sums_size / 64 * 64)
-                .max(64)
-                .min(u64::from(count));
-            let tile = tile as u32;
-            let tile_count = count.div_ceil(tile) as usize;
-            let tile_bytes = u64::from(tile) * sums_size;
-            if tiles.len() != tile_count || tiles.iter().any(|b| b.size() != tile_bytes) {
-                tiles.clear();
-                for _ in 0..tile_count {
-                    tiles.push(gpu.buffer(tile_bytes).context("allocating the image")?);
-                }
-            }
-            let mut sums = vec![PixelSums::default(); count as usize];
-            for (k, tile_start) in (0..count).step_by(tile as usize).enumerate() {
-                let tile_end = tile_start.saturating_add(tile).min(count);
-                let output = &tiles[k];
-                for &(s0, s1) in &passes {
-                    let extra = [s0, s1, tile_start, 0];
-                    let mut start = tile_start;
-                    while start < tile_end {
-                        let end = start.saturating_add(chunk).min(tile_end);
-                        let mut bindings = [
-                            Binding::Resident(&p),
-                            Binding::Resident(d),
-                            Binding::Resident(voxels),
-                            Binding::Resident(bricks),
-                            Binding::Resident(&l),
-                            Binding::Resident(output),
-                        ];
-                        gpu.dispatch_range(
-                            Kernel::RenderCs,
-                            start..end,
-                            count,
-                            params.seed,
-                            bytemuck::cast_slice(&extra),
-                            &mut bindings,
-                        )
-                        .with_context(|| format!("GPU kernel {}", Kernel::RenderCs.name()))?;
-                        bar.inc((end - start) as u64 * (s1 - s0) as u64);
-                        start = end;
-                    }
-                }
-                let slice = &mut sums[tile_start as usize..tile_end as usize];
-                output.read(bytemuck::cast_slice_mut(slice));
-            }
-            sums
+            render_on_gpu(
+                gpu,
+                dev,
+                params,
+                lights,
+                &passes,
+                chunk,
+                progress.then_some(&bar),
+            )?
         }
     };
     bar.finish_and_clear();
@@ -428,4 +384,126 @@ pub fn render_resident(
         .into_iter()
         .map(|s| finish_pixel(s, params.spp))
         .collect())
+}
+
+/// The GPU part of [`render_resident`]: the image in tiles of one storage buffer each; per tile,
+/// every pass over every chunk of `chunk` ids, a barrier between passes. With a progress bar
+/// each chunk is its own submission (the bar moves per chunk); without, each tile is one.
+fn render_on_gpu(
+    gpu: &Gpu,
+    dev: &GpuVolume,
+    params: &RenderParams,
+    lights: &[PointLight],
+    passes: &[(u32, u32)],
+    chunk: u32,
+    bar: Option<&ProgressBar>,
+) -> Result<Vec<PixelSums>> {
+    let count = params.width * params.height;
+    let p = gpu.buffer(std::mem::size_of::<RenderParams>() as u64)?;
+    let l = gpu.buffer(std::mem::size_of_val(lights) as u64)?;
+    let mut uploads = vec![
+        (&p, bytemuck::bytes_of(params)),
+        (&l, bytemuck::cast_slice::<PointLight, u8>(lights)),
+    ];
+    let mut tiles = dev
+        .tiles
+        .lock()
+        .map_err(|_| anyhow::anyhow!("internal: poisoned tile cache"))?;
+    // Tiles of whole workgroups, each small enough for one storage buffer.
+    let sums_size = std::mem::size_of::<PixelSums>() as u64;
+    let tile = (gpu.max_buffer_bytes() / sums_size / 64 * 64)
+        .max(64)
+        .min(u64::from(count)) as u32;
+    let tile_count = count.div_ceil(tile) as usize;
+    let tile_bytes = u64::from(tile) * sums_size;
+    if tiles.len() != tile_count || tiles.iter().any(|b| b.size() != tile_bytes) {
+        tiles.clear();
+        for _ in 0..tile_count {
+            tiles.push(gpu.buffer(tile_bytes).context("allocating the image")?);
+        }
+    }
+    let mut sums = vec![PixelSums::default(); count as usize];
+    for (k, tile_start) in (0..count).step_by(tile as usize).enumerate() {
+        let ids = tile_start..tile_start.saturating_add(tile).min(count);
+        let buffers = RenderBuffers {
+            params: &p,
+            desc: &dev.desc,
+            voxels: &dev.voxels,
+            bricks: &dev.bricks,
+            lights: &l,
+            sums: &tiles[k],
+        };
+        let submissions = tile_submissions(params.seed, passes, ids.clone(), chunk, bar.is_none());
+        let last = submissions.len() - 1;
+        let slice = &mut sums[ids.start as usize..ids.end as usize];
+        let mut readback = Some(bytemuck::cast_slice_mut::<PixelSums, u8>(slice));
+        for (i, (steps, work)) in submissions.into_iter().enumerate() {
+            let readbacks = if i == last {
+                vec![(
+                    buffers.sums,
+                    readback.take().expect("one readback per tile"),
+                )]
+            } else {
+                vec![]
+            };
+            gpu.submit(Work {
+                kernel: &RENDER,
+                buffers: buffers.slots(),
+                uploads: std::mem::take(&mut uploads),
+                steps,
+                readbacks,
+            })
+            .with_context(|| format!("GPU kernel {}", RENDER.kernel.name()))?;
+            if let Some(bar) = bar {
+                bar.inc(work);
+            }
+        }
+    }
+    Ok(sums)
+}
+
+/// The submissions of one tile (ids `ids`): its steps and the samples they add. Pass after pass
+/// (with a barrier between), each pass in dispatches of at most `chunk` ids; all in one
+/// submission if `together`, else one submission per chunk.
+fn tile_submissions(
+    seed: u32,
+    passes: &[(u32, u32)],
+    ids: std::ops::Range<u32>,
+    chunk: u32,
+    together: bool,
+) -> Vec<(Vec<Step<RenderPass>>, u64)> {
+    let mut out: Vec<(Vec<Step<RenderPass>>, u64)> = Vec::new();
+    for (k, &(s0, s1)) in passes.iter().enumerate() {
+        let push = RenderPass {
+            launch: Launch {
+                seed,
+                ..Launch::default()
+            },
+            s_begin: s0,
+            s_end: s1,
+            sums_base: ids.start,
+            _pad: 0,
+        };
+        if together && k > 0 && !out.is_empty() {
+            out[0].0.push(Step::Barrier);
+        }
+        let mut start = ids.start;
+        while start < ids.end {
+            let end = start.saturating_add(chunk).min(ids.end);
+            let step = Step::Run {
+                push,
+                ids: start..end,
+            };
+            let work = u64::from(end - start) * u64::from(s1 - s0);
+            match out.first_mut() {
+                Some((steps, total)) if together => {
+                    steps.push(step);
+                    *total += work;
+                }
+                _ => out.push((vec![step], work)),
+            }
+            start = end;
+        }
+    }
+    out
 }
