@@ -8,6 +8,7 @@
 mod device;
 mod kernels;
 mod plan;
+mod render;
 mod resources;
 
 pub use device::{pick_memory_type, DeviceOwner, MemoryChoice, MemoryRole};
@@ -16,6 +17,7 @@ pub use kernels::{
     RNG_DRAWS, TRANSMITTANCE_PAIR,
 };
 pub use plan::{plan, Command, Step};
+pub use render::GpuVolume;
 pub use resources::Buffer;
 use resources::{Pipeline, Staging, Submitter, MAX_BINDINGS};
 
