@@ -1,9 +1,10 @@
 //! Backend selection and the operations every backend runs identically.
 
 use crate::cpu;
-use crate::gpu::{Gpu, GpuError};
+use crate::gpu::{self, Gpu, GpuError, KernelDef, MapBuffers, Step, Work};
 use anyhow::{Context, Result};
 use bytemuck::{Pod, Zeroable};
+use shared::kernels::launch::Launch;
 use shared::kernels::probe::{self, DepthPair, MathValues, RngDraws, TransmittancePair};
 
 /// Which backend the user asked for.
@@ -103,7 +104,7 @@ impl Backend {
     pub fn transmittance_pairs(&self, input: &[DepthPair]) -> Result<Vec<TransmittancePair>> {
         match self {
             Backend::Cpu => Ok(cpu::map(input, probe::transmittance_pair)),
-            Backend::Gpu(g) => map_on_gpu(g, "transmittance_pair_cs", input),
+            Backend::Gpu(g) => map_on_gpu(g, &gpu::TRANSMITTANCE_PAIR, input),
         }
     }
 
@@ -111,7 +112,7 @@ impl Backend {
     pub fn math_values(&self, input: &[f32]) -> Result<Vec<MathValues>> {
         match self {
             Backend::Cpu => Ok(cpu::map(input, probe::math_values)),
-            Backend::Gpu(g) => map_on_gpu(g, "math_values_cs", input),
+            Backend::Gpu(g) => map_on_gpu(g, &gpu::MATH_VALUES, input),
         }
     }
 
@@ -122,7 +123,7 @@ impl Backend {
     ) -> Result<Vec<probe::EquiangularOut>> {
         match self {
             Backend::Cpu => Ok(cpu::map(input, probe::equiangular)),
-            Backend::Gpu(g) => map_on_gpu(g, "equiangular_cs", input),
+            Backend::Gpu(g) => map_on_gpu(g, &gpu::EQUIANGULAR, input),
         }
     }
 
@@ -130,39 +131,63 @@ impl Backend {
     pub fn rng_draws(&self, count: u32, seed: u32) -> Result<Vec<RngDraws>> {
         match self {
             Backend::Cpu => Ok(cpu::generate(count, |id| probe::rng_draws(id, seed))),
-            Backend::Gpu(g) => {
-                let mut out = vec![RngDraws::zeroed(); count as usize];
-                g.dispatch(
-                    "rng_draws_cs",
-                    count,
-                    seed,
-                    &[],
-                    &[],
-                    &mut [bytemuck::cast_slice_mut(&mut out)],
-                )
-                .map_err(gpu_err("rng_draws_cs"))?;
-                Ok(out)
-            }
+            Backend::Gpu(g) => rng_on_gpu(g, count, seed).map_err(gpu_err(&gpu::RNG_DRAWS)),
         }
     }
 }
 
-/// One input buffer to one output buffer of the same length on the GPU.
-fn map_on_gpu<I: Pod, O: Pod>(g: &Gpu, entry: &str, input: &[I]) -> Result<Vec<O>> {
-    let count = u32::try_from(input.len()).context("more than 2^32 ids in one launch")?;
-    let mut out = vec![O::zeroed(); input.len()];
-    g.dispatch(
-        entry,
-        count,
-        0,
-        &[],
-        &[bytemuck::cast_slice(input)],
-        &mut [bytemuck::cast_slice_mut(&mut out)],
-    )
-    .map_err(gpu_err(entry))?;
+/// [`Backend::rng_draws`] on the GPU: one submission.
+fn rng_on_gpu(g: &Gpu, count: u32, seed: u32) -> Result<Vec<RngDraws>, GpuError> {
+    let mut out = vec![RngDraws::zeroed(); count as usize];
+    let output = g.buffer(std::mem::size_of_val(out.as_slice()) as u64)?;
+    let push = Launch {
+        seed,
+        ..Launch::default()
+    };
+    g.submit(Work {
+        kernel: &gpu::RNG_DRAWS,
+        buffers: [&output],
+        uploads: vec![],
+        steps: vec![Step::Run {
+            push,
+            ids: 0..count,
+        }],
+        readbacks: vec![(&output, bytemuck::cast_slice_mut(&mut out))],
+    })?;
     Ok(out)
 }
 
-fn gpu_err(entry: &str) -> impl FnOnce(GpuError) -> anyhow::Error + '_ {
-    move |e| anyhow::Error::new(e).context(format!("GPU kernel {entry}"))
+/// One input buffer to one output buffer of the same length on the GPU, in one submission.
+fn map_on_gpu<I: Pod, O: Pod>(
+    g: &Gpu,
+    kernel: &KernelDef<Launch, { shared::kernels::launch::bindings::map::COUNT }>,
+    input: &[I],
+) -> Result<Vec<O>> {
+    let count = u32::try_from(input.len()).context("more than 2^32 ids in one launch")?;
+    let run = || -> Result<Vec<O>, GpuError> {
+        let mut out = vec![O::zeroed(); input.len()];
+        let bytes: &[u8] = bytemuck::cast_slice(input);
+        let buffers = MapBuffers {
+            input: &g.buffer(bytes.len() as u64)?,
+            output: &g.buffer(std::mem::size_of_val(out.as_slice()) as u64)?,
+        };
+        g.submit(Work {
+            kernel,
+            buffers: buffers.slots(),
+            uploads: vec![(buffers.input, bytes)],
+            steps: vec![Step::Run {
+                push: Launch::default(),
+                ids: 0..count,
+            }],
+            readbacks: vec![(buffers.output, bytemuck::cast_slice_mut(&mut out))],
+        })?;
+        Ok(out)
+    };
+    run().map_err(gpu_err(kernel))
+}
+
+/// Adds the kernel's name to a GPU error.
+fn gpu_err<P, const N: usize>(kernel: &KernelDef<P, N>) -> impl FnOnce(GpuError) -> anyhow::Error {
+    let name = kernel.kernel.name();
+    move |e| anyhow::Error::new(e).context(format!("GPU kernel {name}"))
 }

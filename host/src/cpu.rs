@@ -1,6 +1,13 @@
 //! The CPU backend: the same `shared` kernel bodies over the same ids, on all cores with rayon.
 
+use crate::bricks::PackedVolume;
+use crate::render::{RenderBackend, Schedule};
+use anyhow::Result;
+use indicatif::ProgressBar;
 use rayon::prelude::*;
+use shared::kernels::render::{render_pixel_pass, tile_order_pixel, PixelSums};
+use shared::params::RenderParams;
+use shared::sampling::lights::PointLight;
 
 /// Applies `f` to every input on all cores, in id order.
 pub fn map<I, O, F>(inputs: &[I], f: F) -> Vec<O>
@@ -19,4 +26,51 @@ where
     F: Fn(u32) -> O + Sync,
 {
     (0..count).into_par_iter().map(&f).collect()
+}
+
+/// A volume rendered on the CPU: the render loop of the CPU backend.
+pub struct CpuVolume<'a> {
+    vol: &'a PackedVolume,
+}
+
+impl<'a> CpuVolume<'a> {
+    /// The CPU backend's view of `vol` (nothing to upload).
+    pub fn new(vol: &'a PackedVolume) -> Self {
+        CpuVolume { vol }
+    }
+}
+
+impl RenderBackend for CpuVolume<'_> {
+    /// Pass after pass, chunk after chunk on all cores; work item k is pixel
+    /// `tile_order_pixel(k)` (cache locality), returned in row-major order.
+    fn render_sums(
+        &self,
+        params: &RenderParams,
+        lights: &[PointLight],
+        schedule: &Schedule,
+        bar: Option<&ProgressBar>,
+    ) -> Result<Vec<PixelSums>> {
+        let view = self.vol.view();
+        let count = params.width * params.height;
+        let chunk = schedule.chunk;
+        let mut sums = vec![PixelSums::default(); count as usize];
+        for &(s0, s1) in &schedule.passes {
+            for (c, block) in sums.chunks_mut(chunk as usize).enumerate() {
+                let base = c as u32 * chunk;
+                block.par_iter_mut().enumerate().for_each(|(i, acc)| {
+                    let pixel = tile_order_pixel(base + i as u32, params.width, params.height);
+                    *acc = render_pixel_pass(&view, params, lights, pixel, s0, s1, *acc);
+                });
+                if let Some(bar) = bar {
+                    bar.inc(block.len() as u64 * (s1 - s0) as u64);
+                }
+            }
+        }
+        // Work item k held pixel tile_order_pixel(k): back to row-major order.
+        let mut rows = vec![PixelSums::default(); sums.len()];
+        for (k, s) in sums.into_iter().enumerate() {
+            rows[tile_order_pixel(k as u32, params.width, params.height) as usize] = s;
+        }
+        Ok(rows)
+    }
 }

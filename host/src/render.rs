@@ -2,16 +2,12 @@
 
 use crate::backend::Backend;
 use crate::bricks::PackedVolume;
-use crate::gpu::Binding;
 use crate::volume::{Affine, DenseVolume};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use shared::camera::Camera;
-use shared::geometry::Affine3x4;
-use shared::geometry::V3;
-use shared::kernels::render::{
-    finish_pixel, render_pixel_pass, tile_order_pixel, PixelOut, PixelSums,
-};
+use shared::geometry::{Affine3x4, V3};
+use shared::kernels::render::{finish_pixel, PixelOut, PixelSums};
 use shared::params::RenderParams;
 use shared::sampling::lights::PointLight;
 
@@ -283,41 +279,44 @@ pub fn render_scene(
     render_resident(&resident, params, lights, progress)
 }
 
+/// How one backend runs the passes of a render (the CPU loop in `cpu`, the GPU loop in `gpu`).
+pub trait RenderBackend: Sync {
+    /// The sums of every pixel (row-major) after `schedule`'s passes, advancing `bar` (if any)
+    /// by the samples done.
+    fn render_sums(
+        &self,
+        params: &RenderParams,
+        lights: &[PointLight],
+        schedule: &Schedule,
+        bar: Option<&ProgressBar>,
+    ) -> Result<Vec<PixelSums>>;
+}
+
+/// How a render's work is cut: passes of samples, and chunks of work items within a pass.
+pub struct Schedule {
+    /// Sample ranges (s_begin, s_end) of the passes, in order.
+    pub passes: Vec<(u32, u32)>,
+    /// Work items per chunk (a whole number of workgroups): the unit of progress and the
+    /// longest GPU dispatch.
+    pub chunk: u32,
+}
+
 /// A volume made ready for rendering on one backend: on a GPU its voxels and bricks are uploaded
 /// once, and the image buffers of the last render are kept for the next one of the same size,
 /// so repeated frames (`host bench`) allocate nothing.
 pub struct Resident<'a> {
-    backend: &'a Backend,
     vol: &'a PackedVolume,
-    gpu: Option<GpuVolume>,
-}
-
-/// The device buffers of a [`Resident`] volume.
-struct GpuVolume {
-    voxels: crate::gpu::Buffer,
-    bricks: crate::gpu::Buffer,
-    desc: crate::gpu::Buffer,
-    /// Image tile buffers by size in bytes, reused across frames.
-    tiles: std::sync::Mutex<Vec<crate::gpu::Buffer>>,
+    backend: Box<dyn RenderBackend + 'a>,
 }
 
 impl<'a> Resident<'a> {
     /// Uploads `vol` if `backend` is a GPU.
     pub fn new(backend: &'a Backend, vol: &'a PackedVolume) -> Result<Self> {
-        let gpu = match backend {
-            Backend::Cpu => None,
-            Backend::Gpu(gpu) => Some(GpuVolume {
-                voxels: gpu
-                    .upload(bytemuck::cast_slice(&vol.voxels))
-                    .context("uploading the volume")?,
-                bricks: gpu
-                    .upload(bytemuck::cast_slice(&vol.bricks))
-                    .context("uploading the bricks")?,
-                desc: gpu.upload(bytemuck::bytes_of(&vol.desc))?,
-                tiles: std::sync::Mutex::new(Vec::new()),
-            }),
+        let backend: Box<dyn RenderBackend + 'a> = match backend {
+            Backend::Cpu => Box::new(crate::cpu::CpuVolume::new(vol)),
+            Backend::Gpu(gpu) => Box::new(crate::gpu::GpuVolume::upload(gpu, vol)?),
         };
-        Ok(Resident { backend, vol, gpu })
+        Ok(Resident { vol, backend })
     }
 }
 
@@ -328,7 +327,7 @@ pub fn render_resident(
     lights: &[PointLight],
     progress: bool,
 ) -> Result<Vec<PixelOut>> {
-    let (backend, vol) = (resident.backend, resident.vol);
+    let vol = resident.vol;
     anyhow::ensure!(
         params.light_count as usize <= lights.len()
             && params.light_count <= shared::sampling::lights::MAX_LIGHTS,
@@ -349,90 +348,10 @@ pub fn render_resident(
     let per_pass = (64 / passes.len() as u32).max(1);
     let chunk = count.div_ceil(per_pass).next_multiple_of(64).max(64);
     let bar = progress_bar(count as u64 * params.spp as u64, progress);
-    let sums = match backend {
-        Backend::Cpu => {
-            use rayon::prelude::*;
-            let view = vol.view();
-            let mut sums = vec![PixelSums::default(); count as usize];
-            for &(s0, s1) in &passes {
-                for (c, block) in sums.chunks_mut(chunk as usize).enumerate() {
-                    let base = c as u32 * chunk;
-                    block.par_iter_mut().enumerate().for_each(|(i, acc)| {
-                        let pixel = tile_order_pixel(base + i as u32, params.width, params.height);
-                        *acc = render_pixel_pass(&view, params, lights, pixel, s0, s1, *acc);
-                    });
-                    bar.inc(block.len() as u64 * (s1 - s0) as u64);
-                }
-            }
-            // Work item k held pixel tile_order_pixel(k): back to row-major order.
-            let mut rows = vec![PixelSums::default(); sums.len()];
-            for (k, s) in sums.into_iter().enumerate() {
-                rows[tile_order_pixel(k as u32, params.width, params.height) as usize] = s;
-            }
-            rows
-        }
-        Backend::Gpu(gpu) => {
-            let dev = resident
-                .gpu
-                .as_ref()
-                .context("internal: a GPU render of a volume made resident on the CPU")?;
-            let (voxels, bricks, d) = (&dev.voxels, &dev.bricks, &dev.desc);
-            let p = gpu.upload(bytemuck::bytes_of(params))?;
-            let l = gpu.upload(bytemuck::cast_slice(lights))?;
-            let mut tiles = dev
-                .tiles
-                .lock()
-                .map_err(|_| anyhow::anyhow!("internal: poisoned tile cache"))?;
-            // Tiles of whole workgroups, each small enough for one storage buffer.
-            let sums_size = std::mem::size_of::<PixelSums>() as u64;
-            let tile = (gpu.max_buffer_bytes() / sums_size / 64 * 64)
-                .max(64)
-                .min(u64::from(count));
-            let tile = tile as u32;
-            let tile_count = count.div_ceil(tile) as usize;
-            let tile_bytes = u64::from(tile) * sums_size;
-            if tiles.len() != tile_count || tiles.iter().any(|b| b.size() != tile_bytes) {
-                tiles.clear();
-                for _ in 0..tile_count {
-                    tiles.push(gpu.buffer(tile_bytes).context("allocating the image")?);
-                }
-            }
-            let mut sums = vec![PixelSums::default(); count as usize];
-            for (k, tile_start) in (0..count).step_by(tile as usize).enumerate() {
-                let tile_end = tile_start.saturating_add(tile).min(count);
-                let output = &tiles[k];
-                for &(s0, s1) in &passes {
-                    let extra = [s0, s1, tile_start, 0];
-                    let mut start = tile_start;
-                    while start < tile_end {
-                        let end = start.saturating_add(chunk).min(tile_end);
-                        let mut bindings = [
-                            Binding::Resident(&p),
-                            Binding::Resident(d),
-                            Binding::Resident(voxels),
-                            Binding::Resident(bricks),
-                            Binding::Resident(&l),
-                            Binding::Resident(output),
-                        ];
-                        gpu.dispatch_range(
-                            "render_cs",
-                            start..end,
-                            count,
-                            params.seed,
-                            bytemuck::cast_slice(&extra),
-                            &mut bindings,
-                        )
-                        .context("GPU kernel render_cs")?;
-                        bar.inc((end - start) as u64 * (s1 - s0) as u64);
-                        start = end;
-                    }
-                }
-                let slice = &mut sums[tile_start as usize..tile_end as usize];
-                output.read(bytemuck::cast_slice_mut(slice));
-            }
-            sums
-        }
-    };
+    let schedule = Schedule { passes, chunk };
+    let sums = resident
+        .backend
+        .render_sums(params, lights, &schedule, progress.then_some(&bar))?;
     bar.finish_and_clear();
     Ok(sums
         .into_iter()

@@ -547,13 +547,14 @@ fn report_errors_name_the_file() {
         "{err}"
     );
 
-    // An eval.json from before `host report` (no mean_png): says which file and why.
+    // An eval.json from before `host report` (no mean_png; kept in host/tests/data): says which
+    // file and why.
     let old = tmp.path().join("old");
     std::fs::create_dir_all(&old).unwrap();
     std::fs::copy(
         concat!(
             env!("CARGO_MANIFEST_DIR"),
-            "/../docs/results/eval_cloud.json"
+            "/tests/data/eval_before_report.json"
         ),
         old.join("eval.json"),
     )

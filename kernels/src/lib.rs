@@ -1,5 +1,9 @@
 //! rust-gpu compute entry points. Each unpacks its id and buffers and calls one `shared` function;
 //! the CPU backend calls the same functions over the same ids.
+//!
+//! Binding numbers follow `shared::kernels::launch::bindings` (rust-gpu needs integer literals in
+//! `#[spirv(binding = N)]`; the host checks them against its named bindings at compile time);
+//! push constants are one `shared` struct per kernel (`Launch`, or `RenderPass` for `render_cs`).
 #![cfg_attr(target_arch = "spirv", no_std)]
 
 use shared::kernels::launch::Launch;
@@ -16,7 +20,9 @@ use spirv_std::spirv;
 pub fn transmittance_pair_cs(
     #[spirv(global_invocation_id)] gid: UVec3,
     #[spirv(push_constant)] launch: &Launch,
+    // bindings::map::INPUT
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] input: &[DepthPair],
+    // bindings::map::OUTPUT
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] output: &mut [TransmittancePair],
 ) {
     if let Some(i) = launch.id(gid.x) {
@@ -29,7 +35,9 @@ pub fn transmittance_pair_cs(
 pub fn math_values_cs(
     #[spirv(global_invocation_id)] gid: UVec3,
     #[spirv(push_constant)] launch: &Launch,
+    // bindings::map::INPUT
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] input: &[f32],
+    // bindings::map::OUTPUT
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] output: &mut [MathValues],
 ) {
     if let Some(i) = launch.id(gid.x) {
@@ -42,6 +50,7 @@ pub fn math_values_cs(
 pub fn rng_draws_cs(
     #[spirv(global_invocation_id)] gid: UVec3,
     #[spirv(push_constant)] launch: &Launch,
+    // bindings::rng_draws::OUTPUT
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] output: &mut [RngDraws],
 ) {
     if let Some(i) = launch.id(gid.x) {
@@ -55,11 +64,17 @@ pub fn rng_draws_cs(
 pub fn render_cs(
     #[spirv(global_invocation_id)] gid: UVec3,
     #[spirv(push_constant)] pass: &RenderPass,
+    // bindings::render::PARAMS
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &[RenderParams],
+    // bindings::render::DESC
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] desc: &[GridDesc],
+    // bindings::render::VOXELS
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] voxels: &[u32],
+    // bindings::render::BRICKS
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] bricks: &[Brick],
+    // bindings::render::LIGHTS
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] lights: &[PointLight],
+    // bindings::render::SUMS
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] sums: &mut [PixelSums],
 ) {
     if let Some(i) = pass.launch.id(gid.x) {
@@ -85,7 +100,9 @@ pub fn render_cs(
 pub fn equiangular_cs(
     #[spirv(global_invocation_id)] gid: UVec3,
     #[spirv(push_constant)] launch: &Launch,
+    // bindings::map::INPUT
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] input: &[probe::EquiangularIn],
+    // bindings::map::OUTPUT
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)]
     output: &mut [probe::EquiangularOut],
 ) {

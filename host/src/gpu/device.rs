@@ -17,6 +17,8 @@ pub struct DeviceOwner {
     pub(crate) timestamp_bits: u32,
     /// Human-readable device name, driver and type, e.g. "llvmpipe (LLVM 15.0.6, 256 bits) [cpu]".
     pub(crate) description: String,
+    /// Whether the fallback to non-device-local storage memory was reported.
+    storage_fallback_warned: std::sync::atomic::AtomicBool,
 }
 
 /// Preference order of device types: a real GPU over a software rasterizer.
@@ -59,6 +61,61 @@ pub fn missing_feature(shader_int64: bool, vulkan_memory_model: bool) -> Option<
     }
 }
 
+/// What a buffer's memory is for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MemoryRole {
+    /// Storage buffers the kernels read and write: device-local, filled and read by copies.
+    Storage,
+    /// Host-visible, coherent staging memory for uploads and readbacks.
+    Staging,
+}
+
+/// A memory type picked for a [`MemoryRole`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MemoryChoice {
+    /// Index into the device's memory types.
+    pub index: u32,
+    /// `Storage` only: no device-local type was allowed, so the buffer lives in whatever memory
+    /// the device offers (slower on a discrete GPU, still correct).
+    pub fallback: bool,
+}
+
+/// The memory type for `role` among `types` allowed by `type_bits`: storage prefers
+/// device-local memory the host cannot see (a discrete GPU's VRAM), then any device-local type,
+/// then falls back to any allowed type; staging needs host-visible coherent memory and prefers
+/// host-cached (fast readbacks).
+pub fn pick_memory_type(
+    types: &[vk::MemoryType],
+    type_bits: u32,
+    role: MemoryRole,
+) -> Option<MemoryChoice> {
+    use vk::MemoryPropertyFlags as F;
+    let find = |want: F, avoid: F| {
+        (0..types.len() as u32).find(|&i| {
+            let flags = types[i as usize].property_flags;
+            i < 32 && type_bits & (1 << i) != 0 && flags.contains(want) && !flags.intersects(avoid)
+        })
+    };
+    let pick = |index, fallback| Some(MemoryChoice { index, fallback });
+    match role {
+        MemoryRole::Storage => {
+            if let Some(i) = find(F::DEVICE_LOCAL, F::HOST_VISIBLE) {
+                return pick(i, false);
+            }
+            if let Some(i) = find(F::DEVICE_LOCAL, F::empty()) {
+                return pick(i, false);
+            }
+            find(F::empty(), F::empty()).and_then(|i| pick(i, true))
+        }
+        MemoryRole::Staging => {
+            let coherent = F::HOST_VISIBLE | F::HOST_COHERENT;
+            find(coherent | F::HOST_CACHED, F::empty())
+                .or_else(|| find(coherent, F::empty()))
+                .and_then(|i| pick(i, false))
+        }
+    }
+}
+
 /// Everything [`DeviceOwner`] holds but the entry and the instance.
 struct DeviceParts {
     device: ash::Device,
@@ -85,6 +142,7 @@ impl DeviceParts {
             limits: self.limits,
             timestamp_bits: self.timestamp_bits,
             description: self.description,
+            storage_fallback_warned: std::sync::atomic::AtomicBool::new(false),
         }
     }
 }
@@ -204,18 +262,22 @@ impl DeviceOwner {
         })
     }
 
-    /// Index of a memory type allowed by `type_bits` with all of `flags`.
-    pub(crate) fn memory_type(
-        &self,
-        type_bits: u32,
-        flags: vk::MemoryPropertyFlags,
-    ) -> Option<u32> {
-        (0..self.memory.memory_type_count).find(|&i| {
-            type_bits & (1 << i) != 0
-                && self.memory.memory_types[i as usize]
-                    .property_flags
-                    .contains(flags)
-        })
+    /// Memory type index and flags for a buffer of `role` allowed by `type_bits`, or `None`.
+    pub(crate) fn memory_type(&self, type_bits: u32, role: MemoryRole) -> Option<MemoryChoice> {
+        let types = &self.memory.memory_types[..self.memory.memory_type_count as usize];
+        pick_memory_type(types, type_bits, role)
+    }
+    /// Warns once that storage buffers live in memory that is not device-local.
+    pub(crate) fn warn_storage_fallback(&self) {
+        if !self
+            .storage_fallback_warned
+            .swap(true, std::sync::atomic::Ordering::Relaxed)
+        {
+            tracing::warn!(
+                "{}: no device-local memory type fits a storage buffer; using host memory (slower)",
+                self.description
+            );
+        }
     }
 
     /// The device's name, type and Vulkan version.
@@ -260,6 +322,44 @@ mod tests {
                 "{bad}: {e}"
             );
         }
+    }
+
+    /// A memory type with `flags` in heap 0.
+    fn ty(flags: vk::MemoryPropertyFlags) -> vk::MemoryType {
+        vk::MemoryType {
+            property_flags: flags,
+            heap_index: 0,
+        }
+    }
+
+    #[test]
+    fn storage_goes_to_vram_and_staging_to_host_memory_on_a_discrete_gpu() {
+        use vk::MemoryPropertyFlags as F;
+        let types = [
+            ty(F::HOST_VISIBLE | F::HOST_COHERENT),
+            ty(F::DEVICE_LOCAL | F::HOST_VISIBLE | F::HOST_COHERENT),
+            ty(F::DEVICE_LOCAL),
+            ty(F::HOST_VISIBLE | F::HOST_COHERENT | F::HOST_CACHED),
+        ];
+        let storage = pick_memory_type(&types, 0b1111, MemoryRole::Storage).unwrap();
+        assert_eq!((storage.index, storage.fallback), (2, false));
+        let staging = pick_memory_type(&types, 0b1111, MemoryRole::Staging).unwrap();
+        assert_eq!(staging.index, 3);
+        // Not allowed by the buffer: the next best type.
+        let storage = pick_memory_type(&types, 0b0011, MemoryRole::Storage).unwrap();
+        assert_eq!((storage.index, storage.fallback), (1, false));
+        let staging = pick_memory_type(&types, 0b0111, MemoryRole::Staging).unwrap();
+        assert_eq!(staging.index, 0);
+    }
+
+    #[test]
+    fn storage_falls_back_without_device_local_memory_and_staging_needs_coherence() {
+        use vk::MemoryPropertyFlags as F;
+        let types = [ty(F::HOST_VISIBLE), ty(F::HOST_VISIBLE | F::HOST_COHERENT)];
+        let storage = pick_memory_type(&types, 0b01, MemoryRole::Storage).unwrap();
+        assert_eq!((storage.index, storage.fallback), (0, true));
+        assert_eq!(pick_memory_type(&types, 0b01, MemoryRole::Staging), None);
+        assert_eq!(pick_memory_type(&types, 0, MemoryRole::Storage), None);
     }
 
     #[test]

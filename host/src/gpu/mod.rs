@@ -1,17 +1,27 @@
-//! The ash (Vulkan) backend: one generic "dispatch kernel by entry-point name over N ids" path.
+//! The ash (Vulkan) backend. Work is described as a [`Work`] (uploads, steps, readbacks), planned
+//! into dispatches ([`plan`]), recorded into one command buffer and submitted once.
 //!
-//! Kernels follow one convention: push constants start with [`Launch`], then kernel-specific
-//! bytes; storage buffers are bound at set 0, inputs first (bindings 0..i), then outputs.
+//! Kernels follow one convention: push constants are one `shared` struct starting with
+//! [`Launch`]; storage buffers are bound at set 0 in the order of `shared::kernels::launch::bindings`.
+//! Storage buffers are device-local; uploads and readbacks go through a staging buffer.
 
 mod device;
+mod kernels;
+mod plan;
+mod render;
 mod resources;
 
-pub use device::DeviceOwner;
+pub use device::{pick_memory_type, DeviceOwner, MemoryChoice, MemoryRole};
+pub use kernels::{
+    Kernel, KernelDef, MapBuffers, PushConstants, RenderBuffers, EQUIANGULAR, MATH_VALUES, RENDER,
+    RNG_DRAWS, TRANSMITTANCE_PAIR,
+};
+pub use plan::{plan, Command, Step};
+pub use render::GpuVolume;
 pub use resources::Buffer;
-use resources::{Pipeline, Submitter, MAX_BINDINGS};
+use resources::{Pipeline, Staging, Submitter, MAX_BINDINGS};
 
 use ash::vk;
-use shared::kernels::launch::{Launch, WORKGROUP_SIZE};
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 
@@ -39,8 +49,6 @@ pub enum GpuError {
     OutOfMemory(u64, vk::Result),
     #[error("buffer of {size} bytes exceeds this device's maxStorageBufferRange of {limit} bytes")]
     TooLarge { size: u64, limit: u64 },
-    #[error("kernel entry point {0:?} is not in the compiled module")]
-    BadEntryPoint(String),
     #[error("the GPU was lost (VK_ERROR_DEVICE_LOST) while running {0}; a driver reset or watchdog ended it")]
     DeviceLost(String),
     #[error("internal: {0}")]
@@ -51,10 +59,32 @@ pub enum GpuError {
 pub struct Gpu {
     owner: Arc<DeviceOwner>,
     module: vk::ShaderModule,
-    pipelines: Mutex<HashMap<String, Arc<Pipeline>>>,
+    pipelines: Mutex<HashMap<Kernel, Arc<Pipeline>>>,
     submitter: Mutex<Submitter>,
     /// Kernel time measured by timestamp queries since the last [`Gpu::take_kernel_ns`].
     kernel_ns: std::sync::atomic::AtomicU64,
+}
+
+/// GPU work submitted at once: uploads, then the kernel's steps, then readbacks.
+pub struct Work<'a, P, const N: usize> {
+    /// The kernel the steps run.
+    pub kernel: &'a KernelDef<P, N>,
+    /// Its storage buffers in binding order (see [`RenderBuffers::slots`]).
+    pub buffers: [&'a Buffer; N],
+    /// Host bytes copied into device buffers before the first dispatch.
+    pub uploads: Vec<(&'a Buffer, &'a [u8])>,
+    /// Dispatches and barriers, in order.
+    pub steps: Vec<Step<P>>,
+    /// Device buffers copied into host slices after the last dispatch.
+    pub readbacks: Vec<(&'a Buffer, &'a mut [u8])>,
+}
+
+/// The kernel part of a submission after planning, with Pod pushes as bytes.
+struct Recording {
+    kernel: Kernel,
+    pipeline: Arc<Pipeline>,
+    buffers: Vec<(vk::Buffer, u64)>,
+    commands: Vec<Command<Vec<u8>>>,
 }
 
 impl Gpu {
@@ -89,44 +119,43 @@ impl Gpu {
         self.owner.description()
     }
 
-    fn pipeline(
-        &self,
-        entry: &str,
-        bindings: u32,
-        push_size: u32,
-    ) -> Result<Arc<Pipeline>, GpuError> {
+    /// The pipeline of `kernel`, built on first use from the layout the module declares.
+    fn pipeline(&self, kernel: Kernel) -> Result<Arc<Pipeline>, GpuError> {
         let mut cache = self
             .pipelines
             .lock()
             .map_err(|_| GpuError::Internal("poisoned".into()))?;
-        if let Some(p) = cache.get(entry) {
-            if p.bindings != bindings || p.push_size != push_size {
-                return Err(GpuError::Internal(format!(
-                    "{entry} called with {bindings} buffers / {push_size} push bytes, first with {} / {}",
-                    p.bindings, p.push_size
-                )));
-            }
+        if let Some(p) = cache.get(&kernel) {
             return Ok(p.clone());
         }
-        if !kernel_names().any(|n| n == entry) {
-            return Err(GpuError::BadEntryPoint(entry.into()));
+        let bindings = kernel.strides().len() as u32;
+        if bindings > MAX_BINDINGS {
+            return Err(GpuError::Internal(format!(
+                "{} binds {bindings} buffers, more than {MAX_BINDINGS}",
+                kernel.name()
+            )));
         }
         let p = Arc::new(Pipeline::new(
             &self.owner,
             self.module,
-            entry,
+            kernel.c_name(),
             bindings,
-            push_size,
+            kernel.push_size(),
         )?);
-        cache.insert(entry.to_string(), p.clone());
+        cache.insert(kernel, p.clone());
         Ok(p)
     }
 
-    /// A storage buffer holding `data`, kept on the device across dispatches.
+    /// A device-local storage buffer holding `data`, kept on the device across submissions.
     pub fn upload(&self, data: &[u8]) -> Result<Buffer, GpuError> {
-        let mut b = self.buffer(data.len() as u64)?;
-        b.write(data);
+        let b = self.buffer(data.len() as u64)?;
+        self.submit_raw(&[(&b, data)], None, &mut [])?;
         Ok(b)
+    }
+
+    /// Copies the first `out.len()` bytes of `buffer` into `out`.
+    pub fn read(&self, buffer: &Buffer, out: &mut [u8]) -> Result<(), GpuError> {
+        self.submit_raw(&[], None, &mut [(buffer, out)])
     }
 
     /// Kernel time (ns) measured by timestamp queries since the last call, or `None` if the
@@ -150,7 +179,7 @@ impl Gpu {
         forced.map_or(device, |f| f.clamp(64, device))
     }
 
-    /// An uninitialised storage buffer of `size` bytes (checked against the device limit).
+    /// An uninitialised device-local storage buffer of `size` bytes (checked against the limit).
     pub fn buffer(&self, size: u64) -> Result<Buffer, GpuError> {
         let limit = self.max_buffer_bytes();
         if size > limit {
@@ -159,250 +188,346 @@ impl Gpu {
         Buffer::new(&self.owner, size)
     }
 
-    /// Runs kernel `entry` over ids 0..count: copies `inputs` to bindings 0..i, the `outputs` to
-    /// the next bindings, dispatches, waits, and copies the outputs back. `extra_push` follows
-    /// the [`Launch`] header in push constants.
-    pub fn dispatch(
-        &self,
-        entry: &str,
-        count: u32,
-        seed: u32,
-        extra_push: &[u8],
-        inputs: &[&[u8]],
-        outputs: &mut [&mut [u8]],
-    ) -> Result<(), GpuError> {
-        let mut bindings: Vec<Binding> = inputs.iter().map(|d| Binding::Input(d)).collect();
-        bindings.extend(outputs.iter_mut().map(|d| Binding::Output(d)));
-        self.dispatch_range(entry, 0..count, count, seed, extra_push, &mut bindings)
+    /// Most workgroups one dispatch may have: the device's limit, at most 65,535.
+    fn max_groups(&self) -> u32 {
+        self.owner.limits.max_compute_work_group_count[0].min(65_535)
     }
 
-    /// Runs kernel `entry` over ids `ids` of a launch of `count` ids, with the given bindings
-    /// (binding i of set 0 is `bindings[i]`), in as many dispatches as the device's
-    /// workgroup-count limit needs; waits for completion and copies `Output` bindings back.
-    pub fn dispatch_range(
+    /// Plans, records and submits `work` as one command buffer and waits for it.
+    pub fn submit<P: PushConstants, const N: usize>(
         &self,
-        entry: &str,
-        ids: std::ops::Range<u32>,
-        count: u32,
-        seed: u32,
-        extra_push: &[u8],
-        bindings: &mut [Binding],
+        work: Work<'_, P, N>,
     ) -> Result<(), GpuError> {
-        if ids.is_empty() {
-            return Ok(());
-        }
-        let n_bindings = bindings.len() as u32;
-        if n_bindings > MAX_BINDINGS || !extra_push.len().is_multiple_of(4) || ids.end > count {
-            return Err(GpuError::Internal(format!(
-                "bad dispatch shape for {entry}"
-            )));
-        }
-        let push_size = (std::mem::size_of::<Launch>() + extra_push.len()) as u32;
-        let pipeline = self.pipeline(entry, n_bindings, push_size)?;
-        // Fresh buffers for Input/Output bindings; resident ones are used as they are.
-        let mut fresh: Vec<Option<Buffer>> = Vec::with_capacity(bindings.len());
-        for b in bindings.iter() {
-            fresh.push(match b {
-                Binding::Input(data) => Some(self.upload(data)?),
-                Binding::Output(data) => Some(self.buffer(data.len() as u64)?),
-                Binding::Resident(_) => None,
-            });
-        }
-        let handles: Vec<(vk::Buffer, u64)> = bindings
-            .iter()
-            .zip(&fresh)
-            .map(|(b, f)| match (b, f) {
-                (Binding::Resident(r), _) => (r.buffer, r.size),
-                (_, Some(f)) => (f.buffer, f.size),
-                _ => unreachable!("fresh buffer exists for every non-resident binding"),
+        let kernel = work.kernel.kernel;
+        let commands = plan(work.steps, self.max_groups())
+            .into_iter()
+            .map(|c| match c {
+                Command::Dispatch { push, groups } => Command::Dispatch {
+                    push: bytemuck::bytes_of(&push).to_vec(),
+                    groups,
+                },
+                Command::Barrier => Command::Barrier,
             })
             .collect();
+        let recording = Recording {
+            kernel,
+            pipeline: self.pipeline(kernel)?,
+            buffers: work.buffers.iter().map(|b| (b.buffer, b.size)).collect(),
+            commands,
+        };
+        let mut readbacks = work.readbacks;
+        self.submit_raw(&work.uploads, Some(&recording), &mut readbacks)
+    }
 
-        let sub = self
+    /// Records uploads, the kernel's commands and readbacks into the command buffer, submits it
+    /// once and waits; then copies the readbacks out of the staging buffer.
+    fn submit_raw(
+        &self,
+        uploads: &[(&Buffer, &[u8])],
+        recording: Option<&Recording>,
+        readbacks: &mut [(&Buffer, &mut [u8])],
+    ) -> Result<(), GpuError> {
+        for (b, data) in uploads {
+            check_fits(b, data.len(), "upload")?;
+        }
+        for (b, out) in readbacks.iter() {
+            check_fits(b, out.len(), "readback")?;
+        }
+        let staged: u64 = uploads.iter().map(|(_, d)| d.len() as u64).sum::<u64>()
+            + readbacks.iter().map(|(_, o)| o.len() as u64).sum::<u64>();
+        let what = recording.map_or("a transfer", |r| r.kernel.name());
+        let mut sub = self
             .submitter
             .lock()
             .map_err(|_| GpuError::Internal("poisoned".into()))?;
-        let d = &self.owner.device;
+        let staging = self.staging(&mut sub, staged)?;
+        let mut offset = 0;
+        for (_, data) in uploads {
+            staging.write(offset, data);
+            offset += data.len() as u64;
+        }
+        let staging = staging.buffer();
         // SAFETY: all handles are alive; the command buffer is re-recorded only after the
         // previous submission's fence was waited for (the submitter lock serializes this).
         unsafe {
-            d.reset_descriptor_pool(sub.descriptors, vk::DescriptorPoolResetFlags::empty())
-                .map_err(|e| GpuError::Vulkan("vkResetDescriptorPool", e))?;
-            let layouts = [pipeline.set_layout];
-            let alloc = vk::DescriptorSetAllocateInfo::default()
-                .descriptor_pool(sub.descriptors)
-                .set_layouts(&layouts);
-            let set = d
-                .allocate_descriptor_sets(&alloc)
-                .map_err(|e| GpuError::Vulkan("vkAllocateDescriptorSets", e))?[0];
-            let infos: Vec<[vk::DescriptorBufferInfo; 1]> = handles
-                .iter()
-                .map(|&(buffer, size)| {
-                    [vk::DescriptorBufferInfo::default()
-                        .buffer(buffer)
-                        .offset(0)
-                        .range(size)]
-                })
-                .collect();
-            let writes: Vec<_> = infos
-                .iter()
-                .enumerate()
-                .map(|(i, info)| {
-                    vk::WriteDescriptorSet::default()
-                        .dst_set(set)
-                        .dst_binding(i as u32)
-                        .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
-                        .buffer_info(info)
-                })
-                .collect();
-            d.update_descriptor_sets(&writes, &[]);
-
-            d.reset_command_buffer(sub.cmd, vk::CommandBufferResetFlags::empty())
-                .map_err(|e| GpuError::Vulkan("vkResetCommandBuffer", e))?;
-            let begin = vk::CommandBufferBeginInfo::default()
-                .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
-            d.begin_command_buffer(sub.cmd, &begin)
-                .map_err(|e| GpuError::Vulkan("vkBeginCommandBuffer", e))?;
-            if let Some(q) = sub.timestamps {
-                d.cmd_reset_query_pool(sub.cmd, q, 0, 2);
-                d.cmd_write_timestamp(sub.cmd, vk::PipelineStageFlags::TOP_OF_PIPE, q, 0);
-            }
-            d.cmd_bind_pipeline(sub.cmd, vk::PipelineBindPoint::COMPUTE, pipeline.pipeline);
-            d.cmd_bind_descriptor_sets(
-                sub.cmd,
-                vk::PipelineBindPoint::COMPUTE,
-                pipeline.layout,
-                0,
-                &[set],
-                &[],
-            );
-            let max_groups = self.owner.limits.max_compute_work_group_count[0].min(65_535);
-            let chunk = max_groups * WORKGROUP_SIZE;
-            let mut offset = ids.start;
-            while offset < ids.end {
-                let n = (ids.end - offset).min(chunk);
-                let launch = Launch {
-                    offset,
-                    count: offset + n,
-                    seed,
-                    _pad: 0,
-                };
-                let mut push = bytemuck::bytes_of(&launch).to_vec();
-                push.extend_from_slice(extra_push);
-                d.cmd_push_constants(
-                    sub.cmd,
-                    pipeline.layout,
-                    vk::ShaderStageFlags::COMPUTE,
-                    0,
-                    &push,
-                );
-                d.cmd_dispatch(sub.cmd, n.div_ceil(WORKGROUP_SIZE), 1, 1);
-                offset += n;
-            }
-            if let Some(q) = sub.timestamps {
-                d.cmd_write_timestamp(sub.cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, q, 1);
-            }
-            let barrier = [vk::MemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::SHADER_WRITE)
-                .dst_access_mask(vk::AccessFlags::HOST_READ)];
-            d.cmd_pipeline_barrier(
-                sub.cmd,
-                vk::PipelineStageFlags::COMPUTE_SHADER,
-                vk::PipelineStageFlags::HOST,
-                vk::DependencyFlags::empty(),
-                &barrier,
-                &[],
-                &[],
-            );
-            d.end_command_buffer(sub.cmd)
-                .map_err(|e| GpuError::Vulkan("vkEndCommandBuffer", e))?;
-            let cmds = [sub.cmd];
-            let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
-            d.reset_fences(&[sub.fence])
-                .map_err(|e| GpuError::Vulkan("vkResetFences", e))?;
-            d.queue_submit(self.owner.queue, &submit, sub.fence)
-                .map_err(|e| lost_or(e, entry, "vkQueueSubmit"))?;
-            d.wait_for_fences(&[sub.fence], true, u64::MAX)
-                .map_err(|e| lost_or(e, entry, "vkWaitForFences"))?;
-            if let Some(q) = sub.timestamps {
-                let mut ticks = [0u64; 2];
-                let read =
-                    d.get_query_pool_results(q, 0, &mut ticks, vk::QueryResultFlags::TYPE_64);
-                if read.is_ok() {
-                    let bits = self.owner.timestamp_bits;
-                    let mask = if bits >= 64 {
-                        u64::MAX
-                    } else {
-                        (1u64 << bits) - 1
-                    };
-                    let delta = ticks[1].wrapping_sub(ticks[0]) & mask;
-                    let period = f64::from(self.owner.limits.timestamp_period);
-                    let ns = (delta as f64 * period) as u64;
-                    self.kernel_ns
-                        .fetch_add(ns, std::sync::atomic::Ordering::Relaxed);
-                }
+            self.record(&sub, staging, uploads, recording, readbacks)?;
+            self.run_and_wait(&sub, what)?;
+            if recording.is_some() {
+                self.add_kernel_time(&sub);
             }
         }
-        for (b, f) in bindings.iter_mut().zip(&fresh) {
-            if let (Binding::Output(out), Some(f)) = (b, f) {
-                f.read(out);
-            }
+        let staging = sub.staging.as_ref().expect("allocated above");
+        for (_, out) in readbacks.iter_mut() {
+            staging.read(offset, out);
+            offset += out.len() as u64;
         }
         Ok(())
     }
+
+    /// The submitter's staging buffer, grown to at least `size` bytes.
+    fn staging<'s>(&self, sub: &'s mut Submitter, size: u64) -> Result<&'s mut Staging, GpuError> {
+        if sub.staging.as_ref().is_none_or(|s| s.size() < size) {
+            sub.staging = None;
+            sub.staging = Some(Staging::new(&self.owner, size)?);
+        }
+        Ok(sub.staging.as_mut().expect("just allocated"))
+    }
+
+    /// Records one submission: staging -> device copies, the kernel's dispatches and barriers
+    /// between timestamps, device -> staging copies.
+    ///
+    /// # Safety
+    /// The submitter's previous submission has completed; every buffer is alive.
+    unsafe fn record(
+        &self,
+        sub: &Submitter,
+        staging: vk::Buffer,
+        uploads: &[(&Buffer, &[u8])],
+        recording: Option<&Recording>,
+        readbacks: &[(&Buffer, &mut [u8])],
+    ) -> Result<(), GpuError> {
+        use vk::{AccessFlags as A, PipelineStageFlags as S};
+        let d = &self.owner.device;
+        d.reset_command_buffer(sub.cmd, vk::CommandBufferResetFlags::empty())
+            .map_err(|e| GpuError::Vulkan("vkResetCommandBuffer", e))?;
+        let begin = vk::CommandBufferBeginInfo::default()
+            .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+        d.begin_command_buffer(sub.cmd, &begin)
+            .map_err(|e| GpuError::Vulkan("vkBeginCommandBuffer", e))?;
+        // Earlier submissions' shader and transfer writes before this one's accesses.
+        let work = S::COMPUTE_SHADER | S::TRANSFER;
+        let writes = A::SHADER_WRITE | A::TRANSFER_WRITE;
+        let all = writes | A::SHADER_READ | A::TRANSFER_READ;
+        self.barrier(sub.cmd, work, writes, work, all);
+        let mut offset = 0;
+        for (b, data) in uploads {
+            let region = [vk::BufferCopy::default()
+                .src_offset(offset)
+                .size(data.len() as u64)];
+            if !data.is_empty() {
+                d.cmd_copy_buffer(sub.cmd, staging, b.buffer, &region);
+            }
+            offset += data.len() as u64;
+        }
+        self.barrier(
+            sub.cmd,
+            S::TRANSFER,
+            A::TRANSFER_WRITE,
+            S::COMPUTE_SHADER,
+            A::SHADER_READ | A::SHADER_WRITE,
+        );
+        if let Some(r) = recording {
+            self.record_dispatches(sub, r)?;
+        }
+        self.barrier(
+            sub.cmd,
+            S::COMPUTE_SHADER,
+            A::SHADER_WRITE,
+            S::TRANSFER,
+            A::TRANSFER_READ,
+        );
+        for (b, out) in readbacks {
+            let region = [vk::BufferCopy::default()
+                .dst_offset(offset)
+                .size(out.len() as u64)];
+            if !out.is_empty() {
+                d.cmd_copy_buffer(sub.cmd, b.buffer, staging, &region);
+            }
+            offset += out.len() as u64;
+        }
+        self.barrier(
+            sub.cmd,
+            S::TRANSFER,
+            A::TRANSFER_WRITE,
+            S::HOST,
+            A::HOST_READ,
+        );
+        d.end_command_buffer(sub.cmd)
+            .map_err(|e| GpuError::Vulkan("vkEndCommandBuffer", e))
+    }
+
+    /// Records one global memory barrier.
+    ///
+    /// # Safety
+    /// `cmd` is recording.
+    unsafe fn barrier(
+        &self,
+        cmd: vk::CommandBuffer,
+        src: vk::PipelineStageFlags,
+        src_access: vk::AccessFlags,
+        dst: vk::PipelineStageFlags,
+        dst_access: vk::AccessFlags,
+    ) {
+        let barrier = [vk::MemoryBarrier::default()
+            .src_access_mask(src_access)
+            .dst_access_mask(dst_access)];
+        self.owner.device.cmd_pipeline_barrier(
+            cmd,
+            src,
+            dst,
+            vk::DependencyFlags::empty(),
+            &barrier,
+            &[],
+            &[],
+        );
+    }
+
+    /// Records the descriptor set, pipeline, dispatches and barriers of `r` between timestamps.
+    ///
+    /// # Safety
+    /// As [`Gpu::record`]; the command buffer is recording.
+    unsafe fn record_dispatches(&self, sub: &Submitter, r: &Recording) -> Result<(), GpuError> {
+        use vk::{AccessFlags as A, PipelineStageFlags as S};
+        let d = &self.owner.device;
+        let set = self.descriptor_set(sub, r)?;
+        if let Some(q) = sub.timestamps {
+            d.cmd_reset_query_pool(sub.cmd, q, 0, 2);
+            d.cmd_write_timestamp(sub.cmd, S::TOP_OF_PIPE, q, 0);
+        }
+        let (pipeline, layout) = (r.pipeline.pipeline, r.pipeline.layout);
+        d.cmd_bind_pipeline(sub.cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
+        d.cmd_bind_descriptor_sets(
+            sub.cmd,
+            vk::PipelineBindPoint::COMPUTE,
+            layout,
+            0,
+            &[set],
+            &[],
+        );
+        for c in &r.commands {
+            match c {
+                Command::Dispatch { push, groups } => {
+                    d.cmd_push_constants(sub.cmd, layout, vk::ShaderStageFlags::COMPUTE, 0, push);
+                    d.cmd_dispatch(sub.cmd, *groups, 1, 1);
+                }
+                Command::Barrier => self.barrier(
+                    sub.cmd,
+                    S::COMPUTE_SHADER,
+                    A::SHADER_WRITE,
+                    S::COMPUTE_SHADER,
+                    A::SHADER_READ | A::SHADER_WRITE,
+                ),
+            }
+        }
+        if let Some(q) = sub.timestamps {
+            d.cmd_write_timestamp(sub.cmd, S::BOTTOM_OF_PIPE, q, 1);
+        }
+        Ok(())
+    }
+
+    /// A descriptor set binding `r`'s buffers (the pool holds one set per submission).
+    ///
+    /// # Safety
+    /// As [`Gpu::record`].
+    unsafe fn descriptor_set(
+        &self,
+        sub: &Submitter,
+        r: &Recording,
+    ) -> Result<vk::DescriptorSet, GpuError> {
+        let d = &self.owner.device;
+        d.reset_descriptor_pool(sub.descriptors, vk::DescriptorPoolResetFlags::empty())
+            .map_err(|e| GpuError::Vulkan("vkResetDescriptorPool", e))?;
+        let layouts = [r.pipeline.set_layout];
+        let alloc = vk::DescriptorSetAllocateInfo::default()
+            .descriptor_pool(sub.descriptors)
+            .set_layouts(&layouts);
+        let set = d
+            .allocate_descriptor_sets(&alloc)
+            .map_err(|e| GpuError::Vulkan("vkAllocateDescriptorSets", e))?[0];
+        let infos: Vec<[vk::DescriptorBufferInfo; 1]> = r
+            .buffers
+            .iter()
+            .map(|&(buffer, size)| {
+                [vk::DescriptorBufferInfo::default()
+                    .buffer(buffer)
+                    .offset(0)
+                    .range(size)]
+            })
+            .collect();
+        let writes: Vec<_> = infos
+            .iter()
+            .enumerate()
+            .map(|(i, info)| {
+                vk::WriteDescriptorSet::default()
+                    .dst_set(set)
+                    .dst_binding(i as u32)
+                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .buffer_info(info)
+            })
+            .collect();
+        d.update_descriptor_sets(&writes, &[]);
+        Ok(set)
+    }
+
+    /// Submits the recorded command buffer and waits for its fence.
+    ///
+    /// # Safety
+    /// The command buffer was recorded by [`Gpu::record`].
+    unsafe fn run_and_wait(&self, sub: &Submitter, what: &str) -> Result<(), GpuError> {
+        let d = &self.owner.device;
+        let cmds = [sub.cmd];
+        let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
+        d.reset_fences(&[sub.fence])
+            .map_err(|e| GpuError::Vulkan("vkResetFences", e))?;
+        d.queue_submit(self.owner.queue, &submit, sub.fence)
+            .map_err(|e| lost_or(e, what, "vkQueueSubmit"))?;
+        d.wait_for_fences(&[sub.fence], true, u64::MAX)
+            .map_err(|e| lost_or(e, what, "vkWaitForFences"))
+    }
+
+    /// Adds the last submission's timestamp difference to the kernel time.
+    ///
+    /// # Safety
+    /// The submission has completed.
+    unsafe fn add_kernel_time(&self, sub: &Submitter) {
+        let Some(q) = sub.timestamps else {
+            return;
+        };
+        let mut ticks = [0u64; 2];
+        let read = self.owner.device.get_query_pool_results(
+            q,
+            0,
+            &mut ticks,
+            vk::QueryResultFlags::TYPE_64,
+        );
+        if read.is_ok() {
+            let bits = self.owner.timestamp_bits;
+            let mask = if bits >= 64 {
+                u64::MAX
+            } else {
+                (1u64 << bits) - 1
+            };
+            let delta = ticks[1].wrapping_sub(ticks[0]) & mask;
+            let period = f64::from(self.owner.limits.timestamp_period);
+            let ns = (delta as f64 * period) as u64;
+            self.kernel_ns
+                .fetch_add(ns, std::sync::atomic::Ordering::Relaxed);
+        }
+    }
 }
 
-/// One storage-buffer binding of a dispatch.
-pub enum Binding<'a> {
-    /// Copied into a fresh buffer before the dispatch.
-    Input(&'a [u8]),
-    /// A buffer made by [`Gpu::upload`] or [`Gpu::buffer`], reused across dispatches.
-    Resident(&'a Buffer),
-    /// A fresh buffer copied back into the slice after the dispatch.
-    Output(&'a mut [u8]),
+/// An error unless `len` bytes fit in `b`.
+fn check_fits(b: &Buffer, len: usize, what: &str) -> Result<(), GpuError> {
+    if len as u64 > b.size {
+        return Err(GpuError::Internal(format!(
+            "{what} of {len} bytes into a {}-byte buffer",
+            b.size
+        )));
+    }
+    Ok(())
 }
 
-fn lost_or(e: vk::Result, entry: &str, call: &'static str) -> GpuError {
+fn lost_or(e: vk::Result, what: &str, call: &'static str) -> GpuError {
     if e == vk::Result::ERROR_DEVICE_LOST {
-        GpuError::DeviceLost(entry.to_string())
+        GpuError::DeviceLost(what.to_string())
     } else {
         GpuError::Vulkan(call, e)
     }
 }
 
-/// Entry-point names in the embedded module (from its OpEntryPoint instructions).
-pub fn kernel_names() -> impl Iterator<Item = String> {
-    let words: Vec<u32> = KERNELS_SPV
-        .as_chunks::<4>()
-        .0
-        .iter()
-        .map(|c| u32::from_le_bytes(*c))
-        .collect();
-    let mut names = Vec::new();
-    let mut i = 5;
-    while i < words.len() {
-        let len = (words[i] >> 16) as usize;
-        let op = words[i] & 0xffff;
-        if len == 0 {
-            break;
-        }
-        // OpEntryPoint = 15: execution model, function id, then the name as a literal string.
-        if op == 15 && i + 3 < words.len() {
-            let bytes: Vec<u8> = words[i + 3..(i + len).min(words.len())]
-                .iter()
-                .flat_map(|w| w.to_le_bytes())
-                .take_while(|&b| b != 0)
-                .collect();
-            names.push(String::from_utf8_lossy(&bytes).into_owned());
-        }
-        i += len;
-    }
-    names.into_iter()
-}
-
 impl Drop for Gpu {
     fn drop(&mut self) {
-        // SAFETY: dispatches wait for their fences, so the module is no longer in use.
+        // SAFETY: submissions wait for their fences, so the module is no longer in use.
         unsafe {
             let _ = self.owner.device.device_wait_idle();
             self.owner.device.destroy_shader_module(self.module, None);

@@ -1,120 +1,170 @@
 //! RAII wrappers for the Vulkan objects a dispatch uses; each holds the device owner alive.
 
-use super::device::DeviceOwner;
+use super::device::{DeviceOwner, MemoryRole};
 use super::GpuError;
 use ash::vk;
 use std::sync::Arc;
 
-/// A host-visible, coherent storage buffer, persistently mapped.
+/// A device-local storage buffer (see [`MemoryRole::Storage`]); filled and read through
+/// [`Staging`] copies by the [`super::Gpu`].
 pub struct Buffer {
     owner: Arc<DeviceOwner>,
     pub(crate) buffer: vk::Buffer,
     memory: vk::DeviceMemory,
-    mapped: *mut u8,
     pub(crate) size: u64,
 }
 
-// SAFETY: the mapped pointer is only dereferenced through &self/&mut self methods, and the GPU
-// only accesses the memory between a submit and its fence wait, which the dispatcher serializes.
-unsafe impl Send for Buffer {}
-// SAFETY: see Send; shared references only read.
-unsafe impl Sync for Buffer {}
+/// A host-visible, coherent buffer, persistently mapped: the source of uploads and the
+/// destination of readbacks.
+pub struct Staging {
+    inner: Buffer,
+    mapped: *mut u8,
+}
 
-impl Buffer {
-    /// A storage buffer of `size` bytes (at least 4), mapped for host reads and writes.
-    pub fn new(owner: &Arc<DeviceOwner>, size: u64) -> Result<Self, GpuError> {
-        let size = size.max(4);
-        let device = &owner.device;
-        let info = vk::BufferCreateInfo::default()
-            .size(size)
-            .usage(vk::BufferUsageFlags::STORAGE_BUFFER)
-            .sharing_mode(vk::SharingMode::EXCLUSIVE);
-        // SAFETY: valid create info; destroyed in Drop or on the error paths below.
-        let buffer = unsafe { device.create_buffer(&info, None) }
-            .map_err(|e| GpuError::Vulkan("vkCreateBuffer", e))?;
-        // SAFETY: query on the buffer just created.
-        let req = unsafe { device.get_buffer_memory_requirements(buffer) };
-        let flags = vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT;
-        let Some(type_index) = owner.memory_type(req.memory_type_bits, flags) else {
+// SAFETY: the mapped pointer is only dereferenced through &self/&mut self methods, and the GPU
+// only accesses the memory between a submit and its fence wait, which the submitter serializes.
+unsafe impl Send for Staging {}
+// SAFETY: see Send; shared references only read.
+unsafe impl Sync for Staging {}
+
+/// A buffer and its bound memory; destroys both on the error paths of [`Buffer::create`].
+fn create_buffer(
+    owner: &Arc<DeviceOwner>,
+    size: u64,
+    usage: vk::BufferUsageFlags,
+    role: MemoryRole,
+) -> Result<Buffer, GpuError> {
+    let size = size.max(4);
+    let device = &owner.device;
+    let info = vk::BufferCreateInfo::default()
+        .size(size)
+        .usage(usage)
+        .sharing_mode(vk::SharingMode::EXCLUSIVE);
+    // SAFETY: valid create info; destroyed in Drop or on the error paths below.
+    let buffer = unsafe { device.create_buffer(&info, None) }
+        .map_err(|e| GpuError::Vulkan("vkCreateBuffer", e))?;
+    // SAFETY: query on the buffer just created.
+    let req = unsafe { device.get_buffer_memory_requirements(buffer) };
+    let Some(choice) = owner.memory_type(req.memory_type_bits, role) else {
+        // SAFETY: the buffer is unused.
+        unsafe { device.destroy_buffer(buffer, None) };
+        let what = match role {
+            MemoryRole::Storage => "memory for storage buffers",
+            MemoryRole::Staging => "host-visible coherent memory",
+        };
+        return Err(GpuError::Unsupported(owner.description.clone(), what));
+    };
+    if choice.fallback {
+        owner.warn_storage_fallback();
+    }
+    let alloc = vk::MemoryAllocateInfo::default()
+        .allocation_size(req.size)
+        .memory_type_index(choice.index);
+    // SAFETY: valid allocation info; freed in Drop.
+    let memory = match unsafe { device.allocate_memory(&alloc, None) } {
+        Ok(m) => m,
+        Err(e) => {
             // SAFETY: the buffer is unused.
             unsafe { device.destroy_buffer(buffer, None) };
-            return Err(GpuError::Unsupported(
-                owner.description.clone(),
-                "host-visible coherent memory",
-            ));
-        };
-        let alloc = vk::MemoryAllocateInfo::default()
-            .allocation_size(req.size)
-            .memory_type_index(type_index);
-        // SAFETY: valid allocation info; freed in Drop.
-        let memory = match unsafe { device.allocate_memory(&alloc, None) } {
-            Ok(m) => m,
-            Err(e) => {
-                // SAFETY: the buffer is unused.
-                unsafe { device.destroy_buffer(buffer, None) };
-                return Err(GpuError::OutOfMemory(size, e));
-            }
-        };
-        // SAFETY: memory of a compatible type, offset 0; mapping the whole allocation.
-        let mapped = unsafe {
-            device.bind_buffer_memory(buffer, memory, 0).and_then(|_| {
-                device.map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty())
-            })
-        };
-        let mapped = match mapped {
-            Ok(p) => p as *mut u8,
-            Err(e) => {
-                // SAFETY: neither object is in use.
-                unsafe {
-                    device.destroy_buffer(buffer, None);
-                    device.free_memory(memory, None);
-                }
-                return Err(GpuError::Vulkan("vkMapMemory", e));
-            }
-        };
-        Ok(Buffer {
-            owner: owner.clone(),
-            buffer,
-            memory,
-            mapped,
-            size,
-        })
-    }
+            return Err(GpuError::OutOfMemory(size, e));
+        }
+    };
+    let buffer = Buffer {
+        owner: owner.clone(),
+        buffer,
+        memory,
+        size,
+    };
+    // SAFETY: memory of a compatible type, offset 0 (dropping `buffer` frees both on error).
+    unsafe { device.bind_buffer_memory(buffer.buffer, memory, 0) }
+        .map_err(|e| GpuError::Vulkan("vkBindBufferMemory", e))?;
+    Ok(buffer)
+}
 
-    /// Copies `data` to the start of the buffer.
-    pub fn write(&mut self, data: &[u8]) {
-        assert!(
-            data.len() as u64 <= self.size,
-            "write past the end of a GPU buffer"
-        );
-        // SAFETY: the mapping covers `size` bytes and the GPU is idle (dispatcher invariant).
-        unsafe { std::ptr::copy_nonoverlapping(data.as_ptr(), self.mapped, data.len()) };
+impl Buffer {
+    /// A device-local storage buffer of `size` bytes (at least 4), uninitialised.
+    pub fn new(owner: &Arc<DeviceOwner>, size: u64) -> Result<Self, GpuError> {
+        use vk::BufferUsageFlags as U;
+        let usage = U::STORAGE_BUFFER | U::TRANSFER_SRC | U::TRANSFER_DST;
+        create_buffer(owner, size, usage, MemoryRole::Storage)
     }
 
     /// Size in bytes.
     pub fn size(&self) -> u64 {
         self.size
     }
-
-    /// Copies the first `out.len()` bytes of the buffer into `out`.
-    pub fn read(&self, out: &mut [u8]) {
-        assert!(
-            out.len() as u64 <= self.size,
-            "read past the end of a GPU buffer"
-        );
-        // SAFETY: as in `write`.
-        unsafe { std::ptr::copy_nonoverlapping(self.mapped, out.as_mut_ptr(), out.len()) };
-    }
 }
 
 impl Drop for Buffer {
     fn drop(&mut self) {
-        // SAFETY: the dispatcher waits for its fence before buffers can be dropped.
+        // SAFETY: the submitter waits for its fence before buffers can be dropped; freeing
+        // mapped memory unmaps it.
         unsafe {
-            self.owner.device.unmap_memory(self.memory);
             self.owner.device.destroy_buffer(self.buffer, None);
             self.owner.device.free_memory(self.memory, None);
         }
+    }
+}
+
+impl Staging {
+    /// A mapped staging buffer of `size` bytes (at least 4).
+    pub fn new(owner: &Arc<DeviceOwner>, size: u64) -> Result<Self, GpuError> {
+        use vk::BufferUsageFlags as U;
+        let usage = U::TRANSFER_SRC | U::TRANSFER_DST;
+        let inner = create_buffer(owner, size, usage, MemoryRole::Staging)?;
+        // SAFETY: host-visible memory bound at offset 0; mapping the whole allocation.
+        let mapped = unsafe {
+            owner
+                .device
+                .map_memory(inner.memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty())
+        }
+        .map_err(|e| GpuError::Vulkan("vkMapMemory", e))?;
+        Ok(Staging {
+            inner,
+            mapped: mapped as *mut u8,
+        })
+    }
+
+    /// The Vulkan buffer, for copy commands.
+    pub(crate) fn buffer(&self) -> vk::Buffer {
+        self.inner.buffer
+    }
+
+    /// Size in bytes.
+    pub fn size(&self) -> u64 {
+        self.inner.size
+    }
+
+    /// Copies `data` to byte `offset` of the buffer.
+    pub fn write(&mut self, offset: u64, data: &[u8]) {
+        assert!(
+            offset + data.len() as u64 <= self.size(),
+            "write past the end of a staging buffer"
+        );
+        // SAFETY: the mapping covers `size` bytes and the GPU is idle (submitter invariant).
+        unsafe {
+            std::ptr::copy_nonoverlapping(
+                data.as_ptr(),
+                self.mapped.add(offset as usize),
+                data.len(),
+            )
+        };
+    }
+
+    /// Copies `out.len()` bytes from byte `offset` of the buffer into `out`.
+    pub fn read(&self, offset: u64, out: &mut [u8]) {
+        assert!(
+            offset + out.len() as u64 <= self.size(),
+            "read past the end of a staging buffer"
+        );
+        // SAFETY: as in `write`.
+        unsafe {
+            std::ptr::copy_nonoverlapping(
+                self.mapped.add(offset as usize),
+                out.as_mut_ptr(),
+                out.len(),
+            )
+        };
     }
 }
 
@@ -124,8 +174,6 @@ pub struct Pipeline {
     pub(crate) pipeline: vk::Pipeline,
     pub(crate) layout: vk::PipelineLayout,
     pub(crate) set_layout: vk::DescriptorSetLayout,
-    pub(crate) bindings: u32,
-    pub(crate) push_size: u32,
 }
 
 impl Pipeline {
@@ -134,7 +182,7 @@ impl Pipeline {
     pub fn new(
         owner: &Arc<DeviceOwner>,
         module: vk::ShaderModule,
-        entry: &str,
+        entry: &std::ffi::CStr,
         bindings: u32,
         push_size: u32,
     ) -> Result<Self, GpuError> {
@@ -169,16 +217,14 @@ impl Pipeline {
                 return Err(GpuError::Vulkan("vkCreatePipelineLayout", e));
             }
         };
-        let name =
-            std::ffi::CString::new(entry).map_err(|_| GpuError::BadEntryPoint(entry.into()))?;
         let stage = vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::COMPUTE)
             .module(module)
-            .name(&name);
+            .name(entry);
         let info = [vk::ComputePipelineCreateInfo::default()
             .stage(stage)
             .layout(layout)];
-        // SAFETY: the module outlives this call; the entry name was checked by the caller.
+        // SAFETY: the module outlives this call; the entry name comes from the module's metadata.
         let pipeline = match unsafe {
             device.create_compute_pipelines(vk::PipelineCache::null(), &info, None)
         } {
@@ -197,8 +243,6 @@ impl Pipeline {
             pipeline,
             layout,
             set_layout,
-            bindings,
-            push_size,
         })
     }
 }
@@ -225,6 +269,8 @@ pub struct Submitter {
     pub(crate) fence: vk::Fence,
     /// Two timestamps around each submission's dispatches, if the queue supports them.
     pub(crate) timestamps: Option<vk::QueryPool>,
+    /// The staging buffer of the last submission, reused while it is large enough.
+    pub(crate) staging: Option<Staging>,
 }
 
 /// Most storage buffers one dispatch can bind.
@@ -276,6 +322,7 @@ impl Submitter {
                 descriptors,
                 fence,
                 timestamps,
+                staging: None,
             })
         }
     }

@@ -35,3 +35,45 @@ impl Launch {
 
 /// Threads per workgroup of every 1-D kernel (`#[spirv(compute(threads(64)))]`).
 pub const WORKGROUP_SIZE: u32 = 64;
+
+/// Storage-buffer bindings (descriptor set 0) of every kernel, by name. rust-gpu's
+/// `#[spirv(binding = N)]` takes integer literals only, so `kernels/src/lib.rs` spells the
+/// numbers out next to these names; the host checks each named binding's element size against
+/// the compiled module at compile time (`host/src/gpu/kernels.rs`).
+pub mod bindings {
+    /// `transmittance_pair_cs`, `math_values_cs` and `equiangular_cs`: output i from input i.
+    pub mod map {
+        /// The inputs, one per id.
+        pub const INPUT: usize = 0;
+        /// The outputs, one per id.
+        pub const OUTPUT: usize = 1;
+        /// Number of bindings.
+        pub const COUNT: usize = 2;
+    }
+
+    /// `rng_draws_cs`: generator outputs per id.
+    pub mod rng_draws {
+        /// The outputs, one per id.
+        pub const OUTPUT: usize = 0;
+        /// Number of bindings.
+        pub const COUNT: usize = 1;
+    }
+
+    /// `render_cs`: one pass of a primary-ray image.
+    pub mod render {
+        /// One `RenderParams`.
+        pub const PARAMS: usize = 0;
+        /// One `GridDesc`.
+        pub const DESC: usize = 1;
+        /// The packed voxels (`u32` words).
+        pub const VOXELS: usize = 2;
+        /// The bricks (`Brick`).
+        pub const BRICKS: usize = 3;
+        /// The point lights (`PointLight`).
+        pub const LIGHTS: usize = 4;
+        /// One `PixelSums` per pixel of the tile, read and written.
+        pub const SUMS: usize = 5;
+        /// Number of bindings.
+        pub const COUNT: usize = 6;
+    }
+}

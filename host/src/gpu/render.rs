@@ -1,0 +1,228 @@
+//! The GPU backend's render loop: a resident volume, image tiles, passes as submissions.
+
+use super::{Buffer, Gpu, RenderBuffers, Step, Work, RENDER};
+use crate::bricks::PackedVolume;
+use crate::render::{RenderBackend, Schedule};
+use anyhow::{Context, Result};
+use indicatif::ProgressBar;
+use shared::kernels::launch::Launch;
+use shared::kernels::render::{PixelSums, RenderPass};
+use shared::params::RenderParams;
+use shared::sampling::lights::PointLight;
+use std::sync::Mutex;
+
+/// A volume resident on the GPU: the render loop of the GPU backend.
+pub struct GpuVolume<'a> {
+    gpu: &'a Gpu,
+    voxels: Buffer,
+    bricks: Buffer,
+    desc: Buffer,
+    /// Image tile buffers, reused across frames of the same size.
+    tiles: Mutex<Vec<Buffer>>,
+}
+
+impl<'a> GpuVolume<'a> {
+    /// Uploads the voxels, bricks and grid description of `vol`.
+    pub fn upload(gpu: &'a Gpu, vol: &PackedVolume) -> Result<Self> {
+        Ok(GpuVolume {
+            gpu,
+            voxels: gpu
+                .upload(bytemuck::cast_slice(&vol.voxels))
+                .context("uploading the volume")?,
+            bricks: gpu
+                .upload(bytemuck::cast_slice(&vol.bricks))
+                .context("uploading the bricks")?,
+            desc: gpu.upload(bytemuck::bytes_of(&vol.desc))?,
+            tiles: Mutex::new(Vec::new()),
+        })
+    }
+}
+
+impl RenderBackend for GpuVolume<'_> {
+    /// The image in tiles of one storage buffer each; per tile, every pass over every chunk of
+    /// ids, a barrier between passes. With a progress bar each chunk is its own submission (the
+    /// bar moves per chunk); without, each tile is one.
+    fn render_sums(
+        &self,
+        params: &RenderParams,
+        lights: &[PointLight],
+        schedule: &Schedule,
+        bar: Option<&ProgressBar>,
+    ) -> Result<Vec<PixelSums>> {
+        render_tiles(self, params, lights, schedule, bar)
+    }
+}
+
+/// [`GpuVolume::render_sums`].
+fn render_tiles(
+    dev: &GpuVolume,
+    params: &RenderParams,
+    lights: &[PointLight],
+    schedule: &Schedule,
+    bar: Option<&ProgressBar>,
+) -> Result<Vec<PixelSums>> {
+    let (gpu, passes, chunk) = (dev.gpu, &schedule.passes, schedule.chunk);
+    let count = params.width * params.height;
+    let p = gpu.buffer(std::mem::size_of::<RenderParams>() as u64)?;
+    let l = gpu.buffer(std::mem::size_of_val(lights) as u64)?;
+    let mut uploads = vec![
+        (&p, bytemuck::bytes_of(params)),
+        (&l, bytemuck::cast_slice::<PointLight, u8>(lights)),
+    ];
+    let mut tiles = dev
+        .tiles
+        .lock()
+        .map_err(|_| anyhow::anyhow!("internal: poisoned tile cache"))?;
+    // Tiles of whole workgroups, each small enough for one storage buffer.
+    let sums_size = std::mem::size_of::<PixelSums>() as u64;
+    let tile = (gpu.max_buffer_bytes() / sums_size / 64 * 64)
+        .max(64)
+        .min(u64::from(count)) as u32;
+    let tile_count = count.div_ceil(tile) as usize;
+    let tile_bytes = u64::from(tile) * sums_size;
+    if tiles.len() != tile_count || tiles.iter().any(|b| b.size() != tile_bytes) {
+        tiles.clear();
+        for _ in 0..tile_count {
+            tiles.push(gpu.buffer(tile_bytes).context("allocating the image")?);
+        }
+    }
+    let mut sums = vec![PixelSums::default(); count as usize];
+    for (k, tile_start) in (0..count).step_by(tile as usize).enumerate() {
+        let ids = tile_start..tile_start.saturating_add(tile).min(count);
+        let buffers = RenderBuffers {
+            params: &p,
+            desc: &dev.desc,
+            voxels: &dev.voxels,
+            bricks: &dev.bricks,
+            lights: &l,
+            sums: &tiles[k],
+        };
+        let submissions = tile_submissions(params.seed, passes, ids.clone(), chunk, bar.is_none());
+        let last = submissions.len() - 1;
+        let slice = &mut sums[ids.start as usize..ids.end as usize];
+        let mut readback = Some(bytemuck::cast_slice_mut::<PixelSums, u8>(slice));
+        for (i, (steps, work)) in submissions.into_iter().enumerate() {
+            let readbacks = if i == last {
+                vec![(
+                    buffers.sums,
+                    readback.take().expect("one readback per tile"),
+                )]
+            } else {
+                vec![]
+            };
+            gpu.submit(Work {
+                kernel: &RENDER,
+                buffers: buffers.slots(),
+                uploads: std::mem::take(&mut uploads),
+                steps,
+                readbacks,
+            })
+            .with_context(|| format!("GPU kernel {}", RENDER.kernel.name()))?;
+            if let Some(bar) = bar {
+                bar.inc(work);
+            }
+        }
+    }
+    Ok(sums)
+}
+
+/// The submissions of one tile (ids `ids`): its steps and the samples they add. Pass after pass
+/// (with a barrier between), each pass in dispatches of at most `chunk` ids; all in one
+/// submission if `together`, else one submission per chunk.
+fn tile_submissions(
+    seed: u32,
+    passes: &[(u32, u32)],
+    ids: std::ops::Range<u32>,
+    chunk: u32,
+    together: bool,
+) -> Vec<(Vec<Step<RenderPass>>, u64)> {
+    let mut out: Vec<(Vec<Step<RenderPass>>, u64)> = Vec::new();
+    for (k, &(s0, s1)) in passes.iter().enumerate() {
+        let push = RenderPass {
+            launch: Launch {
+                seed,
+                ..Launch::default()
+            },
+            s_begin: s0,
+            s_end: s1,
+            sums_base: ids.start,
+            _pad: 0,
+        };
+        if together && k > 0 && !out.is_empty() {
+            out[0].0.push(Step::Barrier);
+        }
+        let mut start = ids.start;
+        while start < ids.end {
+            let end = start.saturating_add(chunk).min(ids.end);
+            let step = Step::Run {
+                push,
+                ids: start..end,
+            };
+            let work = u64::from(end - start) * u64::from(s1 - s0);
+            match out.first_mut() {
+                Some((steps, total)) if together => {
+                    steps.push(step);
+                    *total += work;
+                }
+                _ => out.push((vec![step], work)),
+            }
+            start = end;
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// (s_begin, ids) per run step, `None` per barrier.
+    fn shape(steps: &[Step<RenderPass>]) -> Vec<Option<(u32, std::ops::Range<u32>)>> {
+        steps
+            .iter()
+            .map(|s| match s {
+                Step::Run { push, ids } => Some((push.s_begin, ids.clone())),
+                Step::Barrier => None,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_quiet_tile_is_one_submission_with_a_barrier_between_passes() {
+        let subs = tile_submissions(9, &[(0, 2), (2, 3)], 64..200, 64, true);
+        assert_eq!(subs.len(), 1);
+        let (steps, work) = &subs[0];
+        assert_eq!(
+            shape(steps),
+            vec![
+                Some((0, 64..128)),
+                Some((0, 128..192)),
+                Some((0, 192..200)),
+                None,
+                Some((2, 64..128)),
+                Some((2, 128..192)),
+                Some((2, 192..200)),
+            ]
+        );
+        assert_eq!(*work, 136 * 3);
+        assert!(steps.iter().all(|s| match s {
+            Step::Run { push, .. } => push.sums_base == 64 && push.launch.seed == 9,
+            Step::Barrier => true,
+        }));
+    }
+
+    #[test]
+    fn with_progress_every_chunk_is_its_own_submission() {
+        let subs = tile_submissions(0, &[(0, 2), (2, 3)], 0..100, 64, false);
+        let shapes: Vec<_> = subs.iter().map(|(s, w)| (shape(s), *w)).collect();
+        assert_eq!(
+            shapes,
+            vec![
+                (vec![Some((0, 0..64))], 128),
+                (vec![Some((0, 64..100))], 72),
+                (vec![Some((2, 0..64))], 64),
+                (vec![Some((2, 64..100))], 36),
+            ]
+        );
+    }
+}
