@@ -165,9 +165,9 @@ impl MajorantSampler {
     }
 }
 
-/// Track-length estimator (delta tracking, Novák et al. 2014; pbrt-v4): 0 at the first real
-/// collision (accepted with probability mu / sigma_maj), 1 if the flight escapes past t1.
-/// Returns (T, tally, rng).
+/// Track-length estimator (delta tracking, Novák et al. 2014; pbrt-v4): 0 if the free flight
+/// of [`delta_tracking`] meets a real collision before t1, 1 if it escapes. Returns
+/// (T, tally, rng).
 #[inline]
 pub fn track_length(
     vol: &VolumeView,
@@ -177,7 +177,87 @@ pub fn track_length(
     lookup: Lookup,
     rng: HashRng,
 ) -> (f32, Tally, HashRng) {
-    track(vol, ray, t0, t1, lookup, rng, Track::Length)
+    let (flight, rng) = delta_tracking(vol, ray, t0, t1, lookup, JITTER_SALT, rng);
+    (if flight.found { 0.0 } else { 1.0 }, flight.tally, rng)
+}
+
+/// A free-flight distance sampled by delta tracking, and the product of the null-collision
+/// probabilities before it (Miller et al.'s estimate of T(t)).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct FreeFlight {
+    /// Distance of the real collision (when `found`).
+    pub t: f32,
+    /// Extinction there.
+    pub mu: f32,
+    /// False when the flight escaped past t1.
+    pub found: bool,
+    /// Product of (1 - mu / sigma_maj) over the null collisions before t: ratio tracking's
+    /// estimate of T(t) without roulette.
+    pub null_product: f32,
+    /// Lookups, and whether the collision cap was reached.
+    pub tally: Tally,
+}
+
+/// Delta tracking over [t0, t1] (Woodcock; pbrt-v4's `SampleT_maj` with the real-collision
+/// test): the one free-flight sampler of the track-length estimator and of free-flight distance
+/// sampling. `salt` decorrelates the stochastic-lookup jitter of its users. At the collision cap
+/// the flight continues exactly in the nearest-neighbour grid ([`exact_free_flight`];
+/// memoryless, so the distance keeps its distribution), the null product takes the exact T of
+/// that part, and the ray is counted as capped.
+pub fn delta_tracking(
+    vol: &VolumeView,
+    ray: &Ray,
+    t0: f32,
+    t1: f32,
+    lookup: Lookup,
+    salt: u32,
+    rng: HashRng,
+) -> (FreeFlight, HashRng) {
+    let mut sampler = MajorantSampler::new(vol, ray, t0, t1);
+    let mut rng = rng;
+    let mut lookups = 0u32;
+    let mut out = FreeFlight {
+        null_product: 1.0,
+        ..Default::default()
+    };
+    let mut t_last = t0;
+    while !sampler.done && lookups < MAX_TENTATIVE_COLLISIONS {
+        let (c, r) = sampler.next_collision(vol, rng);
+        rng = r;
+        if c.found {
+            t_last = c.t;
+            let key = [rng.state, lookups, salt];
+            let m = mu_at(vol, ray.at(c.t), lookup, key);
+            lookups += 1;
+            let (u, r) = rng.next_f32();
+            rng = r;
+            if u < m / c.sigma_maj {
+                out.t = c.t;
+                out.mu = m;
+                out.found = true;
+                sampler.done = true;
+            } else {
+                let f = 1.0 - m / c.sigma_maj;
+                out.null_product *= if f > 0.0 { f } else { 0.0 };
+            }
+        }
+    }
+    out.tally = Tally::lookups(lookups);
+    if !sampler.done {
+        let (u, r) = rng.next_f32();
+        rng = r;
+        let flight = exact_free_flight(vol, ray, t_last, t1, -math::ln(1.0 - u));
+        if flight.found {
+            let (rest, visited) = complete_exactly(vol, ray, t_last, flight.t);
+            out.null_product *= rest;
+            out.t = flight.t;
+            out.mu = flight.mu;
+            out.found = true;
+            out.tally.lookups += visited;
+        }
+        out.tally = Tally::lookups(out.tally.lookups + flight.visited).capped_if(true);
+    }
+    (out, rng)
 }
 
 /// Ratio tracking (Novák et al. 2014): product of (1 - mu / sigma_maj) over tentative
@@ -193,39 +273,6 @@ pub fn ratio_tracking(
     roulette: bool,
     rng: HashRng,
 ) -> (f32, Tally, HashRng) {
-    let mode = if roulette {
-        Track::RatioRoulette
-    } else {
-        Track::Ratio
-    };
-    track(vol, ray, t0, t1, lookup, rng, mode)
-}
-
-/// Which estimate the collision loop of [`track`] updates.
-#[repr(u32)]
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Track {
-    /// Track-length: stop at the first real collision.
-    Length,
-    /// Ratio tracking without roulette.
-    Ratio,
-    /// Ratio tracking with pbrt-v4's Russian roulette.
-    RatioRoulette,
-}
-
-/// The shared loop over tentative collisions (pbrt-v4's `SampleT_maj` with a callback): each
-/// collision reads mu once, then updates the estimate as ratio tracking or as the track-length
-/// estimator, which stops at the first real collision. At [`MAX_TENTATIVE_COLLISIONS`] the rest
-/// of the ray is completed by [`complete_exactly`] and the ray is counted as capped.
-fn track(
-    vol: &VolumeView,
-    ray: &Ray,
-    t0: f32,
-    t1: f32,
-    lookup: Lookup,
-    rng: HashRng,
-    mode: Track,
-) -> (f32, Tally, HashRng) {
     let mut sampler = MajorantSampler::new(vol, ray, t0, t1);
     let mut rng = rng;
     let mut transmittance = 1.0f32;
@@ -239,26 +286,9 @@ fn track(
             let key = [rng.state, lookups, JITTER_SALT];
             let mu = mu_at(vol, ray.at(c.t), lookup, key);
             lookups += 1;
-            let stop = if mode == Track::Length {
-                let (u, r) = rng.next_f32();
-                rng = r;
-                let real = u < mu / c.sigma_maj;
-                if real {
-                    transmittance = 0.0;
-                }
-                real
-            } else {
-                let (t, r, stop) = ratio_step(
-                    transmittance,
-                    mu,
-                    c.sigma_maj,
-                    mode == Track::RatioRoulette,
-                    rng,
-                );
-                transmittance = t;
-                rng = r;
-                stop
-            };
+            let (t, r, stop) = ratio_step(transmittance, mu, c.sigma_maj, roulette, rng);
+            transmittance = t;
+            rng = r;
             if stop {
                 sampler.done = true;
             }
@@ -266,6 +296,8 @@ fn track(
     }
     let mut tally = Tally::lookups(lookups);
     if !sampler.done {
+        // At the collision cap: the rest's expected factor given the collisions so far is T of
+        // the rest (memoryless), exactly known for nearest lookups.
         let (rest, visited) = complete_exactly(vol, ray, t_last, t1);
         transmittance *= rest;
         tally = Tally::lookups(lookups + visited).capped_if(true);

@@ -8,9 +8,7 @@ use crate::estimators::estimate::{self, Estimator};
 use crate::estimators::optical_depth::{
     estimate_pair, estimate_single, mu_at, prepare, DepthPairEstimate, Importance, Jitter,
 };
-use crate::estimators::tracking::{
-    complete_exactly, exact_free_flight, ratio_tracking, MajorantSampler,
-};
+use crate::estimators::tracking::{delta_tracking, ratio_tracking, FreeFlight};
 use crate::estimators::transmittance;
 use crate::geometry::{to_index_space, Ray, V3};
 use crate::math::{self, sqrt};
@@ -204,72 +202,22 @@ fn inscattered(ctx: &Context, t: f32, rng: HashRng) -> (f32, Tally, HashRng) {
     (l, n, rng)
 }
 
-/// A free-flight distance sample on the camera ray and what Miller et al.'s MIS needs of it.
-#[derive(Clone, Copy, Debug, Default)]
-struct FreeFlight {
-    /// Distance of the real collision (when `found`).
-    t: f32,
-    /// Extinction there.
-    mu: f32,
-    /// False when the flight left the volume.
-    found: bool,
-    /// Product of the null-collision probabilities before t: ratio tracking's estimate of T(t)
-    /// without roulette (Miller et al.'s density estimate).
-    null_product: f32,
-    tally: Tally,
+/// Free-flight sample on the camera ray by delta tracking (see [`delta_tracking`]).
+#[inline]
+fn free_flight(ctx: &Context, rng: HashRng) -> (FreeFlight, HashRng) {
+    delta_tracking(
+        ctx.vol,
+        &ctx.ray,
+        ctx.ta,
+        ctx.tb,
+        ctx.lookup,
+        FREE_FLIGHT_SALT,
+        rng,
+    )
 }
 
-/// Free-flight sample by delta tracking over the brick majorants. At the collision cap the flight
-/// continues exactly in the nearest-neighbour grid ([`exact_free_flight`]; memoryless, so the
-/// distance keeps its distribution) and the null product takes the exact T of that part; the
-/// ray is counted as capped.
-fn free_flight(ctx: &Context, rng: HashRng) -> (FreeFlight, HashRng) {
-    let mut sampler = MajorantSampler::new(ctx.vol, &ctx.ray, ctx.ta, ctx.tb);
-    let mut rng = rng;
-    let mut lookups = 0u32;
-    let mut out = FreeFlight {
-        null_product: 1.0,
-        ..Default::default()
-    };
-    let mut t_last = ctx.ta;
-    while !sampler.done && lookups < crate::estimators::tracking::MAX_TENTATIVE_COLLISIONS {
-        let (c, r) = sampler.next_collision(ctx.vol, rng);
-        rng = r;
-        if c.found {
-            t_last = c.t;
-            let key = [rng.state, lookups, 0x27d4_eb2f];
-            let m = mu_at(ctx.vol, ctx.ray.at(c.t), ctx.lookup, key);
-            lookups += 1;
-            let (u, r) = rng.next_f32();
-            rng = r;
-            if u < m / c.sigma_maj {
-                out.t = c.t;
-                out.mu = m;
-                out.found = true;
-                sampler.done = true;
-            } else {
-                let f = 1.0 - m / c.sigma_maj;
-                out.null_product *= if f > 0.0 { f } else { 0.0 };
-            }
-        }
-    }
-    out.tally = Tally::lookups(lookups);
-    if !sampler.done {
-        let (u, r) = rng.next_f32();
-        rng = r;
-        let flight = exact_free_flight(ctx.vol, &ctx.ray, t_last, ctx.tb, -math::ln(1.0 - u));
-        if flight.found {
-            let (rest, visited) = complete_exactly(ctx.vol, &ctx.ray, t_last, flight.t);
-            out.null_product *= rest;
-            out.t = flight.t;
-            out.mu = flight.mu;
-            out.found = true;
-            out.tally.lookups += visited;
-        }
-        out.tally = Tally::lookups(out.tally.lookups + flight.visited).capped_if(true);
-    }
-    (out, rng)
-}
+/// Salt of the stochastic-lookup jitter key of free-flight sampling on camera rays.
+const FREE_FLIGHT_SALT: u32 = 0x27d4_eb2f;
 
 /// Extinction at distance t along the camera ray.
 #[inline]
