@@ -2,7 +2,8 @@
 # Runs every test of the workspace on a fresh Debian machine: installs the apt packages the GPU
 # tests need (lavapipe, the Vulkan loader, a C++ compiler for SPIRV-Tools), the browser of the
 # `host report` test (chromium and chromedriver) and the pinned Rust toolchain, then
-# `cargo test --workspace --release`. Extra arguments go to `cargo test`.
+# `cargo test --workspace --release`, then the `jackknife` library crate on stable Rust. Extra
+# arguments go to the workspace `cargo test`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -27,3 +28,10 @@ fi
 rustup toolchain install
 
 cargo test --workspace --release "$@"
+
+# The library face must build and pass its doc test on stable Rust, without rust-gpu.
+if rustup toolchain list | grep -q '^stable'; then
+  cargo +stable test -p jackknife
+else
+  echo "test.sh: no stable toolchain; skipping the stable build of the jackknife crate" >&2
+fi
