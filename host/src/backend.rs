@@ -7,7 +7,7 @@ use bytemuck::{Pod, Zeroable};
 use shared::probe::{self, DepthPair, MathValues, RngDraws, TransmittancePair};
 
 /// Which backend the user asked for.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BackendChoice {
     /// The Vulkan GPU if a driver is present, else the CPU (with a warning).
     Auto,

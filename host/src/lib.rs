@@ -9,6 +9,7 @@ pub mod cpu;
 pub mod diagnostics;
 pub mod estimators;
 pub mod gpu;
+pub mod integrators;
 pub mod procedural;
 
 pub use backend::{Backend, BackendChoice};

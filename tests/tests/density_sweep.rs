@@ -140,7 +140,7 @@ fn every_integrator_is_bit_identical_and_finite_at_every_density() {
     for lookup in [Lookup::Nearest, Lookup::Stochastic] {
         for scale in SCALES {
             let packed = pack(&vol, scale, 8, lookup).unwrap();
-            for (_, integrator) in host::cli::INTEGRATORS {
+            for (_, integrator) in host::integrators::INTEGRATORS {
                 for t_hat in [TransmittanceHat::Jackknife, TransmittanceHat::Ratio] {
                     let mut p = params(&vol);
                     p.integrator = *integrator as u32;
