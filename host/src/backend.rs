@@ -31,15 +31,15 @@ impl Backend {
             BackendChoice::Gpu => Ok(Backend::Gpu(Box::new(
                 Gpu::new().context("--backend gpu: cannot use the Vulkan GPU backend")?,
             ))),
-            BackendChoice::Auto => {
-                match Gpu::new() {
-                    Ok(g) => Ok(Backend::Gpu(Box::new(g))),
-                    Err(e) => {
-                        eprintln!("warning: no usable Vulkan device ({e}); falling back to the CPU backend");
-                        Ok(Backend::Cpu)
-                    }
+            BackendChoice::Auto => match Gpu::new() {
+                Ok(g) => Ok(Backend::Gpu(Box::new(g))),
+                Err(e) => {
+                    tracing::warn!(
+                        "no usable Vulkan device ({e}); falling back to the CPU backend"
+                    );
+                    Ok(Backend::Cpu)
                 }
-            }
+            },
         }
     }
 
@@ -58,7 +58,7 @@ impl Backend {
                  embedded volumes; crop or resample a file)"
             );
         }
-        eprintln!("warning: {why}; falling back to the CPU backend");
+        tracing::warn!("{why}; falling back to the CPU backend");
         Ok(Backend::Cpu)
     }
 

@@ -160,7 +160,7 @@ fn backends(choice: BenchBackend) -> Result<Vec<Backend>> {
         BenchBackend::Gpu => out.push(Backend::open(BackendChoice::Gpu)?),
         BenchBackend::Both => match Backend::open(BackendChoice::Gpu) {
             Ok(b) => out.push(b),
-            Err(e) => eprintln!("warning: {e:#}; timing the CPU only"),
+            Err(e) => tracing::warn!("{e:#}; timing the CPU only"),
         },
     }
     Ok(out)
@@ -286,7 +286,7 @@ pub fn run(args: &BenchOptions) -> Result<BenchReport> {
     };
     let rays = f64::from(args.width) * f64::from(args.height) * f64::from(args.spp);
     if !args.quiet {
-        eprintln!(
+        tracing::info!(
             "bench: {} {}x{}x{}, {}x{} px, {} spp, {} reps (+{} warm-up), {} CPU threads",
             scene.volume.name,
             scene.volume.dims[0],
@@ -303,7 +303,7 @@ pub fn run(args: &BenchOptions) -> Result<BenchReport> {
     let mut rows = Vec::new();
     for backend in &backends {
         if let Some(why) = backend.cannot_hold(&scene.packed) {
-            eprintln!("warning: skipping {}: {why}", backend.device());
+            tracing::warn!("skipping {}: {why}", backend.device());
             continue;
         }
         let resident = Resident::new(backend, &scene.packed)?;
@@ -331,7 +331,7 @@ pub fn run(args: &BenchOptions) -> Result<BenchReport> {
                 work_normalized_variance: variance * ns_per_ray,
             };
             if !args.quiet {
-                eprintln!(
+                tracing::info!(
                     "  {:<4} {:<20} {:9.1} ms/frame  {:7.1} ns/ray  {:6.2} lookups/ray  var {:.5}",
                     row.backend,
                     row.estimator,
@@ -449,7 +449,7 @@ fn sweep(
             let t = Instant::now();
             let scene = crate::commands::prepare_scene(&scene_args, lookup, size, size)?;
             if !args.quiet {
-                eprintln!(
+                tracing::info!(
                     "sweep: {name} {resolution}^3 prepared in {:.1} s",
                     t.elapsed().as_secs_f64()
                 );
@@ -502,7 +502,7 @@ fn sweep(
                     point.samples_per_ray = quality(&pixels, args.spp).1;
                 }
                 if !args.quiet {
-                    eprintln!(
+                    tracing::info!(
                         "  {:<4} {:<14} {resolution:>4}^3 {size:>5}^2 {:9.1} ms {:8.1} ns/ray {}",
                         point.backend,
                         point.estimator,

@@ -206,8 +206,8 @@ pub fn load_volume(scene: &SceneOptions) -> Result<(DenseVolume, f32, Option<Str
         };
         let loaded = crate::io::load_volume_with(path, &options)?;
         if loaded.clamped_negative > 0 {
-            eprintln!(
-                "warning: --clamp-negative set {} negative densities of {} to 0",
+            tracing::warn!(
+                "--clamp-negative set {} negative densities of {} to 0",
                 loaded.clamped_negative,
                 path.display()
             );
@@ -444,7 +444,7 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         None => vol.name.clone(),
     };
     if !args.quiet {
-        eprintln!(
+        tracing::info!(
             "volume {volume_label} {}x{}x{} (density scale {density_scale}, {} bricks of {}^3), prepared in {load_ms:.0} ms",
             vol.dims[0],
             vol.dims[1],
@@ -452,7 +452,7 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
             packed.bricks.len(),
             args.scene.brick_size
         );
-        eprintln!("backend: {} ({})", backend.kind(), backend.device());
+        tracing::info!("backend: {} ({})", backend.kind(), backend.device());
     }
     let mut params = RenderParams {
         camera: scene.camera,
@@ -670,7 +670,7 @@ fn report_underflow(name: &str, u: &crate::bricks::Underflow, scale: f32) -> Res
         u.count < u.nonzero,
         "{what}: the volume would render as empty; raise --density-scale"
     );
-    eprintln!("warning: {what}; raise --density-scale if they matter");
+    tracing::warn!("{what}; raise --density-scale if they matter");
     Ok(())
 }
 
@@ -692,7 +692,7 @@ pub fn run_eval(args: &EvalOptions) -> Result<()> {
     let (vol, packed) = (&scene.volume, &scene.packed);
     let backend = Backend::open_for(args.backend, packed)?;
     if !args.quiet {
-        eprintln!("backend: {} ({})", backend.kind(), backend.device());
+        tracing::info!("backend: {} ({})", backend.kind(), backend.device());
     }
     let params = RenderParams {
         camera: scene.camera,

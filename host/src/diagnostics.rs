@@ -61,7 +61,7 @@ impl RayFlags {
     /// Prints [`RayFlags::warnings`] to stderr.
     pub fn warn(&self, params: &RenderParams) {
         for w in self.warnings(params) {
-            eprintln!("warning: {w}");
+            tracing::warn!("{w}");
         }
     }
 }

@@ -221,7 +221,7 @@ pub fn integrator_files<'a>(out_dir: &Path, names: impl Iterator<Item = &'a str>
 fn step(setup: &EvalSetup, k: usize, total: usize, what: &str, spp: u32) {
     if setup.progress {
         let (w, h) = (setup.params.width, setup.params.height);
-        eprintln!("eval [{k}/{total}] rendering {what}: {w}x{h} at {spp} spp");
+        tracing::info!("eval [{k}/{total}] rendering {what}: {w}x{h} at {spp} spp");
     }
 }
 

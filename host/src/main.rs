@@ -16,6 +16,7 @@ fn main() -> ExitCode {
             };
         }
     };
+    host::cli::init_tracing();
     match host::cli::run(&cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

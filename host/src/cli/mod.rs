@@ -84,3 +84,46 @@ pub fn run(cli: &Cli) -> Result<()> {
         Some(Command::Report(args)) => crate::report::run(&args.options()),
     }
 }
+
+/// Prints the library's diagnostics on stderr as before: `warning: <message>` for warnings,
+/// the bare message for progress and info lines; only events of this crate, INFO and above.
+pub fn init_tracing() {
+    use tracing_subscriber::layer::SubscriberExt;
+    use tracing_subscriber::util::SubscriberInitExt;
+    let layer = tracing_subscriber::fmt::layer()
+        .with_ansi(false)
+        .with_writer(std::io::stderr)
+        .event_format(PlainFormat);
+    let filter =
+        tracing_subscriber::filter::Targets::new().with_target("host", tracing::Level::INFO);
+    // A second call (a subscriber already set) keeps the first one.
+    let _ = tracing_subscriber::registry()
+        .with(layer)
+        .with(filter)
+        .try_init();
+}
+
+/// The stderr format of [`init_tracing`]: the message, prefixed with `warning: ` for warnings
+/// and `error: ` for errors.
+struct PlainFormat;
+
+impl<S, N> tracing_subscriber::fmt::FormatEvent<S, N> for PlainFormat
+where
+    S: tracing::Subscriber + for<'a> tracing_subscriber::registry::LookupSpan<'a>,
+    N: for<'a> tracing_subscriber::fmt::FormatFields<'a> + 'static,
+{
+    fn format_event(
+        &self,
+        ctx: &tracing_subscriber::fmt::FmtContext<'_, S, N>,
+        mut writer: tracing_subscriber::fmt::format::Writer<'_>,
+        event: &tracing::Event<'_>,
+    ) -> std::fmt::Result {
+        match *event.metadata().level() {
+            tracing::Level::WARN => write!(writer, "warning: ")?,
+            tracing::Level::ERROR => write!(writer, "error: ")?,
+            _ => {}
+        }
+        ctx.field_format().format_fields(writer.by_ref(), event)?;
+        writeln!(writer)
+    }
+}
