@@ -21,7 +21,7 @@ pub mod defaults {
     /// `--resolution`.
     pub const RESOLUTION: u32 = 256;
     /// `--brick-size`.
-    pub const BRICK_SIZE: u32 = 16;
+    pub const BRICK_SIZE: u32 = crate::bricks::DEFAULT_BRICK_SIZE;
     /// `--fov` in degrees.
     pub const FOV: f32 = 40.0;
     /// `--albedo`.

@@ -168,8 +168,7 @@ fn write_false_colour(
     f: impl Fn(f32) -> [u8; 3],
 ) -> Result<()> {
     let bytes: Vec<u8> = values.iter().flat_map(|&v| f(v)).collect();
-    image::save_buffer(path, &bytes, w, h, image::ColorType::Rgb8)
-        .with_context(|| format!("writing {}", path.display()))
+    crate::output::write_rgb_png(path, w, h, &bytes)
 }
 
 /// Per-sample standard deviation of one pixel (Bessel-corrected).

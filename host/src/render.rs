@@ -5,7 +5,6 @@ use crate::bricks::PackedVolume;
 use crate::gpu::Binding;
 use crate::volume::{Affine, DenseVolume};
 use anyhow::{Context, Result};
-use indicatif::{ProgressBar, ProgressStyle};
 use shared::camera::{Affine3x4, Camera};
 use shared::lights::PointLight;
 use shared::render::{
@@ -183,21 +182,6 @@ pub fn make_camera(
     })
 }
 
-fn progress_bar(len: u64, enabled: bool) -> ProgressBar {
-    if !enabled {
-        return ProgressBar::hidden();
-    }
-    let bar = ProgressBar::new(len);
-    bar.set_style(
-        ProgressStyle::with_template(
-            "{spinner} rendering [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}",
-        )
-        .expect("valid template")
-        .progress_chars("=> "),
-    );
-    bar
-}
-
 /// Most samples per pixel per pass (see [`shared::render::RenderPass`] for why passes exist).
 pub const SPP_PER_PASS: u32 = 16;
 /// Loop iterations one invocation may run: lavapipe's gallivm ends a shader after 65535
@@ -338,7 +322,7 @@ pub fn render_resident(
     // About 64 progress updates overall; each chunk is a whole number of workgroups.
     let per_pass = (64 / passes.len() as u32).max(1);
     let chunk = count.div_ceil(per_pass).next_multiple_of(64).max(64);
-    let bar = progress_bar(count as u64 * params.spp as u64, progress);
+    let bar = crate::output::progress(count as u64 * params.spp as u64, "rendering", !progress);
     let sums = match backend {
         Backend::Cpu => {
             use rayon::prelude::*;

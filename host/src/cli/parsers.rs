@@ -115,13 +115,23 @@ pub fn parse_f_delta(s: &str) -> Result<f32, String> {
     Ok(v)
 }
 
-/// A value parser of finite numbers in `[lo, hi]`, for a flag's documented range.
-pub fn f32_in(lo: f32, hi: f32) -> impl Fn(&str) -> Result<f32, String> + Clone + Send + Sync {
-    move |s: &str| match s.trim().parse::<f32>() {
-        Ok(v) if v.is_finite() && (lo..=hi).contains(&v) => Ok(v),
+/// A value parser of finite numbers in `[lo, hi]` (finite bounds), for a flag's documented range.
+fn number_in<T>(lo: T, hi: T) -> impl Fn(&str) -> Result<T, String> + Clone + Send + Sync
+where
+    T: std::str::FromStr + PartialOrd + std::fmt::Display + Copy + Send + Sync,
+    T::Err: std::fmt::Display,
+{
+    // With finite bounds, the range test also refuses NaN and infinities.
+    move |s: &str| match s.trim().parse::<T>() {
+        Ok(v) if (lo..=hi).contains(&v) => Ok(v),
         Ok(v) => Err(format!("must be a finite number in [{lo}, {hi}] (got {v})")),
         Err(e) => Err(format!("not a number: {e}")),
     }
+}
+
+/// A value parser of finite f32 numbers in `[lo, hi]`.
+pub fn f32_in(lo: f32, hi: f32) -> impl Fn(&str) -> Result<f32, String> + Clone + Send + Sync {
+    number_in(lo, hi)
 }
 
 /// A value parser of finite numbers in the open interval `(lo, hi)`.
@@ -184,13 +194,9 @@ pub fn parse_vec3(s: &str) -> Result<[f32; 3], String> {
     Ok(v)
 }
 
-/// A value parser of finite numbers in `[lo, hi]`, for a flag's documented range.
+/// A value parser of finite f64 numbers in `[lo, hi]`.
 pub fn finite_in(lo: f64, hi: f64) -> impl Fn(&str) -> Result<f64, String> + Clone + Send + Sync {
-    move |s: &str| match s.trim().parse::<f64>() {
-        Ok(v) if v.is_finite() && (lo..=hi).contains(&v) => Ok(v),
-        Ok(v) => Err(format!("must be a finite number in [{lo}, {hi}] (got {v})")),
-        Err(e) => Err(format!("not a number: {e}")),
-    }
+    number_in(lo, hi)
 }
 
 /// A value parser of finite numbers in `(0, hi]`.
