@@ -340,7 +340,7 @@ pub struct IntegratorSettings {
     pub exposure: f32,
 }
 
-/// Flags that only an integrator render reads (clap ids and their spelling).
+/// Options that only an integrator render reads (ids in `RenderOptions::given`, flag spelling).
 const INTEGRATOR_ONLY: &[(&str, &str)] = &[
     ("lights", "--light"),
     ("albedo", "--albedo"),

@@ -188,7 +188,7 @@ impl EstimatorSpec {
     }
 }
 
-/// clap value parser for `--estimator`.
+/// Parses an estimator name (the value parser of `--estimator`).
 pub fn parse(name: &str) -> Result<&'static EstimatorSpec, String> {
     by_name(name).ok_or_else(|| format!("unknown estimator {name:?}; choose one of: {}", names()))
 }
