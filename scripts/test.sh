@@ -27,6 +27,10 @@ fi
 # rustup does not auto-install on these machines: install what rust-toolchain.toml names.
 rustup toolchain install
 
+# The layers of shared and host have no import cycles.
+python3 scripts/module_cycles.py shared/src
+python3 scripts/module_cycles.py host/src
+
 cargo test --workspace --release "$@"
 
 # The library face must build and pass its doc test on stable Rust, without rust-gpu.

@@ -8,7 +8,7 @@ use shared::kernels::launch::Launch;
 use shared::kernels::probe::{self, DepthPair, MathValues, RngDraws, TransmittancePair};
 
 /// Which backend the user asked for.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BackendChoice {
     /// The Vulkan GPU if a driver is present, else the CPU (with a warning).
     Auto,
@@ -32,15 +32,15 @@ impl Backend {
             BackendChoice::Gpu => Ok(Backend::Gpu(Box::new(
                 Gpu::new().context("--backend gpu: cannot use the Vulkan GPU backend")?,
             ))),
-            BackendChoice::Auto => {
-                match Gpu::new() {
-                    Ok(g) => Ok(Backend::Gpu(Box::new(g))),
-                    Err(e) => {
-                        eprintln!("warning: no usable Vulkan device ({e}); falling back to the CPU backend");
-                        Ok(Backend::Cpu)
-                    }
+            BackendChoice::Auto => match Gpu::new() {
+                Ok(g) => Ok(Backend::Gpu(Box::new(g))),
+                Err(e) => {
+                    tracing::warn!(
+                        "no usable Vulkan device ({e}); falling back to the CPU backend"
+                    );
+                    Ok(Backend::Cpu)
                 }
-            }
+            },
         }
     }
 
@@ -59,7 +59,7 @@ impl Backend {
                  embedded volumes; crop or resample a file)"
             );
         }
-        eprintln!("warning: {why}; falling back to the CPU backend");
+        tracing::warn!("{why}; falling back to the CPU backend");
         Ok(Backend::Cpu)
     }
 

@@ -3,20 +3,20 @@
 //! and image size.
 
 use crate::backend::{Backend, BackendChoice};
-use crate::cli::{LookupArg, SceneArgs};
+use crate::commands::SceneOptions;
 use crate::estimators::EstimatorSpec;
 use crate::render::{render_resident, Resident};
 use crate::study::plot::{self, Figure, Legend, LinePanel, Series, Style};
 use anyhow::{bail, Context, Result};
-use clap::{Args, ValueEnum};
 use serde::Serialize;
 use shared::kernels::render::PixelOut;
 use shared::params::RenderParams;
+use shared::volume::grid::Lookup;
 use std::path::PathBuf;
 use std::time::Instant;
 
 /// Where `host bench` runs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BenchBackend {
     Cpu,
     Gpu,
@@ -24,64 +24,36 @@ pub enum BenchBackend {
     Both,
 }
 
-/// Flags of `host bench`.
-#[derive(Args, Debug, Clone)]
-pub struct BenchArgs {
-    #[command(flatten)]
-    pub scene: SceneArgs,
-    /// How the high-resolution volume is read.
-    #[arg(long, value_enum, default_value_t = LookupArg::Stochastic)]
-    pub lookup: LookupArg,
+/// What `host bench` times and where it writes the results.
+#[derive(Debug, Clone)]
+pub struct BenchOptions {
+    pub scene: SceneOptions,
+    pub lookup: Lookup,
     /// Comma-separated estimators, or "all".
-    #[arg(
-        long,
-        default_value = "jackknife,naive-m1,biased-rm,unbiased-rm,track-length,ratio"
-    )]
     pub estimators: String,
-    /// Backends to time.
-    #[arg(long, value_enum, default_value_t = BenchBackend::Both)]
     pub backend: BenchBackend,
-    /// Image width, 1 to 16384.
-    #[arg(long, allow_hyphen_values = true, default_value_t = 256, value_parser = clap::value_parser!(u32).range(1..=16384))]
     pub width: u32,
-    /// Image height, 1 to 16384.
-    #[arg(long, allow_hyphen_values = true, default_value_t = 256, value_parser = clap::value_parser!(u32).range(1..=16384))]
     pub height: u32,
-    /// Estimates per pixel per frame, 2 to 4096.
-    #[arg(long, allow_hyphen_values = true, default_value_t = 8, value_parser = clap::value_parser!(u32).range(2..=4096))]
+    /// Estimates per pixel per frame.
     pub spp: u32,
-    /// Samples per optical depth estimate (N), 1 to 4096.
-    #[arg(long, allow_hyphen_values = true, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub n: u32,
-    /// Seed, 0 to 2^32 - 1 (every frame of an estimator renders the same rays and samples).
-    #[arg(long, default_value_t = 0, allow_hyphen_values = true)]
     pub seed: u32,
-    /// Timed frames per estimator, 1 to 1000.
-    #[arg(long, allow_hyphen_values = true, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    /// Timed frames per estimator.
     pub reps: u32,
-    /// Untimed frames per estimator first, 0 to 100 (pipeline compilation, caches).
-    #[arg(long, allow_hyphen_values = true, default_value_t = 1, value_parser = clap::value_parser!(u32).range(0..=100))]
+    /// Untimed frames per estimator first.
     pub warmup: u32,
     /// Also sweep the embedded volume's resolution and the image size.
-    #[arg(long)]
     pub sweep: bool,
-    /// Volume resolutions of the sweep, each 8 to 1024.
-    #[arg(long, default_value = "64,128,256,512")]
+    /// Comma-separated volume resolutions of the sweep.
     pub sweep_resolutions: String,
-    /// Image sizes (square) of the sweep, each 1 to 16384.
-    #[arg(long, default_value = "64,128,256,512")]
+    /// Comma-separated image sizes of the sweep.
     pub sweep_sizes: String,
-    /// Estimators of the sweep.
-    #[arg(long, default_value = "jackknife,track-length,ratio,unbiased-rm")]
+    /// Comma-separated estimators of the sweep.
     pub sweep_estimators: String,
-    /// Plot of the sweep (.png or .svg).
-    #[arg(long, default_value = "out/bench_sweep.png")]
+    /// Plot of the sweep.
     pub plot: PathBuf,
-    /// Write every number as JSON.
-    #[arg(long)]
     pub json: Option<PathBuf>,
     /// No progress lines.
-    #[arg(long)]
     pub quiet: bool,
 }
 
@@ -189,7 +161,7 @@ fn backends(choice: BenchBackend) -> Result<Vec<Backend>> {
         BenchBackend::Gpu => out.push(Backend::open(BackendChoice::Gpu)?),
         BenchBackend::Both => match Backend::open(BackendChoice::Gpu) {
             Ok(b) => out.push(b),
-            Err(e) => eprintln!("warning: {e:#}; timing the CPU only"),
+            Err(e) => tracing::warn!("{e:#}; timing the CPU only"),
         },
     }
     Ok(out)
@@ -268,7 +240,7 @@ fn quality(pixels: &[PixelOut], spp: u32) -> (f64, f64) {
 
 /// The sweep's estimators, resolutions and sizes, checked (before any work is done).
 #[allow(clippy::type_complexity)]
-fn sweep_lists(args: &BenchArgs) -> Result<(Vec<&'static EstimatorSpec>, Vec<u32>, Vec<u32>)> {
+fn sweep_lists(args: &BenchOptions) -> Result<(Vec<&'static EstimatorSpec>, Vec<u32>, Vec<u32>)> {
     let name = args.scene.volume.as_str();
     if !crate::procedural::NAMES.contains(&name) {
         bail!(
@@ -284,8 +256,8 @@ fn sweep_lists(args: &BenchArgs) -> Result<(Vec<&'static EstimatorSpec>, Vec<u32
 }
 
 /// `host bench`.
-pub fn run(args: &BenchArgs) -> Result<BenchReport> {
-    let lookup = crate::commands::lookup_of(args.lookup);
+pub fn run(args: &BenchOptions) -> Result<BenchReport> {
+    let lookup = args.lookup;
     let specs = estimators(&args.estimators, "--estimators")?;
     if args.sweep {
         sweep_lists(args)?;
@@ -315,7 +287,7 @@ pub fn run(args: &BenchArgs) -> Result<BenchReport> {
     };
     let rays = f64::from(args.width) * f64::from(args.height) * f64::from(args.spp);
     if !args.quiet {
-        eprintln!(
+        tracing::info!(
             "bench: {} {}x{}x{}, {}x{} px, {} spp, {} reps (+{} warm-up), {} CPU threads",
             scene.volume.name,
             scene.volume.dims[0],
@@ -332,7 +304,7 @@ pub fn run(args: &BenchArgs) -> Result<BenchReport> {
     let mut rows = Vec::new();
     for backend in &backends {
         if let Some(why) = backend.cannot_hold(&scene.packed) {
-            eprintln!("warning: skipping {}: {why}", backend.device());
+            tracing::warn!("skipping {}: {why}", backend.device());
             continue;
         }
         let resident = Resident::new(backend, &scene.packed)?;
@@ -360,7 +332,7 @@ pub fn run(args: &BenchArgs) -> Result<BenchReport> {
                 work_normalized_variance: variance * ns_per_ray,
             };
             if !args.quiet {
-                eprintln!(
+                tracing::info!(
                     "  {:<4} {:<20} {:9.1} ms/frame  {:7.1} ns/ray  {:6.2} lookups/ray  var {:.5}",
                     row.backend,
                     row.estimator,
@@ -381,7 +353,7 @@ pub fn run(args: &BenchArgs) -> Result<BenchReport> {
     };
     let report = BenchReport {
         volume: scene.volume.name.clone(),
-        lookup: format!("{:?}", args.lookup).to_lowercase(),
+        lookup: crate::commands::lookup_name(args.lookup),
         width: args.width,
         height: args.height,
         spp: args.spp,
@@ -456,13 +428,13 @@ fn goals(rows: &[Row]) -> Vec<Goal> {
 /// Times the sweep estimators over volume resolutions (image fixed) and image sizes (volume
 /// fixed at `--resolution`).
 fn sweep(
-    args: &BenchArgs,
+    args: &BenchOptions,
     backends: &[Backend],
     base: RenderParams,
 ) -> Result<(Vec<SweepPoint>, Vec<SweepPoint>)> {
     let name = args.scene.volume.as_str();
     let (specs, resolutions, sizes) = sweep_lists(args)?;
-    let lookup = crate::commands::lookup_of(args.lookup);
+    let lookup = args.lookup;
     let mut by_resolution = Vec::new();
     let mut by_size = Vec::new();
     let cases: Vec<(u32, u32, bool)> = resolutions
@@ -478,7 +450,7 @@ fn sweep(
             let t = Instant::now();
             let scene = crate::commands::prepare_scene(&scene_args, lookup, size, size)?;
             if !args.quiet {
-                eprintln!(
+                tracing::info!(
                     "sweep: {name} {resolution}^3 prepared in {:.1} s",
                     t.elapsed().as_secs_f64()
                 );
@@ -531,7 +503,7 @@ fn sweep(
                     point.samples_per_ray = quality(&pixels, args.spp).1;
                 }
                 if !args.quiet {
-                    eprintln!(
+                    tracing::info!(
                         "  {:<4} {:<14} {resolution:>4}^3 {size:>5}^2 {:9.1} ms {:8.1} ns/ray {}",
                         point.backend,
                         point.estimator,

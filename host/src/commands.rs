@@ -1,21 +1,200 @@
 //! The subcommands: each parses nothing, validates its flags, runs, and reports.
 
-use crate::backend::Backend;
+use crate::backend::{Backend, BackendChoice};
 use crate::bricks::pack;
-use crate::cli::{EvalArgs, LookupArg, ProbeArgs, RenderArgs};
 use crate::output::{write_exr, write_json, write_png, OutputPlan};
 use crate::render::{make_camera, occupied_world_bounds, world_to_index, CameraSpec};
 use crate::volume::DenseVolume;
 use anyhow::{bail, Context, Result};
 use shared::kernels::probe::{self, DepthPair};
 use shared::params::RenderParams;
+use shared::params::{Integrator, TransmittanceHat};
+use shared::sampling::lights::PointLight;
 use shared::volume::grid::Lookup;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
+
+/// Defaults of the scene and `host eval` options (the CLI shows them as its defaults).
+pub mod defaults {
+    /// `--volume`.
+    pub const VOLUME: &str = "cloud";
+    /// `--resolution`.
+    pub const RESOLUTION: u32 = 256;
+    /// `--brick-size`.
+    pub const BRICK_SIZE: u32 = crate::bricks::DEFAULT_BRICK_SIZE;
+    /// `--fov` in degrees.
+    pub const FOV: f32 = 40.0;
+    /// `--albedo`.
+    pub const ALBEDO: f32 = 0.8;
+    /// `--exposure`.
+    pub const EXPOSURE: f32 = 1.0;
+    /// `--n`.
+    pub const N: u32 = 10;
+    /// `--f-delta`.
+    pub const F_DELTA: f32 = 0.6;
+    /// `host eval --width` and `--height`.
+    pub const EVAL_SIZE: u32 = 128;
+    /// `host eval --spp`.
+    pub const EVAL_SPP: u32 = 1024;
+    /// `host eval --bias-scale`.
+    pub const BIAS_SCALE: f32 = 0.05;
+    /// `host eval --std-scale`.
+    pub const STD_SCALE: f32 = 0.5;
+    /// `host eval --out-dir`.
+    pub const EVAL_OUT_DIR: &str = "out/eval";
+}
+
+/// The volume and the camera, shared by `host render`, `host eval` and `host bench`.
+#[derive(Debug, Clone)]
+pub struct SceneOptions {
+    /// Embedded volume name or a .vdb / .nvdb file.
+    pub volume: String,
+    /// Grid to read from a file.
+    pub grid: Option<String>,
+    /// Set negative densities of a file to 0 instead of refusing it.
+    pub clamp_negative: bool,
+    /// Voxels per axis of an embedded volume.
+    pub resolution: u32,
+    /// Extinction per unit of stored density (None: the volume's own).
+    pub density_scale: Option<f32>,
+    /// Voxels per brick along each axis.
+    pub brick_size: u32,
+    /// Camera position (None: framing the volume).
+    pub camera: Option<[f32; 3]>,
+    /// Point the camera looks at (None: the volume's center).
+    pub look_at: Option<[f32; 3]>,
+    /// Vertical field of view in degrees.
+    pub fov: f32,
+}
+
+impl Default for SceneOptions {
+    fn default() -> Self {
+        SceneOptions {
+            volume: defaults::VOLUME.into(),
+            grid: None,
+            clamp_negative: false,
+            resolution: defaults::RESOLUTION,
+            density_scale: None,
+            brick_size: defaults::BRICK_SIZE,
+            camera: None,
+            look_at: None,
+            fov: defaults::FOV,
+        }
+    }
+}
+
+/// What `host render` renders and where it writes it.
+#[derive(Debug, Clone)]
+pub struct RenderOptions {
+    pub scene: SceneOptions,
+    pub lookup: Lookup,
+    pub estimator: &'static crate::estimators::EstimatorSpec,
+    pub n: u32,
+    pub f_delta: f32,
+    pub ratio_roulette: bool,
+    /// Single scattering with this integrator instead of primary-ray transmittance.
+    pub integrator: Option<Integrator>,
+    pub lights: Vec<PointLight>,
+    pub albedo: f32,
+    pub hg_g: f32,
+    pub t_hat: TransmittanceHat,
+    pub exposure: f32,
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub seed: u32,
+    pub backend: BackendChoice,
+    /// Output EXR; the PNG preview goes next to it.
+    pub out: PathBuf,
+    pub json: Option<PathBuf>,
+    /// No progress bar or info lines.
+    pub quiet: bool,
+    /// Ids (field names) of the options the user gave explicitly.
+    pub given: Vec<String>,
+}
+
+/// What `host eval` measures and where it writes it.
+#[derive(Debug, Clone)]
+pub struct EvalOptions {
+    pub scene: SceneOptions,
+    pub lookup: Lookup,
+    /// Comma-separated estimators or "all".
+    pub estimators: String,
+    /// Comma-separated integrators or "all" (evaluates integrators instead of estimators).
+    pub integrators: Option<String>,
+    pub t_hat: TransmittanceHat,
+    pub lights: Vec<PointLight>,
+    pub albedo: f32,
+    pub exposure: f32,
+    pub n: u32,
+    pub f_delta: f32,
+    pub ratio_roulette: bool,
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    /// Estimates per pixel of a stochastic reference (None: 4 x spp, 16 x spp for integrators).
+    pub reference_spp: Option<u32>,
+    pub seed: u32,
+    pub backend: BackendChoice,
+    pub out_dir: PathBuf,
+    /// JSON report path (None: <out_dir>/eval.json).
+    pub json: Option<PathBuf>,
+    pub bias_scale: f32,
+    pub std_scale: f32,
+    /// No progress bars or info lines.
+    pub quiet: bool,
+}
+
+impl Default for EvalOptions {
+    fn default() -> Self {
+        EvalOptions {
+            scene: SceneOptions::default(),
+            lookup: Lookup::Nearest,
+            estimators: "all".into(),
+            integrators: None,
+            t_hat: TransmittanceHat::Jackknife,
+            lights: Vec::new(),
+            albedo: defaults::ALBEDO,
+            exposure: defaults::EXPOSURE,
+            n: defaults::N,
+            f_delta: defaults::F_DELTA,
+            ratio_roulette: false,
+            width: defaults::EVAL_SIZE,
+            height: defaults::EVAL_SIZE,
+            spp: defaults::EVAL_SPP,
+            reference_spp: None,
+            seed: 0,
+            backend: BackendChoice::Auto,
+            out_dir: PathBuf::from(defaults::EVAL_OUT_DIR),
+            json: None,
+            bias_scale: defaults::BIAS_SCALE,
+            std_scale: defaults::STD_SCALE,
+            quiet: false,
+        }
+    }
+}
+
+/// What `host probe` simulates.
+#[derive(Debug, Clone)]
+pub struct ProbeOptions {
+    pub backend: BackendChoice,
+    /// Number of (X0, X1) pairs.
+    pub count: u32,
+    /// True optical depth.
+    pub tau: f32,
+    /// Standard deviation of each estimate.
+    pub sigma: f32,
+    pub seed: u32,
+}
+
+/// Lower-case name of a lookup mode (JSON summaries).
+pub fn lookup_name(lookup: Lookup) -> String {
+    format!("{lookup:?}").to_lowercase()
+}
 
 /// An embedded volume by name or a volume file by path, with its default density scale and, for
 /// a file, the name of the grid read.
-pub fn load_volume(scene: &crate::cli::SceneArgs) -> Result<(DenseVolume, f32, Option<String>)> {
+pub fn load_volume(scene: &SceneOptions) -> Result<(DenseVolume, f32, Option<String>)> {
     let spec = scene.volume.as_str();
     let path = Path::new(spec);
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
@@ -27,8 +206,8 @@ pub fn load_volume(scene: &crate::cli::SceneArgs) -> Result<(DenseVolume, f32, O
         };
         let loaded = crate::io::load_volume_with(path, &options)?;
         if loaded.clamped_negative > 0 {
-            eprintln!(
-                "warning: --clamp-negative set {} negative densities of {} to 0",
+            tracing::warn!(
+                "--clamp-negative set {} negative densities of {} to 0",
                 loaded.clamped_negative,
                 path.display()
             );
@@ -45,10 +224,7 @@ pub fn load_volume(scene: &crate::cli::SceneArgs) -> Result<(DenseVolume, f32, O
 }
 
 /// The lights of `--light`, or two default lights inside the volume's occupied bounds.
-fn scene_lights(
-    args: &RenderArgs,
-    vol: &DenseVolume,
-) -> Result<Vec<shared::sampling::lights::PointLight>> {
+fn scene_lights(args: &RenderOptions, vol: &DenseVolume) -> Result<Vec<PointLight>> {
     anyhow::ensure!(
         args.hg_g.is_finite() && args.hg_g > -1.0 && args.hg_g < 1.0,
         "--hg-g must be in (-1, 1) (got {})",
@@ -59,11 +235,11 @@ fn scene_lights(
 
 /// Validates light flags; `--light` values or two default lights inside the occupied bounds.
 fn lights_or_default(
-    lights: &[shared::sampling::lights::PointLight],
+    lights: &[PointLight],
     albedo: f32,
     exposure: f32,
     vol: &DenseVolume,
-) -> Result<Vec<shared::sampling::lights::PointLight>> {
+) -> Result<Vec<PointLight>> {
     anyhow::ensure!(
         albedo.is_finite() && (0.0..=1.0).contains(&albedo),
         "--albedo must be in [0, 1] (got {albedo})"
@@ -92,11 +268,11 @@ fn lights_or_default(
     let size = ((hi[0] - lo[0]) + (hi[1] - lo[1]) + (hi[2] - lo[2])) as f32 / 3.0;
     // Intensity scales with size^2 so images look alike at any world scale.
     Ok(vec![
-        shared::sampling::lights::PointLight {
+        PointLight {
             position: at([0.35, 0.55, 0.45]),
             intensity: 1.5 * size * size,
         },
-        shared::sampling::lights::PointLight {
+        PointLight {
             position: at([0.68, 0.4, 0.55]),
             intensity: 0.8 * size * size,
         },
@@ -164,7 +340,7 @@ pub struct IntegratorSettings {
     pub exposure: f32,
 }
 
-/// Flags that only an integrator render reads (clap ids and their spelling).
+/// Options that only an integrator render reads (ids in `RenderOptions::given`, flag spelling).
 const INTEGRATOR_ONLY: &[(&str, &str)] = &[
     ("lights", "--light"),
     ("albedo", "--albedo"),
@@ -178,7 +354,7 @@ const TRANSMITTANCE_ONLY: &[(&str, &str)] =
     &[("estimator", "--estimator"), ("f_delta", "--f-delta")];
 
 /// Refuses flag combinations whose flags would be ignored, so no output is mislabelled.
-pub fn check_render_flags(args: &RenderArgs) -> Result<()> {
+pub fn check_render_flags(args: &RenderOptions) -> Result<()> {
     let given = |id: &str| args.given.iter().any(|g| g == id);
     if args.integrator.is_some() {
         if let Some((_, flag)) = TRANSMITTANCE_ONLY.iter().find(|(id, _)| given(id)) {
@@ -195,8 +371,8 @@ pub fn check_render_flags(args: &RenderArgs) -> Result<()> {
         );
     }
     let uses_ratio = match args.integrator {
-        Some(_) => args.t_hat == crate::cli::THatArg::Ratio,
-        None => args.estimator.estimator == shared::estimators::estimate::Estimator::RatioTracking,
+        Some(_) => args.t_hat == TransmittanceHat::Ratio,
+        None => args.estimator.estimator == shared::params::Estimator::RatioTracking,
     };
     if given("ratio_roulette") && !uses_ratio {
         bail!(
@@ -220,7 +396,7 @@ pub fn check_render_flags(args: &RenderArgs) -> Result<()> {
 
 /// Checks every output of `host render` up front: the EXR, its PNG preview and the JSON must
 /// be distinct, must not replace the input volume, and must be writable. Returns the PNG path.
-pub fn plan_render_outputs(args: &RenderArgs) -> Result<std::path::PathBuf> {
+pub fn plan_render_outputs(args: &RenderOptions) -> Result<std::path::PathBuf> {
     let png = args.out.with_extension("png");
     let mut plan = OutputPlan::new();
     plan.input("--volume", Path::new(&args.scene.volume))
@@ -235,12 +411,12 @@ pub fn plan_render_outputs(args: &RenderArgs) -> Result<std::path::PathBuf> {
 
 /// The integrator settings for the JSON summary.
 fn integrator_settings(
-    args: &RenderArgs,
-    integrator: shared::integrators::Integrator,
-    lights: &[shared::sampling::lights::PointLight],
+    args: &RenderOptions,
+    integrator: Integrator,
+    lights: &[PointLight],
 ) -> IntegratorSettings {
     IntegratorSettings {
-        name: crate::cli::integrator_name(integrator).into(),
+        name: crate::integrators::integrator_name(integrator).into(),
         shadow_rays: "jackknife".into(),
         lights: lights
             .iter()
@@ -255,11 +431,11 @@ fn integrator_settings(
 
 /// `host render`: checks flags and outputs, loads, packs, renders, writes EXR + PNG (+ JSON),
 /// prints a summary.
-pub fn run_render(args: &RenderArgs) -> Result<RenderSummary> {
+pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
     check_render_flags(args)?;
     let png = plan_render_outputs(args)?;
     let t_load = Instant::now();
-    let scene = prepare_scene(&args.scene, lookup_of(args.lookup), args.width, args.height)?;
+    let scene = prepare_scene(&args.scene, args.lookup, args.width, args.height)?;
     let (vol, packed, density_scale) = (&scene.volume, &scene.packed, scene.density_scale);
     let load_ms = t_load.elapsed().as_secs_f64() * 1e3;
     let backend = Backend::open_for(args.backend, packed)?;
@@ -268,7 +444,7 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderSummary> {
         None => vol.name.clone(),
     };
     if !args.quiet {
-        eprintln!(
+        tracing::info!(
             "volume {volume_label} {}x{}x{} (density scale {density_scale}, {} bricks of {}^3), prepared in {load_ms:.0} ms",
             vol.dims[0],
             vol.dims[1],
@@ -276,7 +452,7 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderSummary> {
             packed.bricks.len(),
             args.scene.brick_size
         );
-        eprintln!("backend: {} ({})", backend.kind(), backend.device());
+        tracing::info!("backend: {} ({})", backend.kind(), backend.device());
     }
     let mut params = RenderParams {
         camera: scene.camera,
@@ -298,10 +474,7 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderSummary> {
         params.light_count = lights.len() as u32;
         params.albedo = args.albedo;
         params.hg_g = args.hg_g;
-        params.t_hat = match args.t_hat {
-            crate::cli::THatArg::Jackknife => shared::integrators::TransmittanceHat::Jackknife,
-            crate::cli::THatArg::Ratio => shared::integrators::TransmittanceHat::Ratio,
-        } as u32;
+        params.t_hat = args.t_hat as u32;
     }
     let start = Instant::now();
     let pixels = crate::render::render_scene(&backend, packed, &params, &lights, !args.quiet)?;
@@ -332,10 +505,10 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderSummary> {
         device: backend.device(),
         volume: vol.name.clone(),
         estimator: match args.integrator {
-            Some(i) => crate::cli::integrator_name(i).into(),
+            Some(i) => crate::integrators::integrator_name(i).into(),
             None => args.estimator.name.into(),
         },
-        lookup: format!("{:?}", args.lookup).to_lowercase(),
+        lookup: lookup_name(args.lookup),
         width: args.width,
         height: args.height,
         spp: args.spp,
@@ -393,7 +566,7 @@ fn normal_pair(id: u32, seed: u32, tau: f32, sigma: f32) -> DepthPair {
 }
 
 /// `host probe`: Eq. 4 and exp(-X̄) on simulated normal pairs, next to exp(-tau).
-pub fn run_probe(args: &ProbeArgs) -> Result<()> {
+pub fn run_probe(args: &ProbeOptions) -> Result<()> {
     anyhow::ensure!(
         args.tau.is_finite() && args.sigma.is_finite() && args.sigma >= 0.0,
         "--tau must be finite and --sigma finite and >= 0 (got --tau {} --sigma {})",
@@ -454,12 +627,7 @@ pub struct Scene {
 }
 
 /// Loads the volume of `--volume`, packs it and sets up the camera for a `w` x `h` image.
-pub fn prepare_scene(
-    args: &crate::cli::SceneArgs,
-    lookup: Lookup,
-    w: u32,
-    h: u32,
-) -> Result<Scene> {
+pub fn prepare_scene(args: &SceneOptions, lookup: Lookup, w: u32, h: u32) -> Result<Scene> {
     anyhow::ensure!(
         args.fov.is_finite() && args.fov > 0.0 && args.fov < 180.0,
         "--fov must be in (0, 180) degrees (got {})",
@@ -503,36 +671,29 @@ fn report_underflow(vol: &DenseVolume, u: &crate::bricks::Underflow, scale: f32)
         u.count < u.nonzero,
         "{what}: the volume would render as empty; raise --density-scale"
     );
-    eprintln!("warning: {what}; raise --density-scale if they matter");
+    tracing::warn!("{what}; raise --density-scale if they matter");
     Ok(())
 }
 
-pub fn lookup_of(arg: LookupArg) -> Lookup {
-    match arg {
-        LookupArg::Nearest => Lookup::Nearest,
-        LookupArg::Stochastic => Lookup::Stochastic,
-    }
-}
-
 /// `host eval`: the reference and each estimator on pixel-center rays; JSON + images.
-pub fn run_eval(args: &EvalArgs) -> Result<()> {
+pub fn run_eval(args: &EvalOptions) -> Result<()> {
     let estimators = crate::eval::parse_list(&args.estimators)?;
     let integrators = args
         .integrators
         .as_deref()
-        .map(parse_integrators)
+        .map(crate::integrators::parse_integrator_list)
         .transpose()?;
     let images = match &integrators {
         Some(list) => crate::eval::integrator_files(&args.out_dir, list.iter().map(|(n, _)| *n)),
         None => crate::eval::estimator_files(&args.out_dir, estimators.iter().map(|e| e.name)),
     };
     let json = plan_eval_outputs(args, &images)?;
-    let lookup = lookup_of(args.lookup);
+    let lookup = args.lookup;
     let scene = prepare_scene(&args.scene, lookup, args.width, args.height)?;
     let (vol, packed) = (&scene.volume, &scene.packed);
     let backend = Backend::open_for(args.backend, packed)?;
     if !args.quiet {
-        eprintln!("backend: {} ({})", backend.kind(), backend.device());
+        tracing::info!("backend: {} ({})", backend.kind(), backend.device());
     }
     let params = RenderParams {
         camera: scene.camera,
@@ -579,27 +740,12 @@ pub fn run_eval(args: &EvalArgs) -> Result<()> {
     Ok(())
 }
 
-/// `host eval --integrators`: single scattering against an unbiased high-spp reference.
-/// Parses `--integrators`: comma-separated names or "all".
-fn parse_integrators(list: &str) -> Result<Vec<(&'static str, shared::integrators::Integrator)>> {
-    if list == "all" {
-        return Ok(crate::cli::INTEGRATORS.to_vec());
-    }
-    list.split(',')
-        .map(|n| {
-            let n = n.trim();
-            crate::cli::INTEGRATORS
-                .iter()
-                .find(|(name, _)| *name == n)
-                .copied()
-                .with_context(|| format!("--integrators: unknown integrator {n:?}"))
-        })
-        .collect()
-}
-
 /// Checks every output of `host eval` before any work: `--out-dir` and each image in it, and
 /// the JSON report, distinct and writable. Returns the JSON path.
-fn plan_eval_outputs(args: &EvalArgs, images: &[std::path::PathBuf]) -> Result<std::path::PathBuf> {
+fn plan_eval_outputs(
+    args: &EvalOptions,
+    images: &[std::path::PathBuf],
+) -> Result<std::path::PathBuf> {
     let json = args
         .json
         .clone()
@@ -614,9 +760,10 @@ fn plan_eval_outputs(args: &EvalArgs, images: &[std::path::PathBuf]) -> Result<s
     Ok(json)
 }
 
+/// `host eval --integrators`: single scattering against an unbiased high-spp reference.
 fn run_eval_integrators(
-    args: &EvalArgs,
-    integrators: &[(&'static str, shared::integrators::Integrator)],
+    args: &EvalOptions,
+    integrators: &[(&'static str, Integrator)],
     json: &std::path::Path,
     vol: &DenseVolume,
     packed: &crate::bricks::PackedVolume,
@@ -627,10 +774,7 @@ fn run_eval_integrators(
     params.light_count = lights.len() as u32;
     params.albedo = args.albedo;
     params.pixel_jitter = 1;
-    params.t_hat = match args.t_hat {
-        crate::cli::THatArg::Jackknife => shared::integrators::TransmittanceHat::Jackknife,
-        crate::cli::THatArg::Ratio => shared::integrators::TransmittanceHat::Ratio,
-    } as u32;
+    params.t_hat = args.t_hat as u32;
     let setup = crate::eval::EvalSetup {
         backend,
         volume: packed,

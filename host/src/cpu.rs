@@ -1,7 +1,7 @@
 //! The CPU backend: the same `shared` kernel bodies over the same ids, on all cores with rayon.
 
 use crate::bricks::PackedVolume;
-use crate::render::{RenderBackend, Schedule};
+use crate::schedule::{RenderBackend, Schedule};
 use anyhow::Result;
 use indicatif::ProgressBar;
 use rayon::prelude::*;

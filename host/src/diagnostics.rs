@@ -2,7 +2,7 @@
 //! a loop bound changed, and jackknife estimates outside the regime where the paper's analysis
 //! holds. They go into every JSON summary and, when non-zero, into a warning.
 
-use shared::estimators::estimate::Estimator;
+use shared::params::Estimator;
 
 use shared::kernels::render::PixelOut;
 
@@ -65,7 +65,7 @@ impl RayFlags {
     /// Prints [`RayFlags::warnings`] to stderr.
     pub fn warn(&self, params: &RenderParams) {
         for w in self.warnings(params) {
-            eprintln!("warning: {w}");
+            tracing::warn!("{w}");
         }
     }
 }

@@ -1,8 +1,8 @@
 //! The named estimator variants of the CLI: each is an [`Estimator`] plus its settings.
 
-use shared::estimators::estimate::Estimator;
-use shared::estimators::optical_depth::{Importance, Jitter};
+use shared::params::Estimator;
 use shared::params::RenderParams;
+use shared::params::{Importance, Jitter};
 
 /// One selectable transmittance estimator.
 #[derive(Clone, Copy, Debug)]
@@ -189,7 +189,7 @@ impl EstimatorSpec {
     }
 }
 
-/// clap value parser for `--estimator`.
+/// Parses an estimator name (the value parser of `--estimator`).
 pub fn parse(name: &str) -> Result<&'static EstimatorSpec, String> {
     by_name(name).ok_or_else(|| format!("unknown estimator {name:?}; choose one of: {}", names()))
 }

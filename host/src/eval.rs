@@ -169,8 +169,7 @@ fn write_false_colour(
     f: impl Fn(f32) -> [u8; 3],
 ) -> Result<()> {
     let bytes: Vec<u8> = values.iter().flat_map(|&v| f(v)).collect();
-    image::save_buffer(path, &bytes, w, h, image::ColorType::Rgb8)
-        .with_context(|| format!("writing {}", path.display()))
+    crate::output::write_rgb_png(path, w, h, &bytes)
 }
 
 /// Per-sample standard deviation of one pixel (Bessel-corrected).
@@ -222,7 +221,7 @@ pub fn integrator_files<'a>(out_dir: &Path, names: impl Iterator<Item = &'a str>
 fn step(setup: &EvalSetup, k: usize, total: usize, what: &str, spp: u32) {
     if setup.progress {
         let (w, h) = (setup.params.width, setup.params.height);
-        eprintln!("eval [{k}/{total}] rendering {what}: {w}x{h} at {spp} spp");
+        tracing::info!("eval [{k}/{total}] rendering {what}: {w}x{h} at {spp} spp");
     }
 }
 
@@ -437,10 +436,10 @@ const SMAPE_EPS: f64 = 0.01;
 pub fn evaluate_integrators(
     setup: &EvalSetup,
     lights: &[shared::sampling::lights::PointLight],
-    integrators: &[(&'static str, shared::integrators::Integrator)],
+    integrators: &[(&'static str, shared::params::Integrator)],
     exposure: f32,
 ) -> Result<IntegratorEvalReport> {
-    use shared::integrators::{Integrator, TransmittanceHat};
+    use shared::params::{Integrator, TransmittanceHat};
     std::fs::create_dir_all(setup.out_dir)
         .with_context(|| format!("creating {}", setup.out_dir.display()))?;
     let (w, h) = (setup.params.width, setup.params.height);

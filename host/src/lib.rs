@@ -9,6 +9,7 @@ pub mod cpu;
 pub mod diagnostics;
 pub mod estimators;
 pub mod gpu;
+pub mod integrators;
 pub mod procedural;
 
 pub use backend::{Backend, BackendChoice};
@@ -21,4 +22,5 @@ pub mod eval;
 pub mod output;
 pub mod render;
 pub mod report;
+pub mod schedule;
 pub mod study;

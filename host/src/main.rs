@@ -1,7 +1,5 @@
 //! `host`: renders and measures the jackknife transmittance estimators on the GPU or the CPU.
 
-use host::cli::Command;
-use host::commands::{run_eval, run_probe, run_render};
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
@@ -18,16 +16,8 @@ fn main() -> ExitCode {
             };
         }
     };
-    let result = match &cli.command {
-        None => run_render(&cli.render).map(|_| ()),
-        Some(Command::Render(args)) => run_render(args).map(|_| ()),
-        Some(Command::Probe(args)) => run_probe(args),
-        Some(Command::Eval(args)) => run_eval(args),
-        Some(Command::Study(args)) => host::study::run(args),
-        Some(Command::Bench(args)) => host::bench::run(args).map(|_| ()),
-        Some(Command::Report(args)) => host::report::run(args),
-    };
-    match result {
+    host::cli::init_tracing();
+    match host::cli::run(&cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");

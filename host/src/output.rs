@@ -47,6 +47,12 @@ pub fn write_png(path: &Path, w: u32, h: u32, values: &[f32]) -> Result<()> {
         .with_context(|| format!("writing {}", path.display()))
 }
 
+/// Writes an RGB8 PNG (false-colour images).
+pub fn write_rgb_png(path: &Path, w: u32, h: u32, rgb: &[u8]) -> Result<()> {
+    image::save_buffer(path, rgb, w, h, image::ColorType::Rgb8)
+        .with_context(|| format!("writing {}", path.display()))
+}
+
 /// Writes any serializable value as pretty JSON.
 pub fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<()> {
     let text = serde_json::to_string_pretty(value)?;
@@ -244,4 +250,20 @@ fn probe_dir(what: &str, path: &Path, dir: &Path) -> Result<()> {
         })?;
     std::fs::remove_file(&probe)
         .with_context(|| format!("removing the write probe {}", probe.display()))
+}
+
+/// A progress bar over `len` units on stderr (hidden when `quiet` or when stderr is no terminal).
+pub fn progress(len: u64, what: &str, quiet: bool) -> indicatif::ProgressBar {
+    if quiet {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new(len);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(&format!(
+            "{{spinner}} {what} [{{bar:40}}] {{percent:>3}}% {{elapsed_precise}} eta {{eta}}"
+        ))
+        .expect("valid template")
+        .progress_chars("=> "),
+    );
+    bar
 }

@@ -2,12 +2,12 @@
 
 use crate::backend::Backend;
 use crate::bricks::PackedVolume;
+pub use crate::schedule::{RenderBackend, Schedule};
 use crate::volume::{Affine, DenseVolume};
 use anyhow::{Context, Result};
-use indicatif::{ProgressBar, ProgressStyle};
 use shared::camera::Camera;
 use shared::geometry::{Affine3x4, V3};
-use shared::kernels::render::{finish_pixel, PixelOut, PixelSums};
+use shared::kernels::render::{finish_pixel, PixelOut};
 use shared::params::RenderParams;
 use shared::sampling::lights::PointLight;
 
@@ -181,21 +181,6 @@ pub fn make_camera(
     })
 }
 
-fn progress_bar(len: u64, enabled: bool) -> ProgressBar {
-    if !enabled {
-        return ProgressBar::hidden();
-    }
-    let bar = ProgressBar::new(len);
-    bar.set_style(
-        ProgressStyle::with_template(
-            "{spinner} rendering [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}",
-        )
-        .expect("valid template")
-        .progress_chars("=> "),
-    );
-    bar
-}
-
 /// Most samples per pixel per pass (see [`shared::kernels::render::RenderPass`] for why passes exist).
 pub const SPP_PER_PASS: u32 = 16;
 /// Loop iterations one invocation may run: lavapipe's gallivm ends a shader after 65535
@@ -207,7 +192,7 @@ pub fn loop_iterations_per_ray(
     params: &RenderParams,
     desc: &shared::volume::grid::GridDesc,
 ) -> u64 {
-    use shared::estimators::estimate::Estimator as E;
+    use shared::params::Estimator as E;
     let bricks = (desc.brick_dims[0] + desc.brick_dims[1] + desc.brick_dims[2] + 3) as u64;
     let voxels = (desc.dims[0] + desc.dims[1] + desc.dims[2] + 3) as u64;
     let fixed = 64;
@@ -279,28 +264,6 @@ pub fn render_scene(
     render_resident(&resident, params, lights, progress)
 }
 
-/// How one backend runs the passes of a render (the CPU loop in `cpu`, the GPU loop in `gpu`).
-pub trait RenderBackend: Sync {
-    /// The sums of every pixel (row-major) after `schedule`'s passes, advancing `bar` (if any)
-    /// by the samples done.
-    fn render_sums(
-        &self,
-        params: &RenderParams,
-        lights: &[PointLight],
-        schedule: &Schedule,
-        bar: Option<&ProgressBar>,
-    ) -> Result<Vec<PixelSums>>;
-}
-
-/// How a render's work is cut: passes of samples, and chunks of work items within a pass.
-pub struct Schedule {
-    /// Sample ranges (s_begin, s_end) of the passes, in order.
-    pub passes: Vec<(u32, u32)>,
-    /// Work items per chunk (a whole number of workgroups): the unit of progress and the
-    /// longest GPU dispatch.
-    pub chunk: u32,
-}
-
 /// A volume made ready for rendering on one backend: on a GPU its voxels and bricks are uploaded
 /// once, and the image buffers of the last render are kept for the next one of the same size,
 /// so repeated frames (`host bench`) allocate nothing.
@@ -314,7 +277,7 @@ impl<'a> Resident<'a> {
     pub fn new(backend: &'a Backend, vol: &'a PackedVolume) -> Result<Self> {
         let backend: Box<dyn RenderBackend + 'a> = match backend {
             Backend::Cpu => Box::new(crate::cpu::CpuVolume::new(vol)),
-            Backend::Gpu(gpu) => Box::new(crate::gpu::GpuVolume::upload(gpu, vol)?),
+            Backend::Gpu(gpu) => Box::new(crate::gpu::render::GpuVolume::upload(gpu, vol)?),
         };
         Ok(Resident { vol, backend })
     }
@@ -347,7 +310,7 @@ pub fn render_resident(
     // About 64 progress updates overall; each chunk is a whole number of workgroups.
     let per_pass = (64 / passes.len() as u32).max(1);
     let chunk = count.div_ceil(per_pass).next_multiple_of(64).max(64);
-    let bar = progress_bar(count as u64 * params.spp as u64, progress);
+    let bar = crate::output::progress(count as u64 * params.spp as u64, "rendering", !progress);
     let schedule = Schedule { passes, chunk };
     let sums = resident
         .backend

@@ -3,7 +3,8 @@
 //! property, half arbitrary unicode and half near-valid text built from numbers (huge, NaN, inf,
 //! negative), separators and noise, drawn from a fixed ChaCha seed.
 
-use host::cli::{parse_integrator, parse_light, parse_positive, parse_vec3};
+use host::cli::{parse_positive, parse_vec3};
+use host::integrators::{parse_integrator, parse_light};
 use host::study::profile::Profile;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
@@ -191,7 +192,7 @@ const NUMERIC_FLAGS: &[(&[&str], &str)] = &[
 /// The parsed value of the one numeric flag set on `cli`, as f64 (every value a flag accepts).
 fn numeric_values(cli: &host::cli::Cli) -> Vec<f64> {
     use host::cli::Command as C;
-    use host::study::StudyCommand as S;
+    use host::cli::StudyCommand as S;
     let Some(command) = &cli.command else {
         return Vec::new();
     };

@@ -22,10 +22,10 @@ pub use builder::{
     BuildError, Grid, GridBuilder, Underflow, DEFAULT_BRICK_SIZE, MAX_OPTICAL_DEPTH,
 };
 pub use segment::SegmentEstimator;
-pub use shared::estimators::estimate::Estimator;
-pub use shared::estimators::optical_depth::{Importance, Jitter};
 pub use shared::estimators::transmittance::{jackknife, naive, s, x_bar};
 pub use shared::geometry::{Ray, V3};
+pub use shared::params::Estimator;
+pub use shared::params::{Importance, Jitter};
 pub use shared::rng::HashRng;
 pub use shared::volume::grid::{Brick, GridDesc, Lookup, VolumeView};
 pub use shared::Tally;

@@ -2,10 +2,11 @@
 //! renderers that trace their own rays (shadow rays, camera rays).
 
 use crate::builder::Grid;
-use shared::estimators::estimate::{self, Estimator};
-use shared::estimators::optical_depth::{Importance, Jitter};
+use shared::estimators::estimate;
 use shared::geometry::Ray;
+use shared::params::Estimator;
 use shared::params::{Config, RenderParams};
+use shared::params::{Importance, Jitter};
 use shared::rng::HashRng;
 use shared::volume::grid::Lookup;
 use shared::Tally;
@@ -77,8 +78,8 @@ impl SegmentEstimator {
             importance: self.importance,
             jitter: self.jitter,
             lookup: Lookup::from_u32(grid.desc.lookup),
-            integrator: shared::integrators::Integrator::Transmittance,
-            t_hat: shared::integrators::TransmittanceHat::Jackknife,
+            integrator: shared::params::Integrator::Transmittance,
+            t_hat: shared::params::TransmittanceHat::Jackknife,
             roulette: self.roulette,
         };
         let params = RenderParams {

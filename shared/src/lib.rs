@@ -25,22 +25,3 @@ pub mod volume;
 
 pub use complex::Complex;
 pub use tally::Tally;
-
-// The paths before the layering (issue 14), for code not yet moved to the layered ones.
-pub use estimators::{optical_depth, ray_marching, tracking, transmittance};
-pub use geometry as vec3;
-pub use integrators as integrator;
-pub use kernels::{launch, probe};
-pub use volume::{dda, grid};
-/// Old path of the point lights, equiangular sampling and the phase function.
-pub mod lights {
-    pub use crate::sampling::equiangular::Equiangular;
-    pub use crate::sampling::lights::*;
-    pub use crate::sampling::phase::phase_hg;
-}
-/// Old path of the render kernel's types and functions.
-pub mod render {
-    pub use crate::estimators::estimate::Estimator;
-    pub use crate::kernels::render::*;
-    pub use crate::params::RenderParams;
-}

@@ -1,12 +1,137 @@
-//! The parameters of a render as they cross the GPU boundary (u32 enums), and their one decode.
+//! The parameters of a render as they cross the GPU boundary: `RenderParams` with its enums as
+//! u32s, the enums themselves (`#[repr(u32)]`), and their one decode (`Config`).
 
 use crate::camera::Camera;
-use crate::estimators::estimate::Estimator;
-use crate::estimators::optical_depth::{Importance, Jitter};
 use crate::geometry::Affine3x4;
-use crate::integrators::{Integrator, TransmittanceHat};
 use crate::volume::grid::{GridDesc, Lookup};
 use bytemuck::{Pod, Zeroable};
+
+/// Transmittance estimators selectable at run time (u32 in [`RenderParams`]).
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Estimator {
+    /// Jackknife K = cos(S) exp(-X̄) from Alg. 1's two estimates (Eq. 4).
+    Jackknife = 0,
+    /// Naive exp(-X̄) from the same two estimates (m = 2).
+    NaiveMean = 1,
+    /// Naive exp(-X) from one estimate with all 2N samples (m = 1).
+    NaiveSingle = 2,
+    /// Jackknife with a constant CDF step F_delta instead of F / N (Fig. 8d).
+    JackknifeAdaptive = 3,
+    /// Kettunen et al.'s biased ray marching, exp(-X) with N_CMF mean-importance samples.
+    BiasedRayMarching = 4,
+    /// Kettunen et al.'s unbiased ray marching (power series, roulette, U-statistics).
+    UnbiasedRayMarching = 5,
+    /// exp(-tau) with tau exact for the nearest-neighbour grid (voxel DDA): the reference.
+    RegularTracking = 6,
+    /// Track-length estimate (delta tracking over per-brick majorants): 0 or 1.
+    TrackLength = 7,
+    /// Ratio tracking over per-brick majorants (Russian roulette only with `RenderParams::roulette`).
+    RatioTracking = 8,
+}
+
+impl Estimator {
+    /// Every estimator, in enum order.
+    pub const ALL: [Estimator; 9] = [
+        Estimator::Jackknife,
+        Estimator::NaiveMean,
+        Estimator::NaiveSingle,
+        Estimator::JackknifeAdaptive,
+        Estimator::BiasedRayMarching,
+        Estimator::UnbiasedRayMarching,
+        Estimator::RegularTracking,
+        Estimator::TrackLength,
+        Estimator::RatioTracking,
+    ];
+
+    /// From the stored u32 (unknown values read as the jackknife).
+    #[inline]
+    pub fn from_u32(v: u32) -> Self {
+        match v {
+            1 => Estimator::NaiveMean,
+            2 => Estimator::NaiveSingle,
+            3 => Estimator::JackknifeAdaptive,
+            4 => Estimator::BiasedRayMarching,
+            5 => Estimator::UnbiasedRayMarching,
+            6 => Estimator::RegularTracking,
+            7 => Estimator::TrackLength,
+            8 => Estimator::RatioTracking,
+            _ => Estimator::Jackknife,
+        }
+    }
+}
+
+/// Which super-voxel statistic drives importance sampling and whether mu_min is subtracted.
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Importance {
+    /// P of Eq. 5 with the mu_min control variate (the paper's method).
+    VarianceAware = 0,
+    /// Mean extinction, no control variate (Kettunen et al. 2021; ablation of Fig. 9).
+    Mean = 1,
+}
+
+/// How the N samples of one estimate are jittered within their strata (Sec. 4.1).
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Jitter {
+    /// One independent offset per stratum (the paper's choice).
+    Stratified = 0,
+    /// One offset shared by all strata of an estimate.
+    Uniform = 1,
+}
+
+/// Light transport integrators selectable at run time (`RenderParams::integrator`).
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Integrator {
+    /// No integrator: the image is primary-ray transmittance.
+    Transmittance = 0,
+    /// Free-flight distance sampling (delta tracking) only.
+    FreeFlight = 1,
+    /// Equiangular sampling toward the selected light only, with an estimate T̂(t0).
+    Equiangular = 2,
+    /// Eq. 9 with jackknife MIS weights Re g(X̄ + iS) and an independent T̂(t0).
+    MisJackknife = 3,
+    /// Eq. 9 with naive MIS weights g(X) from one estimate with N samples (m = 1, Fig. 12d).
+    MisNaive = 4,
+    /// Eq. 10 (MIS weight times transmittance estimated at once), jackknife; biased.
+    CombinedJackknife = 5,
+    /// Eq. 10 with naive g(X̄); biased.
+    CombinedNaive = 6,
+    /// Miller et al. 2019 reduced to the balance heuristic with ratio-tracking densities.
+    Miller = 7,
+    /// Eq. 9 with the power heuristic (exponent 2) through Re g (beyond the paper).
+    MisPowerJackknife = 8,
+}
+
+impl Integrator {
+    /// From the stored u32 (unknown values read as transmittance).
+    #[inline]
+    pub fn from_u32(v: u32) -> Self {
+        match v {
+            1 => Integrator::FreeFlight,
+            2 => Integrator::Equiangular,
+            3 => Integrator::MisJackknife,
+            4 => Integrator::MisNaive,
+            5 => Integrator::CombinedJackknife,
+            6 => Integrator::CombinedNaive,
+            7 => Integrator::Miller,
+            8 => Integrator::MisPowerJackknife,
+            _ => Integrator::Transmittance,
+        }
+    }
+}
+
+/// Which estimate of T(t0) the equiangular strategy of Eq. 9 uses (`RenderParams::t_hat`).
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TransmittanceHat {
+    /// Jackknife (Eq. 4; tiny bias).
+    Jackknife = 0,
+    /// Ratio tracking (unbiased: the whole image is then unbiased up to shadow rays).
+    Ratio = 1,
+}
 
 /// Everything a render kernel needs besides the volume buffers.
 #[repr(C)]
@@ -33,7 +158,7 @@ pub struct RenderParams {
     /// 1: jitter rays within their pixel (anti-aliasing); 0: every sample uses the pixel center,
     /// so per-pixel statistics measure the transmittance estimator alone (`host eval`).
     pub pixel_jitter: u32,
-    /// [`crate::integrators::Integrator`] as u32; 0 renders transmittance.
+    /// [`Integrator`] as u32; 0 renders transmittance.
     pub integrator: u32,
     /// Number of valid entries in the lights buffer.
     pub light_count: u32,
@@ -41,7 +166,7 @@ pub struct RenderParams {
     pub albedo: f32,
     /// Henyey-Greenstein anisotropy g (0: isotropic).
     pub hg_g: f32,
-    /// [`crate::integrators::TransmittanceHat`] as u32.
+    /// [`TransmittanceHat`] as u32.
     pub t_hat: u32,
     /// 1: ratio tracking uses pbrt-v4's Russian roulette; 0: none, as the paper and the author's
     /// code (Miller et al.'s MIS always runs without it: its weights need the plain product).

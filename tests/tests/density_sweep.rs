@@ -8,11 +8,11 @@ use host::render::{make_camera, render_scene, world_bounds, world_to_index, Came
 use host::volume::{Affine, DenseVolume};
 use host::Backend;
 use integration_tests::{assert_bytes_equal, gpu};
-use shared::estimators::estimate::Estimator;
 use shared::geometry::V3;
-use shared::integrators::{Integrator, TransmittanceHat};
 use shared::kernels::render::PixelOut;
+use shared::params::Estimator;
 use shared::params::RenderParams;
+use shared::params::{Integrator, TransmittanceHat};
 use shared::rng::{pcg_hash, unit_f32};
 use shared::sampling::lights::PointLight;
 use shared::volume::grid::Lookup;
@@ -142,7 +142,7 @@ fn every_integrator_is_bit_identical_and_finite_at_every_density() {
     for lookup in [Lookup::Nearest, Lookup::Stochastic] {
         for scale in SCALES {
             let packed = pack(&vol, scale, 8, lookup).unwrap();
-            for (_, integrator) in host::cli::INTEGRATORS {
+            for (_, integrator) in host::integrators::INTEGRATORS {
                 for t_hat in [TransmittanceHat::Jackknife, TransmittanceHat::Ratio] {
                     let mut p = params(&vol);
                     p.integrator = *integrator as u32;

@@ -5,12 +5,14 @@ use host::render::{make_camera, render_scene, world_bounds, world_to_index, Came
 use host::volume::{Affine, DenseVolume};
 use host::Backend;
 use integration_tests::{assert_bytes_equal, gpu};
-use shared::estimators::optical_depth::{estimate_pair, prepare, Importance, Jitter};
+use shared::estimators::optical_depth::{estimate_pair, prepare};
 use shared::geometry::Ray;
 use shared::geometry::V3;
-use shared::integrators::{radiance, Integrator, TransmittanceHat};
+use shared::integrators::radiance;
 use shared::mis::Mobius;
 use shared::params::RenderParams;
+use shared::params::{Importance, Jitter};
+use shared::params::{Integrator, TransmittanceHat};
 use shared::rng::{pcg_hash, unit_f32, HashRng, Pcg32};
 use shared::sampling::lights::PointLight;
 use shared::volume::dda::clip_to_box;
@@ -324,7 +326,7 @@ fn gpu_and_cpu_render_identical_images_for_every_integrator() {
     let vol = lumpy(32);
     for lookup in [Lookup::Nearest, Lookup::Stochastic] {
         let packed = pack(&vol, 2.0, 8, lookup).unwrap();
-        for (_, integrator) in host::cli::INTEGRATORS {
+        for (_, integrator) in host::integrators::INTEGRATORS {
             for t_hat in [TransmittanceHat::Jackknife, TransmittanceHat::Ratio] {
                 let mut p = params(&vol, 12, 10, 6, *integrator, t_hat);
                 p.pixel_jitter = 1;

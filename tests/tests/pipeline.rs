@@ -5,12 +5,13 @@ use host::render::{make_camera, render, world_bounds, world_to_index, CameraSpec
 use host::volume::{Affine, DenseVolume};
 use host::Backend;
 use integration_tests::{assert_bytes_equal, gpu};
-use shared::estimators::estimate::Estimator;
-use shared::estimators::optical_depth::{estimate_pair, prepare, Importance, Jitter};
+use shared::estimators::optical_depth::{estimate_pair, prepare};
 use shared::geometry::Ray;
 use shared::geometry::V3;
 use shared::kernels::render::ray_transmittance;
+use shared::params::Estimator;
 use shared::params::RenderParams;
+use shared::params::{Importance, Jitter};
 use shared::rng::{pcg_hash, unit_f32, HashRng};
 use shared::volume::dda::{clip_to_box, GridDda};
 use shared::volume::grid::Lookup;

@@ -7,14 +7,15 @@ use host::render::{make_camera, render, world_bounds, world_to_index, CameraSpec
 use host::volume::{Affine, DenseVolume};
 use host::Backend;
 use integration_tests::gpu;
-use shared::estimators::estimate::Estimator;
-use shared::estimators::optical_depth::{estimate_pair, prepare, Importance, Jitter};
+use shared::estimators::optical_depth::{estimate_pair, prepare};
 use shared::estimators::ray_marching::{biased_ray_marching, unbiased_ray_marching};
 use shared::estimators::tracking::{ratio_tracking, regular_tracking_tau, track_length};
 use shared::geometry::Ray;
 use shared::geometry::V3;
 use shared::kernels::render::ray_transmittance;
+use shared::params::Estimator;
 use shared::params::RenderParams;
+use shared::params::{Importance, Jitter};
 use shared::rng::{pcg_hash, unit_f32, HashRng};
 use shared::volume::dda::{clip_to_box, is_usable};
 use shared::volume::grid::Lookup;

@@ -1,6 +1,6 @@
 //! The Vulkan instance and device: one owner that the buffers and pipelines hold by `Arc`.
 
-use super::GpuError;
+use super::error::GpuError;
 use ash::vk;
 
 /// Owns the Vulkan entry, instance and logical device; destroyed last, after `device_wait_idle`.

@@ -6,18 +6,19 @@
 //! Storage buffers are device-local; uploads and readbacks go through a staging buffer.
 
 mod device;
+mod error;
 mod kernels;
 mod plan;
-mod render;
+pub mod render;
 mod resources;
 
 pub use device::{pick_memory_type, DeviceOwner, MemoryChoice, MemoryRole};
+pub use error::GpuError;
 pub use kernels::{
     Kernel, KernelDef, MapBuffers, PushConstants, RenderBuffers, EQUIANGULAR, MATH_VALUES, RENDER,
     RNG_DRAWS, TRANSMITTANCE_PAIR,
 };
 pub use plan::{plan, Command, Step};
-pub use render::GpuVolume;
 pub use resources::Buffer;
 use resources::{Pipeline, Staging, Submitter, MAX_BINDINGS};
 
@@ -27,33 +28,6 @@ use std::sync::{Arc, Mutex};
 
 /// The SPIR-V module of the `kernels` crate, compiled by `build.rs` with rust-gpu.
 pub const KERNELS_SPV: &[u8] = include_bytes!(env!("kernels.spv"));
-
-/// What can go wrong on the GPU path; every variant says what to do about it.
-#[derive(Debug, thiserror::Error)]
-pub enum GpuError {
-    #[error("no Vulkan loader found ({0}); install one with `apt-get install libvulkan1 mesa-vulkan-drivers`")]
-    NoLoader(String),
-    #[error("no Vulkan device found; install a GPU driver or lavapipe (`apt-get install mesa-vulkan-drivers`)")]
-    NoDevice,
-    #[error(
-        "JK_VULKAN_DEVICE={0:?} is not a device index: this machine has {1} Vulkan device(s), \
-         numbered 0 to {last}; unset it to pick the best device",
-        last = .1.saturating_sub(1)
-    )]
-    BadDeviceIndex(String, usize),
-    #[error("Vulkan device {0} lacks {1}, which the kernels need")]
-    Unsupported(String, &'static str),
-    #[error("{0} failed: {1}")]
-    Vulkan(&'static str, vk::Result),
-    #[error("could not allocate {0} bytes of GPU memory ({1}); use a smaller image or volume, or --backend cpu")]
-    OutOfMemory(u64, vk::Result),
-    #[error("buffer of {size} bytes exceeds this device's maxStorageBufferRange of {limit} bytes")]
-    TooLarge { size: u64, limit: u64 },
-    #[error("the GPU was lost (VK_ERROR_DEVICE_LOST) while running {0}; a driver reset or watchdog ended it")]
-    DeviceLost(String),
-    #[error("internal: {0}")]
-    Internal(String),
-}
 
 /// A Vulkan device with the kernels module loaded and pipelines built on first use.
 pub struct Gpu {

@@ -2,7 +2,7 @@
 
 use super::{Buffer, Gpu, RenderBuffers, Step, Work, RENDER};
 use crate::bricks::PackedVolume;
-use crate::render::{RenderBackend, Schedule};
+use crate::schedule::{RenderBackend, Schedule};
 use anyhow::{Context, Result};
 use indicatif::ProgressBar;
 use shared::kernels::launch::Launch;

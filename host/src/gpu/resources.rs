@@ -1,7 +1,7 @@
 //! RAII wrappers for the Vulkan objects a dispatch uses; each holds the device owner alive.
 
 use super::device::{DeviceOwner, MemoryRole};
-use super::GpuError;
+use super::error::GpuError;
 use ash::vk;
 use std::sync::Arc;
 

@@ -7,10 +7,12 @@
 //! the page as a JSON literal, the images stay files referenced by relative paths, so the report
 //! opens from `file://` without a server or network.
 
-use crate::cli::{EvalArgs, ReportArgs};
+use crate::backend::BackendChoice;
+use crate::commands::{EvalOptions, SceneOptions};
 use crate::eval::{ColourMap, EvalReport, IntegratorEvalReport};
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
+use shared::volume::grid::Lookup;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -111,8 +113,38 @@ const fn column(
     }
 }
 
+/// What `host report` evaluates or imports, and where it writes the viewer.
+#[derive(Debug, Clone)]
+pub struct ReportOptions {
+    /// Directory for index.html and one subdirectory per evaluation.
+    pub out: PathBuf,
+    /// Comma-separated volumes to evaluate now (None: cloud unless `from_eval` is given).
+    pub volumes: Option<String>,
+    /// Comma-separated estimators for the new evaluations, or "all".
+    pub estimators: String,
+    /// Also evaluate these integrators (comma-separated or "all") per volume.
+    pub integrators: Option<String>,
+    /// Existing `host eval` outputs (directories or JSON files).
+    pub from_eval: Vec<PathBuf>,
+    pub resolution: u32,
+    pub lookup: Lookup,
+    pub n: u32,
+    pub width: u32,
+    pub height: u32,
+    /// Estimates per pixel of the transmittance evaluations.
+    pub spp: u32,
+    /// Samples per pixel of the integrator evaluations (reference: 16 x this).
+    pub integrator_spp: u32,
+    pub seed: u32,
+    pub backend: BackendChoice,
+    pub bias_scale: f32,
+    pub std_scale: f32,
+    /// No progress bars.
+    pub quiet: bool,
+}
+
 /// `host report`: runs or loads the evaluations, copies their files, writes index.html.
-pub fn run(args: &ReportArgs) -> Result<()> {
+pub fn run(args: &ReportOptions) -> Result<()> {
     anyhow::ensure!(
         args.bias_scale.is_finite()
             && args.bias_scale > 0.0
@@ -144,7 +176,7 @@ pub fn run(args: &ReportArgs) -> Result<()> {
         let base = slug(&volume_label(volume));
         let id = unique_id(&base, &mut used);
         let dir = out.join(&id);
-        let mut eval = eval_args(args, volume, dir.clone())?;
+        let mut eval = eval_options(args, volume, dir.clone());
         crate::commands::run_eval(&eval).with_context(|| format!("evaluating {volume}"))?;
         sources.push((id, dir.join("eval.json")));
         if let Some(list) = &args.integrators {
@@ -178,32 +210,29 @@ pub fn run(args: &ReportArgs) -> Result<()> {
     Ok(())
 }
 
-/// `host eval` flags for one volume of the report (defaults of `host eval` for the rest).
-fn eval_args(args: &ReportArgs, volume: &str, out_dir: PathBuf) -> Result<EvalArgs> {
-    #[derive(clap::Parser)]
-    struct Defaults {
-        #[command(flatten)]
-        eval: EvalArgs,
+/// `host eval` options for one volume of the report (defaults of `host eval` for the rest).
+fn eval_options(args: &ReportOptions, volume: &str, out_dir: PathBuf) -> EvalOptions {
+    EvalOptions {
+        scene: SceneOptions {
+            volume: volume.into(),
+            resolution: args.resolution,
+            ..SceneOptions::default()
+        },
+        lookup: args.lookup,
+        estimators: args.estimators.clone(),
+        n: args.n,
+        width: args.width,
+        height: args.height,
+        spp: args.spp,
+        seed: args.seed,
+        backend: args.backend,
+        out_dir,
+        json: None,
+        bias_scale: args.bias_scale,
+        std_scale: args.std_scale,
+        quiet: args.quiet,
+        ..EvalOptions::default()
     }
-    let mut e = <Defaults as clap::Parser>::try_parse_from(["host-eval"])
-        .context("default flags of host eval")?
-        .eval;
-    e.scene.volume = volume.into();
-    e.scene.resolution = args.resolution;
-    e.lookup = args.lookup;
-    e.estimators = args.estimators.clone();
-    e.n = args.n;
-    e.width = args.width;
-    e.height = args.height;
-    e.spp = args.spp;
-    e.seed = args.seed;
-    e.backend = args.backend;
-    e.out_dir = out_dir;
-    e.json = None;
-    e.bias_scale = args.bias_scale;
-    e.std_scale = args.std_scale;
-    e.quiet = args.quiet;
-    Ok(e)
 }
 
 /// The eval JSON of a `--from-eval` argument: the file itself, or eval.json in the directory.

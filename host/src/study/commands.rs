@@ -1,14 +1,15 @@
 //! The `host study` subcommands: run a study, print its table, write its JSON and plot.
 
 use super::distributions::{self, Distribution};
+use super::files::Output;
 use super::profile::{Profile, Sampling};
 use super::stats::progress;
 use super::{convergence, histogram, mis_bias, normal, profile_study, rng, table1};
 use super::{
-    ConvergenceArgs, DistributionsArgs, HistogramArgs, MisBiasArgs, NormalArgs, ProfileArgs,
-    Table1Args,
+    ConvergenceOptions, DistributionsOptions, HistogramOptions, MisBiasOptions, NormalOptions,
+    ProfileOptions, Study, StudyOptions, Table1Options,
 };
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use serde::Serialize;
 use shared::mis::Mobius;
 
@@ -23,7 +24,7 @@ fn check_trials(trials: u64) -> Result<()> {
 /// The sigma values of the Fig. 3 dots.
 pub const NORMAL_SWEEP: [f64; 10] = [0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0, 2.25, 2.5];
 
-pub fn run_normal(a: &NormalArgs) -> Result<()> {
+pub fn run_normal(a: &NormalOptions) -> Result<()> {
     if !(a.sigma >= 0.0) || !a.tau.is_finite() || a.trials < 2 || a.sweep_trials == 1 {
         bail!(
             "normal needs a finite --tau, --sigma >= 0, --trials >= 2 and --sweep-trials 0 or >= 2"
@@ -103,7 +104,7 @@ pub fn run_normal(a: &NormalArgs) -> Result<()> {
     )
 }
 
-pub fn run_distributions(a: &DistributionsArgs) -> Result<()> {
+pub fn run_distributions(a: &DistributionsOptions) -> Result<()> {
     check_trials(a.trials)?;
     if a.points == 0 || !(a.sigma_max > 0.0) || !a.tau.is_finite() {
         bail!("distributions needs --points >= 1, --sigma-max > 0 and a finite --tau");
@@ -156,7 +157,7 @@ pub fn run_distributions(a: &DistributionsArgs) -> Result<()> {
     )
 }
 
-pub fn run_profile(a: &ProfileArgs) -> Result<()> {
+pub fn run_profile(a: &ProfileOptions) -> Result<()> {
     check_trials(a.trials)?;
     let profile = Profile::load(&a.profile.profile)?;
     if let Some(why) = profile.constant() {
@@ -256,7 +257,7 @@ pub fn run_profile(a: &ProfileArgs) -> Result<()> {
     )
 }
 
-pub fn run_table1(a: &Table1Args) -> Result<()> {
+pub fn run_table1(a: &Table1Options) -> Result<()> {
     check_trials(a.trials)?;
     let profile = Profile::load(&a.profile.profile)?;
     let rows = table1::configs(a.total, a.min_n);
@@ -303,7 +304,7 @@ pub fn run_table1(a: &Table1Args) -> Result<()> {
     )
 }
 
-pub fn run_histogram(a: &HistogramArgs) -> Result<()> {
+pub fn run_histogram(a: &HistogramOptions) -> Result<()> {
     check_trials(a.trials)?;
     if a.n.len() > 16 || a.sampling.len() > 8 {
         bail!("--n takes at most 16 values and --sampling at most 8");
@@ -378,7 +379,7 @@ pub fn run_histogram(a: &HistogramArgs) -> Result<()> {
     )
 }
 
-pub fn run_convergence(a: &ConvergenceArgs) -> Result<()> {
+pub fn run_convergence(a: &ConvergenceOptions) -> Result<()> {
     check_trials(a.trials)?;
     if a.max_n < 1 || a.points < 2 || a.sampling.is_empty() || a.sampling.len() > 8 {
         bail!("convergence needs --max-n >= 1, --points >= 2 and 1 to 8 --sampling schemes");
@@ -427,7 +428,7 @@ pub fn run_convergence(a: &ConvergenceArgs) -> Result<()> {
     a.out.write("convergence", &curves, &figure)
 }
 
-pub fn run_mis_bias(a: &MisBiasArgs) -> Result<()> {
+pub fn run_mis_bias(a: &MisBiasOptions) -> Result<()> {
     check_trials(a.trials)?;
     let [u0, u1, v0, v1] = a.g[..] else {
         bail!("--g takes four numbers u0,u1,v0,v1")
@@ -506,4 +507,42 @@ pub fn run_mis_bias(a: &MisBiasArgs) -> Result<()> {
             limit: a.limit,
         },
     )
+}
+
+/// Runs one study, on `--threads` threads if given.
+pub fn run(args: &StudyOptions) -> Result<()> {
+    match args.threads {
+        Some(threads) => rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .context("building the thread pool")?
+            .install(|| run_study(&args.command)),
+        None => run_study(&args.command),
+    }
+}
+
+/// The output flags of a study.
+fn output_of(command: &Study) -> &Output {
+    match command {
+        Study::Normal(a) => &a.out,
+        Study::Distributions(a) => &a.out,
+        Study::Profile(a) => &a.out,
+        Study::Table1(a) => &a.out,
+        Study::Histogram(a) => &a.out,
+        Study::Convergence(a) => &a.out,
+        Study::MisBias(a) => &a.out,
+    }
+}
+
+fn run_study(command: &Study) -> Result<()> {
+    output_of(command).check()?;
+    match command {
+        Study::Normal(a) => run_normal(a),
+        Study::Distributions(a) => run_distributions(a),
+        Study::Profile(a) => run_profile(a),
+        Study::Table1(a) => run_table1(a),
+        Study::Histogram(a) => run_histogram(a),
+        Study::Convergence(a) => run_convergence(a),
+        Study::MisBias(a) => run_mis_bias(a),
+    }
 }

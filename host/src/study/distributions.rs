@@ -8,14 +8,13 @@ use super::plot::{Drawn, Figure, LinePanel, Series, Style, BLUE, FONT, INK, ORAN
 use super::rng::{sub_seed, Rng};
 use super::stats::{run_chunked, Moments, Summary};
 use anyhow::Result;
-use clap::ValueEnum;
 use indicatif::ProgressBar;
 use plotters::coord::Shift;
 use plotters::prelude::{DrawingArea, DrawingBackend};
 use serde::Serialize;
 
 /// Hypothetical distributions of optical depth estimates, all with mean tau and std sigma.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Distribution {
     /// The assumption of Thm. 1: Eq. 4 is unbiased.

@@ -1,24 +1,19 @@
 //! The output flags of every study and the files they name.
 
 use anyhow::Result;
-use clap::Args;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
 /// `--seed`, `--json`, `--plot`, `--quiet` of every study.
-#[derive(Args, Debug, Clone)]
+#[derive(Debug, Clone)]
 pub struct Output {
     /// Seed of the random numbers, 0 to 2^64 - 1; results are bit-identical for any thread count.
-    #[arg(long, default_value_t = 1, allow_hyphen_values = true)]
     pub seed: u64,
     /// Also write the numbers as JSON to this file.
-    #[arg(long)]
     pub json: Option<PathBuf>,
     /// Plot file, `.png` or `.svg` [default: out/study_<name>.png].
-    #[arg(long)]
     pub plot: Option<PathBuf>,
     /// Hide the progress bar.
-    #[arg(long)]
     pub quiet: bool,
 }
 

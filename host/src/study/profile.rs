@@ -3,7 +3,6 @@
 
 use super::rng::Rng;
 use anyhow::{bail, Context, Result};
-use clap::ValueEnum;
 use serde::Serialize;
 use std::path::Path;
 
@@ -198,7 +197,7 @@ fn read_profile_file(path: &Path) -> Result<String> {
 }
 
 /// How ray marching places its N samples along the segment (Sec. 4.1, Fig. 5).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Sampling {
     /// Deterministic midpoint rule, t_j = (j + 1/2) t_max / N.

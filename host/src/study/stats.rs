@@ -2,7 +2,7 @@
 //! makes every study independent of the thread count.
 
 use super::rng::Rng;
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::ProgressBar;
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -181,21 +181,7 @@ where
     total
 }
 
-/// A progress bar over `len` units on stderr (hidden when `quiet` or when stderr is no terminal).
-pub fn progress(len: u64, what: &str, quiet: bool) -> ProgressBar {
-    if quiet {
-        return ProgressBar::hidden();
-    }
-    let bar = ProgressBar::new(len);
-    bar.set_style(
-        ProgressStyle::with_template(&format!(
-            "{{spinner}} {what} [{{bar:40}}] {{percent:>3}}% {{elapsed_precise}} eta {{eta}}"
-        ))
-        .expect("valid template")
-        .progress_chars("=> "),
-    );
-    bar
-}
+pub use crate::output::progress;
 
 /// Least-squares slope of log y over log x: the convergence order of a log-log plot.
 pub fn log_log_slope(points: &[(f64, f64)]) -> f64 {

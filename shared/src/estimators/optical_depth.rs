@@ -4,29 +4,10 @@
 use crate::geometry::Ray;
 use crate::geometry::V3;
 use crate::math;
+use crate::params::{Importance, Jitter};
 use crate::rng::{pcg3d, unit_f32, HashRng};
 use crate::volume::dda::GridDda;
 use crate::volume::grid::{Brick, Lookup, VolumeView};
-
-/// Which super-voxel statistic drives importance sampling and whether mu_min is subtracted.
-#[repr(u32)]
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Importance {
-    /// P of Eq. 5 with the mu_min control variate (the paper's method).
-    VarianceAware = 0,
-    /// Mean extinction, no control variate (Kettunen et al. 2021; ablation of Fig. 9).
-    Mean = 1,
-}
-
-/// How the N samples of one estimate are jittered within their strata (Sec. 4.1).
-#[repr(u32)]
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Jitter {
-    /// One independent offset per stratum (the paper's choice).
-    Stratified = 0,
-    /// One offset shared by all strata of an estimate.
-    Uniform = 1,
-}
 
 /// Sampling importance of a brick.
 #[inline]

@@ -2,9 +2,10 @@
 //! series with aggressive Russian roulette and U-statistics), over mean-based importance sampling
 //! with tight segments and uniform jitter, as the paper compares them (Sec. 6; REFERENCE.md).
 
-use crate::estimators::optical_depth::{estimate_single, prepare, Importance, Jitter};
+use crate::estimators::optical_depth::{estimate_single, prepare};
 use crate::geometry::Ray;
 use crate::math;
+use crate::params::{Importance, Jitter};
 use crate::rng::HashRng;
 use crate::tally::Tally;
 use crate::volume::grid::{Lookup, VolumeView};

@@ -4,16 +4,18 @@
 //! ratio-tracking densities) and the power heuristic through Re g (beyond the paper).
 
 use crate::complex::Complex;
-use crate::estimators::estimate::{self, Estimator};
+use crate::estimators::estimate;
 use crate::estimators::optical_depth::{
-    estimate_pair, estimate_single, mu_at, prepare, DepthPairEstimate, Importance, Jitter,
+    estimate_pair, estimate_single, mu_at, prepare, DepthPairEstimate,
 };
 use crate::estimators::tracking::{delta_tracking, ratio_tracking, FreeFlight};
 use crate::estimators::transmittance;
 use crate::geometry::{to_index_space, Ray, V3};
 use crate::math::{self, sqrt};
 use crate::mis::Mobius;
-use crate::params::{Config, RenderParams};
+use crate::params::{
+    Config, Estimator, Importance, Integrator, Jitter, RenderParams, TransmittanceHat,
+};
 use crate::rng::HashRng;
 use crate::sampling::equiangular::Equiangular;
 use crate::sampling::lights::{select_light, PointLight};
@@ -21,58 +23,6 @@ use crate::sampling::phase::phase_hg;
 use crate::tally::Tally;
 use crate::volume::dda::clip_to_box;
 use crate::volume::grid::{Lookup, VolumeView};
-
-/// Light transport integrators selectable at run time (`RenderParams::integrator`).
-#[repr(u32)]
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Integrator {
-    /// No integrator: the image is primary-ray transmittance.
-    Transmittance = 0,
-    /// Free-flight distance sampling (delta tracking) only.
-    FreeFlight = 1,
-    /// Equiangular sampling toward the selected light only, with an estimate T̂(t0).
-    Equiangular = 2,
-    /// Eq. 9 with jackknife MIS weights Re g(X̄ + iS) and an independent T̂(t0).
-    MisJackknife = 3,
-    /// Eq. 9 with naive MIS weights g(X) from one estimate with N samples (m = 1, Fig. 12d).
-    MisNaive = 4,
-    /// Eq. 10 (MIS weight times transmittance estimated at once), jackknife; biased.
-    CombinedJackknife = 5,
-    /// Eq. 10 with naive g(X̄); biased.
-    CombinedNaive = 6,
-    /// Miller et al. 2019 reduced to the balance heuristic with ratio-tracking densities.
-    Miller = 7,
-    /// Eq. 9 with the power heuristic (exponent 2) through Re g (beyond the paper).
-    MisPowerJackknife = 8,
-}
-
-impl Integrator {
-    /// From the stored u32 (unknown values read as transmittance).
-    #[inline]
-    pub fn from_u32(v: u32) -> Self {
-        match v {
-            1 => Integrator::FreeFlight,
-            2 => Integrator::Equiangular,
-            3 => Integrator::MisJackknife,
-            4 => Integrator::MisNaive,
-            5 => Integrator::CombinedJackknife,
-            6 => Integrator::CombinedNaive,
-            7 => Integrator::Miller,
-            8 => Integrator::MisPowerJackknife,
-            _ => Integrator::Transmittance,
-        }
-    }
-}
-
-/// Which estimate of T(t0) the equiangular strategy of Eq. 9 uses (`RenderParams::t_hat`).
-#[repr(u32)]
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum TransmittanceHat {
-    /// Jackknife (Eq. 4; tiny bias).
-    Jackknife = 0,
-    /// Ratio tracking (unbiased: the whole image is then unbiased up to shadow rays).
-    Ratio = 1,
-}
 
 /// Everything about one camera ray that the strategies share.
 struct Context<'a> {

@@ -1,0 +1,112 @@
+//! Flags of `host eval`.
+
+use super::parsers::{f32_in, parse_f_delta, parse_positive, BackendArg, LookupArg, THatArg};
+use super::render::SceneArgs;
+use crate::commands::{defaults, EvalOptions};
+use clap::Args;
+use std::path::PathBuf;
+
+/// Flags of `host eval`.
+#[derive(Args, Debug, Clone)]
+pub struct EvalArgs {
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// Lookups: nearest (reference = regular tracking, exact) or stochastic (reference = ratio
+    /// tracking at --reference-spp, unbiased but noisy).
+    #[arg(long, value_enum, default_value_t = LookupArg::Nearest)]
+    pub lookup: LookupArg,
+    /// Comma-separated estimators, or "all" (every one but the reference).
+    #[arg(long, default_value = "all")]
+    pub estimators: String,
+    /// Evaluate single-scattering integrators instead of transmittance estimators:
+    /// comma-separated names or "all" (see `host render --integrator`). Reference: mis-jackknife
+    /// with ratio-tracking T(t0) at --reference-spp (default 16 x --spp; with the default --spp
+    /// of 1024 that is slow, about 25 min at 128^2 on 2 CPU cores: try --spp 16).
+    #[arg(long)]
+    pub integrators: Option<String>,
+    /// Estimate of T(t0) in Eq. 9 for the evaluated integrators.
+    #[arg(long, value_enum, default_value_t = THatArg::Jackknife)]
+    pub t_hat: THatArg,
+    /// A point light "x,y,z,intensity" (repeatable; default: two lights inside the volume).
+    #[arg(long = "light", value_parser = crate::integrators::parse_light, allow_hyphen_values = true)]
+    pub lights: Vec<shared::sampling::lights::PointLight>,
+    /// Single-scattering albedo, in [0, 1].
+    #[arg(long, default_value_t = defaults::ALBEDO, allow_hyphen_values = true, value_parser = f32_in(0.0, 1.0))]
+    pub albedo: f32,
+    /// Multiplier before the PNG previews' tone mapping, a finite number > 0.
+    #[arg(long, default_value_t = defaults::EXPOSURE, allow_hyphen_values = true, value_parser = parse_positive)]
+    pub exposure: f32,
+    /// Samples per optical depth estimate (N), 1 to 4096.
+    #[arg(long, allow_hyphen_values = true, default_value_t = defaults::N, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub n: u32,
+    /// CDF step F_delta of jackknife-adaptive, in (0, 10] (the paper's Fig. 8d: 0.6).
+    #[arg(long, default_value_t = defaults::F_DELTA, allow_hyphen_values = true, value_parser = parse_f_delta)]
+    pub f_delta: f32,
+    /// Ratio tracking with pbrt-v4's Russian roulette (off: as in the paper).
+    #[arg(long)]
+    pub ratio_roulette: bool,
+    /// Image width, 1 to 16384.
+    #[arg(long, allow_hyphen_values = true, default_value_t = defaults::EVAL_SIZE, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub width: u32,
+    /// Image height, 1 to 16384.
+    #[arg(long, allow_hyphen_values = true, default_value_t = defaults::EVAL_SIZE, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub height: u32,
+    /// Estimates per pixel (all along the pixel center's ray), 2 to 2^20.
+    #[arg(long, allow_hyphen_values = true, default_value_t = defaults::EVAL_SPP, value_parser = clap::value_parser!(u32).range(2..=1 << 20))]
+    pub spp: u32,
+    /// Estimates per pixel of the reference when it is stochastic, 1 to 2^24 (default 4 x --spp;
+    /// 16 x --spp with --integrators).
+    #[arg(long, allow_hyphen_values = true, value_parser = clap::value_parser!(u32).range(1..=1 << 24))]
+    pub reference_spp: Option<u32>,
+    /// Seed, 0 to 2^32 - 1.
+    #[arg(long, default_value_t = 0, allow_hyphen_values = true)]
+    pub seed: u32,
+    /// Where kernels run.
+    #[arg(long, value_enum, default_value_t = BackendArg::Auto)]
+    pub backend: BackendArg,
+    /// Directory for the bias/std/mean EXRs and false-colour PNGs.
+    #[arg(long, default_value = defaults::EVAL_OUT_DIR)]
+    pub out_dir: PathBuf,
+    /// JSON report path (default: <out-dir>/eval.json).
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// |bias| mapped to full colour in the bias PNGs, a finite number > 0.
+    #[arg(long, default_value_t = defaults::BIAS_SCALE, allow_hyphen_values = true, value_parser = parse_positive)]
+    pub bias_scale: f32,
+    /// std mapped to full colour in the std PNGs, a finite number > 0.
+    #[arg(long, default_value_t = defaults::STD_SCALE, allow_hyphen_values = true, value_parser = parse_positive)]
+    pub std_scale: f32,
+    /// No progress bars.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+impl EvalArgs {
+    /// The library's eval options.
+    pub fn options(&self) -> EvalOptions {
+        EvalOptions {
+            scene: self.scene.options(),
+            lookup: self.lookup.into(),
+            estimators: self.estimators.clone(),
+            integrators: self.integrators.clone(),
+            t_hat: self.t_hat.into(),
+            lights: self.lights.clone(),
+            albedo: self.albedo,
+            exposure: self.exposure,
+            n: self.n,
+            f_delta: self.f_delta,
+            ratio_roulette: self.ratio_roulette,
+            width: self.width,
+            height: self.height,
+            spp: self.spp,
+            reference_spp: self.reference_spp,
+            seed: self.seed,
+            backend: self.backend.into(),
+            out_dir: self.out_dir.clone(),
+            json: self.json.clone(),
+            bias_scale: self.bias_scale,
+            std_scale: self.std_scale,
+            quiet: self.quiet,
+        }
+    }
+}

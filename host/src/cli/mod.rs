@@ -1,0 +1,129 @@
+//! Command-line interface, the only module that uses clap: the flags of every subcommand
+//! (`host render` is the default), parsed into the library's option structs and run.
+
+pub mod bench;
+pub mod eval;
+pub mod parsers;
+pub mod probe;
+pub mod render;
+pub mod report;
+pub mod study;
+
+pub use bench::BenchArgs;
+pub use eval::EvalArgs;
+pub use parsers::*;
+pub use probe::ProbeArgs;
+pub use render::{RenderArgs, SceneArgs};
+pub use report::ReportArgs;
+pub use study::{StudyArgs, StudyCommand};
+
+use anyhow::Result;
+use clap::{Parser, Subcommand};
+
+/// Jackknife transmittance (Peters 2025) on a Vulkan GPU or the CPU, from one Rust source.
+///
+/// Without a subcommand, `host` renders (same flags as `host render`).
+#[derive(Parser, Debug)]
+#[command(version, about, args_conflicts_with_subcommands = true)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Option<Command>,
+    #[command(flatten)]
+    pub render: RenderArgs,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Render a primary-ray transmittance image (like the paper's Fig. 8): EXR + PNG + JSON.
+    Render(RenderArgs),
+    /// Evaluate Eq. 4 on simulated normal optical-depth pairs and compare with exp(-tau).
+    Probe(ProbeArgs),
+    /// Measure bias, std, RMSE, samples/ray and time of estimators against a reference.
+    Eval(EvalArgs),
+    /// Reproduce the paper's statistical experiments (Table 1, Fig. 2-7, App. A).
+    Study(StudyArgs),
+    /// Time every estimator on the same rays (CPU and/or GPU), with work-normalized variance and
+    /// an optional sweep over volume resolution and image size.
+    Bench(BenchArgs),
+    /// Write a static HTML viewer comparing estimators (side by side, slider, insets, numbers)
+    /// from new `host eval` runs or existing eval output directories.
+    Report(ReportArgs),
+}
+
+/// Parses the command line like `Cli::parse`, recording which render flags the user gave.
+pub fn parse() -> Result<Cli, clap::Error> {
+    use clap::{CommandFactory, FromArgMatches};
+    let matches = Cli::command().try_get_matches()?;
+    let mut cli = Cli::from_arg_matches(&matches)?;
+    let (render, sub) = match &mut cli.command {
+        Some(Command::Render(args)) => (args, matches.subcommand_matches("render")),
+        None => (&mut cli.render, Some(&matches)),
+        Some(_) => return Ok(cli),
+    };
+    if let Some(m) = sub {
+        render.given = m
+            .ids()
+            .filter(|id| {
+                m.value_source(id.as_str()) == Some(clap::parser::ValueSource::CommandLine)
+            })
+            .map(|id| id.as_str().to_owned())
+            .collect();
+    }
+    Ok(cli)
+}
+
+/// Runs the parsed command through the library.
+pub fn run(cli: &Cli) -> Result<()> {
+    match &cli.command {
+        None => crate::commands::run_render(&cli.render.options()).map(|_| ()),
+        Some(Command::Render(args)) => crate::commands::run_render(&args.options()).map(|_| ()),
+        Some(Command::Probe(args)) => crate::commands::run_probe(&args.options()),
+        Some(Command::Eval(args)) => crate::commands::run_eval(&args.options()),
+        Some(Command::Study(args)) => crate::study::commands::run(&args.options()),
+        Some(Command::Bench(args)) => crate::bench::run(&args.options()).map(|_| ()),
+        Some(Command::Report(args)) => crate::report::run(&args.options()),
+    }
+}
+
+/// Prints the library's diagnostics on stderr as before: `warning: <message>` for warnings,
+/// the bare message for progress and info lines; only events of this crate, INFO and above.
+pub fn init_tracing() {
+    use tracing_subscriber::layer::SubscriberExt;
+    use tracing_subscriber::util::SubscriberInitExt;
+    let layer = tracing_subscriber::fmt::layer()
+        .with_ansi(false)
+        .with_writer(std::io::stderr)
+        .event_format(PlainFormat);
+    let filter =
+        tracing_subscriber::filter::Targets::new().with_target("host", tracing::Level::INFO);
+    // A second call (a subscriber already set) keeps the first one.
+    let _ = tracing_subscriber::registry()
+        .with(layer)
+        .with(filter)
+        .try_init();
+}
+
+/// The stderr format of [`init_tracing`]: the message, prefixed with `warning: ` for warnings
+/// and `error: ` for errors.
+struct PlainFormat;
+
+impl<S, N> tracing_subscriber::fmt::FormatEvent<S, N> for PlainFormat
+where
+    S: tracing::Subscriber + for<'a> tracing_subscriber::registry::LookupSpan<'a>,
+    N: for<'a> tracing_subscriber::fmt::FormatFields<'a> + 'static,
+{
+    fn format_event(
+        &self,
+        ctx: &tracing_subscriber::fmt::FmtContext<'_, S, N>,
+        mut writer: tracing_subscriber::fmt::format::Writer<'_>,
+        event: &tracing::Event<'_>,
+    ) -> std::fmt::Result {
+        match *event.metadata().level() {
+            tracing::Level::WARN => write!(writer, "warning: ")?,
+            tracing::Level::ERROR => write!(writer, "error: ")?,
+            _ => {}
+        }
+        ctx.field_format().format_fields(writer.by_ref(), event)?;
+        writeln!(writer)
+    }
+}

@@ -1,0 +1,220 @@
+//! Value parsers of the flags (ranges, vectors, lights) and the value enums of the CLI, each
+//! converting into its library type.
+
+use crate::backend::BackendChoice;
+use crate::bench::BenchBackend;
+use crate::study::distributions::Distribution;
+use crate::study::profile::Sampling;
+use shared::params::TransmittanceHat;
+use shared::volume::grid::Lookup;
+
+/// A clap value enum mirroring a library enum variant by variant, with `From` into it.
+macro_rules! value_enum {
+    ($(#[$m:meta])* $name:ident => $lib:ident { $($(#[$vm:meta])* $v:ident,)* }) => {
+        $(#[$m])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+        pub enum $name {
+            $($(#[$vm])* $v,)*
+        }
+
+        impl From<$name> for $lib {
+            fn from(v: $name) -> Self {
+                match v {
+                    $($name::$v => $lib::$v,)*
+                }
+            }
+        }
+    };
+}
+
+value_enum! {
+    /// Which backend the user asked for.
+    BackendArg => BackendChoice {
+        /// The Vulkan GPU if a driver is present, else the CPU (with a warning).
+        Auto,
+        /// The Vulkan GPU; fail if there is none.
+        Gpu,
+        /// The CPU on all cores.
+        Cpu,
+    }
+}
+
+value_enum! {
+    /// High-resolution lookups.
+    LookupArg => Lookup {
+        /// The voxel containing the sample point.
+        Nearest,
+        /// Stochastic texture filtering: jitter by up to half a voxel, then nearest (Sec. 4.3).
+        Stochastic,
+    }
+}
+
+value_enum! {
+    /// Estimate of T(t0) in Eq. 9.
+    THatArg => TransmittanceHat {
+        /// Jackknife transmittance (tiny bias).
+        Jackknife,
+        /// Ratio tracking (unbiased).
+        Ratio,
+    }
+}
+
+value_enum! {
+    /// Where `host bench` runs.
+    BenchBackendArg => BenchBackend {
+        Cpu,
+        Gpu,
+        /// The CPU, then the GPU (skipped with a warning if there is none).
+        Both,
+    }
+}
+
+value_enum! {
+    /// Hypothetical distributions of optical depth estimates, all with mean tau and std sigma.
+    DistributionArg => Distribution {
+        /// The assumption of Thm. 1: Eq. 4 is unbiased.
+        Normal,
+        /// Uniform on tau +- sqrt(3) sigma.
+        Uniform,
+        /// Laplace (double exponential) with scale sigma / sqrt(2).
+        Laplace,
+        /// One-sided: tau - sigma + Exp(mean sigma), a long tail towards large depths.
+        Exponential,
+        /// One-sided the other way: tau + sigma - Exp(mean sigma); exp(-X̄) has infinite variance
+        /// from sigma = 1 on and infinite mean from sigma = 2 on.
+        ExponentialLeft,
+        /// tau - sigma or tau + sigma with probability 1/2 each.
+        TwoPoint,
+    }
+}
+
+value_enum! {
+    /// How ray marching places its N samples along the segment (Sec. 4.1, Fig. 5).
+    SamplingArg => Sampling {
+        /// Deterministic midpoint rule, t_j = (j + 1/2) t_max / N.
+        Midpoint,
+        /// Uniform jittered: one xi shifts all N equidistant samples.
+        Uniform,
+        /// Stratified jittered: an independent xi_j in every stratum (the paper's choice).
+        Stratified,
+        /// N i.i.d. uniform positions in [0, t_max].
+        Iid,
+    }
+}
+
+/// Parses `--f-delta`: a CDF step in (0, 10]. Steps far above a ray's F take no sample on most
+/// rays (T = exp(-tau_c) there), so larger values are refused rather than rendered as empty.
+pub fn parse_f_delta(s: &str) -> Result<f32, String> {
+    let v: f32 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?} is not a number"))?;
+    if !(v > 0.0 && v <= 10.0) {
+        return Err(format!("must be in (0, 10] (got {s}); the paper uses 0.6"));
+    }
+    Ok(v)
+}
+
+/// A value parser of finite numbers in `[lo, hi]` (finite bounds), for a flag's documented range.
+fn number_in<T>(lo: T, hi: T) -> impl Fn(&str) -> Result<T, String> + Clone + Send + Sync
+where
+    T: std::str::FromStr + PartialOrd + std::fmt::Display + Copy + Send + Sync,
+    T::Err: std::fmt::Display,
+{
+    // With finite bounds, the range test also refuses NaN and infinities.
+    move |s: &str| match s.trim().parse::<T>() {
+        Ok(v) if (lo..=hi).contains(&v) => Ok(v),
+        Ok(v) => Err(format!("must be a finite number in [{lo}, {hi}] (got {v})")),
+        Err(e) => Err(format!("not a number: {e}")),
+    }
+}
+
+/// A value parser of finite f32 numbers in `[lo, hi]`.
+pub fn f32_in(lo: f32, hi: f32) -> impl Fn(&str) -> Result<f32, String> + Clone + Send + Sync {
+    number_in(lo, hi)
+}
+
+/// A value parser of finite numbers in the open interval `(lo, hi)`.
+pub fn f32_open(lo: f32, hi: f32) -> impl Fn(&str) -> Result<f32, String> + Clone + Send + Sync {
+    move |s: &str| match s.trim().parse::<f32>() {
+        Ok(v) if v > lo && v < hi => Ok(v),
+        Ok(v) => Err(format!("must be in ({lo}, {hi}) (got {v})")),
+        Err(e) => Err(format!("not a number: {e}")),
+    }
+}
+
+/// Parses `--density-scale`: a finite number >= 0 that f32 holds (a nonzero value that rounds
+/// to 0 is refused rather than rendered as an empty volume). Optical depths beyond f32's sums
+/// are refused later, against the volume's densities and size.
+pub fn parse_density_scale(s: &str) -> Result<f32, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?} is not a number"))?;
+    let f = v as f32;
+    if !(f.is_finite() && f >= 0.0) {
+        return Err(format!(
+            "must be a finite number >= 0 and at most 3.4e38 (got {s})"
+        ));
+    }
+    if v > 0.0 && f == 0.0 {
+        return Err(format!(
+            "{s} rounds to 0 in f32 (the smallest is 1.4e-45); use 0 for an empty volume"
+        ));
+    }
+    Ok(f)
+}
+
+/// A finite number > 0.
+pub fn parse_positive(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        Ok(v) => Err(format!("must be a finite number > 0 (got {v})")),
+        Err(e) => Err(format!("not a number: {e}")),
+    }
+}
+
+/// Parses "x,y,z" into three finite floats.
+pub fn parse_vec3(s: &str) -> Result<[f32; 3], String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    if parts.len() != 3 {
+        return Err(format!(
+            "expected x,y,z (three comma-separated numbers), got {s:?}"
+        ));
+    }
+    let mut v = [0.0f32; 3];
+    for (slot, p) in v.iter_mut().zip(&parts) {
+        *slot = p
+            .parse()
+            .map_err(|_| format!("{p:?} is not a number in {s:?}"))?;
+        if !slot.is_finite() {
+            return Err(format!("{p:?} is not finite in {s:?}"));
+        }
+    }
+    Ok(v)
+}
+
+/// A value parser of finite f64 numbers in `[lo, hi]`.
+pub fn finite_in(lo: f64, hi: f64) -> impl Fn(&str) -> Result<f64, String> + Clone + Send + Sync {
+    number_in(lo, hi)
+}
+
+/// A value parser of finite numbers in `(0, hi]`.
+pub fn positive_up_to(hi: f64) -> impl Fn(&str) -> Result<f64, String> + Clone + Send + Sync {
+    move |s: &str| match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 && v <= hi => Ok(v),
+        Ok(v) => Err(format!("must be a finite number in (0, {hi}] (got {v})")),
+        Err(e) => Err(format!("not a number: {e}")),
+    }
+}
+
+/// A value parser of counts (usize) in `lo..=hi`.
+pub fn count_in(lo: u64, hi: u64) -> clap::builder::RangedU64ValueParser<usize> {
+    clap::builder::RangedU64ValueParser::<usize>::new().range(lo..=hi)
+}
+
+/// One coefficient of `--g`: a finite number in [-10^6, 10^6].
+pub fn parse_g_coefficient(s: &str) -> Result<f32, String> {
+    let v = finite_in(-1e6, 1e6)(s)?;
+    Ok(v as f32)
+}

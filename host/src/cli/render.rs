@@ -1,0 +1,164 @@
+//! Flags of `host render` and the scene flags it shares with `host eval` and `host bench`.
+
+use super::parsers::{
+    f32_in, f32_open, parse_density_scale, parse_f_delta, parse_positive, parse_vec3, BackendArg,
+    LookupArg, THatArg,
+};
+use crate::commands::{defaults, RenderOptions, SceneOptions};
+use clap::Args;
+use std::path::PathBuf;
+
+/// The volume and the camera, shared by `host render` and `host eval`.
+#[derive(Args, Debug, Clone)]
+pub struct SceneArgs {
+    /// Embedded volume (cloud, explosion, constant) or a .vdb / .nvdb file.
+    #[arg(long, default_value = defaults::VOLUME)]
+    pub volume: String,
+    /// Grid to read from a file (default: "density", else the first float grid).
+    #[arg(long)]
+    pub grid: Option<String>,
+    /// Set negative densities of a volume file to 0 (with a warning) instead of refusing it.
+    #[arg(long)]
+    pub clamp_negative: bool,
+    /// Voxels per axis of an embedded volume, 8 to 1024.
+    #[arg(long, allow_hyphen_values = true, default_value_t = defaults::RESOLUTION, value_parser = clap::value_parser!(u32).range(8..=1024))]
+    pub resolution: u32,
+    /// Extinction per unit of stored density, 0 to 3.4e38 (default: the embedded volume's own, 1
+    /// for files); optical depths through the volume above 1e35 are refused.
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_density_scale)]
+    pub density_scale: Option<f32>,
+    /// Voxels per super-voxel (brick) along each axis, 2 to 256.
+    #[arg(long, allow_hyphen_values = true, default_value_t = defaults::BRICK_SIZE, value_parser = clap::value_parser!(u32).range(2..=256))]
+    pub brick_size: u32,
+    /// Camera position x,y,z in world units (default: framing the volume from the front).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub camera: Option<[f32; 3]>,
+    /// Point the camera looks at, x,y,z (default: the volume's center).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub look_at: Option<[f32; 3]>,
+    /// Vertical field of view in degrees, in (0, 180).
+    #[arg(long, default_value_t = defaults::FOV, allow_hyphen_values = true, value_parser = f32_open(0.0, 180.0))]
+    pub fov: f32,
+}
+
+impl SceneArgs {
+    /// The library's scene options.
+    pub fn options(&self) -> SceneOptions {
+        SceneOptions {
+            volume: self.volume.clone(),
+            grid: self.grid.clone(),
+            clamp_negative: self.clamp_negative,
+            resolution: self.resolution,
+            density_scale: self.density_scale,
+            brick_size: self.brick_size,
+            camera: self.camera,
+            look_at: self.look_at,
+            fov: self.fov,
+        }
+    }
+}
+
+/// Flags of `host render`.
+#[derive(Args, Debug, Clone)]
+pub struct RenderArgs {
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// How the high-resolution volume is read.
+    #[arg(long, value_enum, default_value_t = LookupArg::Stochastic)]
+    pub lookup: LookupArg,
+    /// Transmittance estimator: jackknife, naive, naive-m1, jackknife-adaptive, jackknife-mean,
+    /// jackknife-uniform, biased-rm, biased-rm2, unbiased-rm, unbiased-rm2, track-length, ratio,
+    /// regular (see README).
+    #[arg(long, default_value = "jackknife", value_parser = crate::estimators::parse)]
+    pub estimator: &'static crate::estimators::EstimatorSpec,
+    /// Samples per optical depth estimate (N; two estimates per ray), 1 to 4096.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub n: u32,
+    /// CDF step F_delta of jackknife-adaptive, in (0, 10] (the paper's Fig. 8d: 0.6; the author's
+    /// UI default is 0.3). Expected samples per estimate: F / F_delta.
+    #[arg(long, default_value_t = 0.6, allow_hyphen_values = true, value_parser = parse_f_delta)]
+    pub f_delta: f32,
+    /// Ratio tracking with pbrt-v4's Russian roulette (q = 0.75 below T = 0.05) for `--estimator
+    /// ratio` and `--t-hat ratio`; off by default, as in the paper and the author's code.
+    #[arg(long)]
+    pub ratio_roulette: bool,
+    /// Render single scattering from point lights with this integrator instead of primary-ray
+    /// transmittance: free-flight, equiangular, mis-jackknife, mis-naive, combined-jackknife,
+    /// combined-naive, miller, mis-power (see README).
+    #[arg(long, value_parser = crate::integrators::parse_integrator)]
+    pub integrator: Option<shared::params::Integrator>,
+    /// A point light "x,y,z,intensity" in world units (repeat for more; default: two lights
+    /// inside the volume).
+    #[arg(long = "light", value_parser = crate::integrators::parse_light, allow_hyphen_values = true)]
+    pub lights: Vec<shared::sampling::lights::PointLight>,
+    /// Single-scattering albedo, in [0, 1].
+    #[arg(long, default_value_t = 0.8, allow_hyphen_values = true, value_parser = f32_in(0.0, 1.0))]
+    pub albedo: f32,
+    /// Henyey-Greenstein anisotropy g in (-1, 1) (0: isotropic).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = f32_open(-1.0, 1.0))]
+    pub hg_g: f32,
+    /// Estimate of T(t0) for the equiangular strategy of Eq. 9: jackknife or ratio (unbiased).
+    #[arg(long, value_enum, default_value_t = THatArg::Jackknife)]
+    pub t_hat: THatArg,
+    /// Multiplier applied before the PNG preview's tone mapping (the EXR stays linear), a finite
+    /// number > 0.
+    #[arg(long, default_value_t = 1.0, allow_hyphen_values = true, value_parser = parse_positive)]
+    pub exposure: f32,
+    /// Image width in pixels, 1 to 16384.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub width: u32,
+    /// Image height in pixels, 1 to 16384.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub height: u32,
+    /// Primary rays (transmittance estimates) per pixel, 1 to 2^20.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
+    pub spp: u32,
+    /// Seed, 0 to 2^32 - 1; the same seed gives the same image on every backend.
+    #[arg(long, default_value_t = 0, allow_hyphen_values = true)]
+    pub seed: u32,
+    /// Where kernels run: auto (GPU if a Vulkan driver exists, else CPU), gpu, or cpu.
+    #[arg(long, value_enum, default_value_t = BackendArg::Auto)]
+    pub backend: BackendArg,
+    /// Output EXR (linear transmittance or radiance; must end in .exr); a PNG preview is written
+    /// next to it (same name, .png).
+    #[arg(long, short, default_value = "out/render.exr")]
+    pub out: PathBuf,
+    /// Also write a JSON summary here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// No progress bar.
+    #[arg(long, short)]
+    pub quiet: bool,
+    /// Ids of the flags given on the command line (filled by [`parse`], not a flag).
+    #[arg(skip)]
+    pub given: Vec<String>,
+}
+
+impl RenderArgs {
+    /// The library's render options.
+    pub fn options(&self) -> RenderOptions {
+        RenderOptions {
+            scene: self.scene.options(),
+            lookup: self.lookup.into(),
+            estimator: self.estimator,
+            n: self.n,
+            f_delta: self.f_delta,
+            ratio_roulette: self.ratio_roulette,
+            integrator: self.integrator,
+            lights: self.lights.clone(),
+            albedo: self.albedo,
+            hg_g: self.hg_g,
+            t_hat: self.t_hat.into(),
+            exposure: self.exposure,
+            width: self.width,
+            height: self.height,
+            spp: self.spp,
+            seed: self.seed,
+            backend: self.backend.into(),
+            out: self.out.clone(),
+            json: self.json.clone(),
+            quiet: self.quiet,
+            given: self.given.clone(),
+        }
+    }
+}

@@ -1,0 +1,82 @@
+//! Integrator names (`--integrator`, `--integrators`) and point lights (`--light`).
+
+use anyhow::{Context, Result};
+use shared::params::Integrator;
+use shared::sampling::lights::PointLight;
+
+/// Integrator names of `--integrator`.
+pub const INTEGRATORS: &[(&str, Integrator)] = {
+    use Integrator as I;
+    &[
+        ("free-flight", I::FreeFlight),
+        ("equiangular", I::Equiangular),
+        ("mis-jackknife", I::MisJackknife),
+        ("mis-naive", I::MisNaive),
+        ("combined-jackknife", I::CombinedJackknife),
+        ("combined-naive", I::CombinedNaive),
+        ("miller", I::Miller),
+        ("mis-power", I::MisPowerJackknife),
+    ]
+};
+
+/// Parses an integrator name.
+pub fn parse_integrator(s: &str) -> Result<Integrator, String> {
+    INTEGRATORS
+        .iter()
+        .find(|(n, _)| *n == s)
+        .map(|(_, i)| *i)
+        .ok_or_else(|| {
+            let names: Vec<&str> = INTEGRATORS.iter().map(|(n, _)| *n).collect();
+            format!(
+                "unknown integrator {s:?}; choose one of: {}",
+                names.join(", ")
+            )
+        })
+}
+
+/// Name of an integrator.
+pub fn integrator_name(i: Integrator) -> &'static str {
+    INTEGRATORS
+        .iter()
+        .find(|(_, x)| *x == i)
+        .map(|(n, _)| *n)
+        .unwrap_or("transmittance")
+}
+
+/// Parses `--integrators`: comma-separated names or "all".
+pub fn parse_integrator_list(list: &str) -> Result<Vec<(&'static str, Integrator)>> {
+    if list == "all" {
+        return Ok(INTEGRATORS.to_vec());
+    }
+    list.split(',')
+        .map(|n| {
+            let n = n.trim();
+            INTEGRATORS
+                .iter()
+                .find(|(name, _)| *name == n)
+                .copied()
+                .with_context(|| format!("--integrators: unknown integrator {n:?}"))
+        })
+        .collect()
+}
+
+/// Parses "x,y,z,intensity" into a point light.
+pub fn parse_light(s: &str) -> Result<PointLight, String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|p| {
+            p.trim()
+                .parse::<f32>()
+                .map_err(|_| format!("{p:?} is not a number in {s:?}"))
+        })
+        .collect::<Result<_, _>>()?;
+    if v.len() != 4 || v.iter().any(|x| !x.is_finite()) || v[3] < 0.0 {
+        return Err(format!(
+            "expected x,y,z,intensity (finite, intensity >= 0), got {s:?}"
+        ));
+    }
+    Ok(PointLight {
+        position: shared::geometry::V3::new(v[0], v[1], v[2]),
+        intensity: v[3],
+    })
+}

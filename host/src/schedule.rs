@@ -1,0 +1,30 @@
+//! The seam between render planning and the backends: how a render's work is cut, and the one
+//! trait the CPU and GPU render loops implement.
+
+use anyhow::Result;
+use indicatif::ProgressBar;
+use shared::kernels::render::PixelSums;
+use shared::params::RenderParams;
+use shared::sampling::lights::PointLight;
+
+/// How one backend runs the passes of a render (the CPU loop in `cpu`, the GPU loop in `gpu`).
+pub trait RenderBackend: Sync {
+    /// The sums of every pixel (row-major) after `schedule`'s passes, advancing `bar` (if any)
+    /// by the samples done.
+    fn render_sums(
+        &self,
+        params: &RenderParams,
+        lights: &[PointLight],
+        schedule: &Schedule,
+        bar: Option<&ProgressBar>,
+    ) -> Result<Vec<PixelSums>>;
+}
+
+/// How a render's work is cut: passes of samples, and chunks of work items within a pass.
+pub struct Schedule {
+    /// Sample ranges (s_begin, s_end) of the passes, in order.
+    pub passes: Vec<(u32, u32)>,
+    /// Work items per chunk (a whole number of workgroups): the unit of progress and the
+    /// longest GPU dispatch.
+    pub chunk: u32,
+}
