@@ -134,11 +134,12 @@ def main():
             nodes.update((src, dst))
             if src != dst:
                 edges.setdefault(src, set()).add(dst)
-    ok = check("host (top-level modules)", top_nodes, top_edges)
+    crate = root.resolve().parent.name
+    ok = check(f"{crate} (top-level modules)", top_nodes, top_edges)
     for top in sorted(inner):
         nodes, edges = inner[top]
         if len(nodes) > 1:
-            ok &= check(f"host::{top} (files)", nodes, edges)
+            ok &= check(f"{crate}::{top} (files)", nodes, edges)
     sys.exit(0 if ok else 1)
 
 
