@@ -33,9 +33,11 @@ python3 scripts/module_cycles.py host/src
 
 cargo test --workspace --release "$@"
 
-# The library face must build and pass its doc test on stable Rust, without rust-gpu.
-if rustup toolchain list | grep -q '^stable'; then
-  cargo +stable test -p jackknife
+# The library face must build and pass its doc test on stable Rust, without rust-gpu: on the
+# first installed toolchain that is not a nightly (`stable-...` or a release like `1.95.0-...`).
+stable="$(rustup toolchain list | awk '{print $1}' | grep -v nightly | head -n 1)"
+if [ -n "$stable" ]; then
+  cargo "+$stable" test -p jackknife
 else
-  echo "test.sh: no stable toolchain; skipping the stable build of the jackknife crate" >&2
+  echo "test.sh: no stable toolchain installed; skipping the stable build of the jackknife crate" >&2
 fi
