@@ -1,11 +1,12 @@
 //! All estimator logic of the jackknife transmittance renderer, written once for the CPU and for
 //! SPIR-V (rust-gpu). Nothing here may depend on the target: one body per function.
 //!
-//! Layers, each using only those above it: `math`, `rng`, `half`, `complex`, `geometry`,
-//! `camera`, `tally` -> `volume` (grid, lookups, DDA) -> `estimators` (Eq. 4, Alg. 1/2, tracking,
-//! ray marching, one `estimate::transmittance` for every ray) -> `sampling` (equiangular, lights,
-//! phase) -> `mis` -> `params` (the render's launch parameters and their one decode) ->
-//! `integrators` -> `kernels` (launch headers, pixel passes, probes).
+//! Layers, each using only those above it (`scripts/module_cycles.py shared/src` checks):
+//! `math`, `rng`, `half`, `complex`, `geometry`, `camera`, `tally` -> `volume` (grid, lookups,
+//! DDA) -> `params` (the render's launch parameters, the enums that cross the GPU boundary, and
+//! their one decode) -> `sampling` (exponential and equiangular distances, lights, phase) ->
+//! `estimators` (Eq. 4, Alg. 1/2, tracking, ray marching, one `estimate::transmittance` for every
+//! ray) -> `mis` -> `integrators` -> `kernels` (launch headers, pixel passes, probes).
 #![cfg_attr(not(test), no_std)]
 
 pub mod camera;

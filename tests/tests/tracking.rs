@@ -7,11 +7,12 @@
 use host::bricks::{pack, PackedVolume};
 use host::volume::{Affine, DenseVolume};
 use shared::estimators::tracking::{
-    ratio_tracking, regular_tracking_tau, track_length, MajorantIter, MAX_TENTATIVE_COLLISIONS,
+    ratio_tracking, regular_tracking_tau, track_length, MAX_TENTATIVE_COLLISIONS,
 };
 use shared::geometry::Ray;
 use shared::geometry::V3;
 use shared::rng::{pcg_hash, unit_f32, HashRng};
+use shared::sampling::exponential::MajorantIter;
 use shared::volume::dda::clip_to_box;
 use shared::volume::grid::{Lookup, VolumeView};
 

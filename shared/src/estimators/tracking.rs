@@ -10,6 +10,7 @@ use crate::estimators::optical_depth::mu_at;
 use crate::geometry::Ray;
 use crate::math;
 use crate::rng::HashRng;
+use crate::sampling::exponential::MajorantSampler;
 use crate::tally::Tally;
 use crate::volume::dda::GridDda;
 use crate::volume::grid::{Lookup, VolumeView};
@@ -46,123 +47,6 @@ pub fn regular_tracking_tau(vol: &VolumeView, ray: &Ray, t0: f32, t1: f32) -> (f
         visited += 1;
     }
     (tau, visited)
-}
-
-/// A piece [t0, t1] of the ray with a constant majorant (pbrt-v4's `RayMajorantSegment`).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct MajorantSegment {
-    pub t0: f32,
-    pub t1: f32,
-    pub sigma_maj: f32,
-}
-
-/// pbrt-v4's `DDAMajorantIterator` over the brick grid: brick segments with majorant mu_max.
-#[derive(Clone, Copy, Debug)]
-pub struct MajorantIter {
-    dda: GridDda,
-    pub done: bool,
-}
-
-impl MajorantIter {
-    /// Iterator over the bricks of [t0, t1] (pbrt-v4 `DDAMajorantIterator`).
-    #[inline]
-    pub fn new(vol: &VolumeView, ray: &Ray, t0: f32, t1: f32) -> Self {
-        let dda = GridDda::bricks(vol.desc, ray, t0, t1);
-        MajorantIter {
-            dda,
-            done: dda.done,
-        }
-    }
-
-    /// Next brick segment and its majorant mu_max (pbrt-v4 `Next`); call only while `!done`.
-    #[inline]
-    pub fn next_segment(&mut self, vol: &VolumeView) -> MajorantSegment {
-        let seg = self.dda.step();
-        self.done = self.dda.done;
-        MajorantSegment {
-            t0: seg.t0,
-            t1: seg.t1,
-            sigma_maj: vol.brick(seg.cell).mu_max,
-        }
-    }
-}
-
-/// A tentative collision at distance t where the majorant is `sigma_maj`; `found` is false when
-/// the free flight escaped past the end of the ray instead.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Collision {
-    pub t: f32,
-    pub sigma_maj: f32,
-    pub found: bool,
-}
-
-/// pbrt-v4's `SampleT_maj` as a pull iterator: exponential free flights against the piecewise
-/// constant majorant, restarted memorylessly at every segment boundary.
-#[derive(Clone, Copy, Debug)]
-pub struct MajorantSampler {
-    iter: MajorantIter,
-    seg: MajorantSegment,
-    t: f32,
-    /// Bound on segment advances within one call (more than the DDA can produce).
-    guard: u32,
-    pub done: bool,
-}
-
-impl MajorantSampler {
-    /// Sampler over [t0, t1]; starts on an empty segment so the first call enters the first brick.
-    #[inline]
-    pub fn new(vol: &VolumeView, ray: &Ray, t0: f32, t1: f32) -> Self {
-        let iter = MajorantIter::new(vol, ray, t0, t1);
-        let b = &vol.desc.brick_dims;
-        MajorantSampler {
-            iter,
-            seg: MajorantSegment {
-                t0,
-                t1: t0,
-                sigma_maj: 0.0,
-            },
-            t: t0,
-            guard: b[0] + b[1] + b[2] + 8,
-            done: iter.done,
-        }
-    }
-
-    /// Next tentative collision (pbrt-v4 `SampleT_maj`): t += -ln(1 - u) / sigma_maj within the
-    /// current segment; past its end, restart at the next segment; segments with zero majorant
-    /// take no sample. Sets `done` (and returns `found == false`) once past the end of the ray.
-    pub fn next_collision(&mut self, vol: &VolumeView, rng: HashRng) -> (Collision, HashRng) {
-        let mut rng = rng;
-        let mut out = Collision::default();
-        let mut steps = 0u32;
-        while !out.found && !self.done && steps < self.guard {
-            steps += 1;
-            if self.seg.sigma_maj > 0.0 {
-                let (u, r) = rng.next_f32();
-                rng = r;
-                let t = self.t - math::ln(1.0 - u) / self.seg.sigma_maj;
-                if t < self.seg.t1 {
-                    self.t = t;
-                    out = Collision {
-                        t,
-                        sigma_maj: self.seg.sigma_maj,
-                        found: true,
-                    };
-                }
-            }
-            if !out.found {
-                if self.iter.done {
-                    self.done = true;
-                } else {
-                    self.seg = self.iter.next_segment(vol);
-                    self.t = self.seg.t0;
-                }
-            }
-        }
-        if !out.found {
-            self.done = true;
-        }
-        (out, rng)
-    }
 }
 
 /// Track-length estimator (delta tracking, Novák et al. 2014; pbrt-v4): 0 if the free flight
