@@ -57,3 +57,27 @@ pub fn assert_bytes_equal<I: Debug, O: Pod + Debug>(
     }
     panic!("{msg}");
 }
+
+/// Mean and standard error of the mean of `xs` (sample variance with n - 1).
+pub fn mean_se(xs: &[f64]) -> (f64, f64) {
+    let n = xs.len() as f64;
+    let m = xs.iter().sum::<f64>() / n;
+    let v = xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0);
+    (m, (v / n).sqrt())
+}
+
+/// The two point lights of the single-scattering tests, inside the [-1, 1]^3 test volumes.
+pub fn test_lights() -> Vec<shared::sampling::lights::PointLight> {
+    use shared::geometry::V3;
+    use shared::sampling::lights::PointLight;
+    vec![
+        PointLight {
+            position: V3::new(-0.3, 0.1, 0.0),
+            intensity: 1.0,
+        },
+        PointLight {
+            position: V3::new(0.4, -0.2, 0.3),
+            intensity: 0.5,
+        },
+    ]
+}

@@ -7,14 +7,12 @@ use host::diagnostics::RayFlags;
 use host::render::{make_camera, render_scene, world_bounds, world_to_index, CameraSpec};
 use host::volume::{Affine, DenseVolume};
 use host::Backend;
-use integration_tests::{assert_bytes_equal, gpu};
-use shared::geometry::V3;
+use integration_tests::{assert_bytes_equal, gpu, test_lights};
 use shared::kernels::render::PixelOut;
 use shared::params::Estimator;
 use shared::params::RenderParams;
 use shared::params::{Integrator, TransmittanceHat};
 use shared::rng::{pcg_hash, unit_f32};
-use shared::sampling::lights::PointLight;
 use shared::volume::grid::Lookup;
 
 /// Density scales of the sweep: empty, thin, the embedded volumes' range, opaque, absurd.
@@ -46,19 +44,6 @@ fn lumpy() -> DenseVolume {
     .unwrap()
 }
 
-fn lights() -> Vec<PointLight> {
-    vec![
-        PointLight {
-            position: V3::new(-0.3, 0.1, 0.0),
-            intensity: 1.0,
-        },
-        PointLight {
-            position: V3::new(0.4, -0.2, 0.3),
-            intensity: 0.5,
-        },
-    ]
-}
-
 fn params(vol: &DenseVolume) -> RenderParams {
     let spec = CameraSpec {
         position: None,
@@ -85,8 +70,8 @@ fn params(vol: &DenseVolume) -> RenderParams {
 
 /// Renders on both backends, asserts identical bytes and finite values, returns the CPU image.
 fn both(gpu: &Backend, packed: &PackedVolume, p: &RenderParams, what: &str) -> Vec<PixelOut> {
-    let g = render_scene(gpu, packed, p, &lights(), false).unwrap();
-    let c = render_scene(&Backend::Cpu, packed, p, &lights(), false).unwrap();
+    let g = render_scene(gpu, packed, p, &test_lights(), false).unwrap();
+    let c = render_scene(&Backend::Cpu, packed, p, &test_lights(), false).unwrap();
     let ids: Vec<u32> = (0..g.len() as u32).collect();
     assert_bytes_equal(what, &ids, &g, &c);
     for (i, px) in c.iter().enumerate() {

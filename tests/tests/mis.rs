@@ -4,7 +4,7 @@ use host::bricks::pack;
 use host::render::{make_camera, render_scene, world_bounds, world_to_index, CameraSpec};
 use host::volume::{Affine, DenseVolume};
 use host::Backend;
-use integration_tests::{assert_bytes_equal, gpu};
+use integration_tests::{assert_bytes_equal, gpu, mean_se as mean_se_of, test_lights};
 use shared::estimators::optical_depth::{estimate_pair, prepare};
 use shared::geometry::Ray;
 use shared::geometry::V3;
@@ -41,19 +41,6 @@ fn lumpy(n: u32) -> DenseVolume {
         Affine::scale_translate([2.0 / n as f32; 3], [-1.0; 3]),
     )
     .unwrap()
-}
-
-fn lights() -> Vec<PointLight> {
-    vec![
-        PointLight {
-            position: V3::new(-0.3, 0.1, 0.0),
-            intensity: 1.0,
-        },
-        PointLight {
-            position: V3::new(0.4, -0.2, 0.3),
-            intensity: 0.5,
-        },
-    ]
 }
 
 fn params(
@@ -94,9 +81,7 @@ fn mean_se(trials: u32, salt: u32, f: impl Fn(HashRng) -> f64) -> (f64, f64) {
     let xs: Vec<f64> = (0..trials)
         .map(|s| f(HashRng::for_sample(salt, s, 99)))
         .collect();
-    let m = xs.iter().sum::<f64>() / trials as f64;
-    let v = xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (trials - 1) as f64;
-    (m, (v / trials as f64).sqrt())
+    mean_se_of(&xs)
 }
 
 #[test]
@@ -218,7 +203,7 @@ fn unbiased_integrators_agree_within_their_confidence_intervals() {
     let vol = lumpy(32);
     let packed = pack(&vol, 2.0, 8, Lookup::Nearest).unwrap();
     let view = packed.view();
-    let l = lights();
+    let l = test_lights();
     for (px, py) in [(15u32, 16u32), (10, 12), (20, 18)] {
         let mut results = Vec::new();
         for (integrator, t_hat) in [
@@ -284,7 +269,7 @@ fn miller_agrees_with_free_flight_and_equiangular_per_ray() {
     // and a dense volume (T through the centre about 0.2 and 0.002); Miller within z < 4 of
     // free-flight and of equiangular with ratio-tracking T̂ (99.994% two-sided per comparison).
     let vol = lumpy(32);
-    let l = lights();
+    let l = test_lights();
     let mut checked = 0;
     for (scale, rays) in [
         (2.0f32, [(15u32, 16u32), (20, 18)]),
@@ -331,8 +316,8 @@ fn gpu_and_cpu_render_identical_images_for_every_integrator() {
                 let mut p = params(&vol, 12, 10, 6, *integrator, t_hat);
                 p.pixel_jitter = 1;
                 p.hg_g = 0.3;
-                let g = render_scene(&gpu, &packed, &p, &lights(), false).unwrap();
-                let c = render_scene(&Backend::Cpu, &packed, &p, &lights(), false).unwrap();
+                let g = render_scene(&gpu, &packed, &p, &test_lights(), false).unwrap();
+                let c = render_scene(&Backend::Cpu, &packed, &p, &test_lights(), false).unwrap();
                 let ids: Vec<u32> = (0..g.len() as u32).collect();
                 assert_bytes_equal(
                     &format!("render_cs {integrator:?} {t_hat:?} {lookup:?}"),

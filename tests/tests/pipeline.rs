@@ -286,9 +286,7 @@ fn mean_depth(trials: u32, f: impl Fn(HashRng) -> f32) -> (f64, f64) {
     let xs: Vec<f64> = (0..trials)
         .map(|s| f(HashRng::for_sample(77, s, 5)) as f64)
         .collect();
-    let m = xs.iter().sum::<f64>() / trials as f64;
-    let v = xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (trials - 1) as f64;
-    (m, (v / trials as f64).sqrt())
+    integration_tests::mean_se(&xs)
 }
 
 #[test]
