@@ -8,14 +8,14 @@ import json
 import sys
 
 
-def name_of(path, d):
+def name_of(d):
     """The short volume name: the first word of the JSON's `volume`."""
     return d["volume"].split(" ")[0]
 
 
 def transmittance_table(d):
     head = (
-        f"**{name_of(None, d)}** ({d['volume']}, {d['width']}x{d['height']}, {d['spp']} estimates "
+        f"**{name_of(d)}** ({d['volume']}, {d['width']}x{d['height']}, {d['spp']} estimates "
         f"per pixel, {d['lookup']} lookups, {d['evaluated_pixels']} pixels; {d['backend']}: "
         f"{d['device']})\n\n"
         "| estimator | mean bias | mean abs bias | noise floor | mean std | RMSE | samples/ray | capped rays | ms |\n"

@@ -212,9 +212,9 @@ impl<'a> GridBuilder<'a> {
                 });
             }
         }
-        let (max_i, max) = self.checked_max(count)?;
+        let (max_i, max, min_positive) = self.extremes(count)?;
         self.check_optical_depth(max_i, max)?;
-        let k = self.f16_exponent(count, max);
+        let k = Self::f16_exponent(max, min_positive);
         let stored_scale = (scale as f64 * pow2(-k)) as f32;
         let (mut halves, underflow) = self.to_f16(count, k, stored_scale);
         if !halves.len().is_multiple_of(2) {
@@ -255,9 +255,10 @@ impl<'a> GridBuilder<'a> {
         })
     }
 
-    /// The densest voxel (index, density); refuses NaN, infinite and negative densities.
-    fn checked_max(&self, count: usize) -> Result<(usize, f32), BuildError> {
-        let mut best = (0usize, 0.0f32);
+    /// One pass over the densities: the densest voxel (index, density) and the smallest positive
+    /// density (infinity if none); refuses NaN, infinite and negative densities.
+    fn extremes(&self, count: usize) -> Result<(usize, f32, f32), BuildError> {
+        let (mut best, mut min_positive) = ((0usize, 0.0f32), f32::INFINITY);
         for i in 0..count {
             let v = self.value(i);
             if !(v.is_finite() && v >= 0.0) {
@@ -269,8 +270,11 @@ impl<'a> GridBuilder<'a> {
             if v > best.1 {
                 best = (i, v);
             }
+            if v > 0.0 && v < min_positive {
+                min_positive = v;
+            }
         }
-        Ok(best)
+        Ok((best.0, best.1, min_positive))
     }
 
     /// Refuses a scale whose largest extinction exceeds f32 or, times the longest chord through
@@ -300,15 +304,15 @@ impl<'a> GridBuilder<'a> {
     }
 
     /// The exponent k of the f16 voxels' power-of-two prescale: 0 when every density fits f16
-    /// as it is (none above 65504, none nonzero that rounds to 0); otherwise the largest k for
-    /// which the largest density x 2^k stays within 65504 (fewest values lost to underflow).
-    fn f16_exponent(&self, count: usize, max: f32) -> i32 {
+    /// as it is (the largest at most 65504, the smallest positive not rounding to 0: rounding is
+    /// monotonic, so the others fit too); otherwise the largest k for which the largest density
+    /// x 2^k stays within 65504 (fewest values lost to underflow).
+    fn f16_exponent(max: f32, min_positive: f32) -> i32 {
         if !(max > 0.0) {
             return 0;
         }
         let fits = |v: f32| f16::from_f32(v).is_finite();
-        let keeps = |v: f32| !(v > 0.0) || f16::from_f32(v).to_f32() != 0.0;
-        if fits(max) && (0..count).all(|i| keeps(self.value(i))) {
+        if fits(max) && f16::from_f32(min_positive).to_f32() != 0.0 {
             return 0;
         }
         let mut k = (f16::MAX.to_f32() as f64 / max as f64).log2().floor() as i32;
