@@ -5,8 +5,8 @@ Every `crate::a::b...` path and every `super::...` path in host/src/**/*.rs (com
 is an edge from the file's module to the module it names, and so is a path through a child
 module the file declares (`mod x;` then `x::y`). Edges are taken at two levels:
   - top level: between the crate's top-level modules (`cli`, `commands`, `bench`, ...);
-  - file level: between the modules of one top-level module (e.g. `study::commands` ->
-    `study`), where a `mod` declaration is not a use.
+  - file level: between the modules of one top-level module (e.g. `study::table1` ->
+    `study::umvu`), where a `mod` declaration is not a use.
 A strongly connected component with more than one module is a cycle: it is printed and the
 script exits with 1. With no cycle it prints a topological order and exits with 0.
 

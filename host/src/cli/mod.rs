@@ -79,7 +79,7 @@ pub fn run(cli: &Cli) -> Result<()> {
         Some(Command::Render(args)) => crate::commands::run_render(&args.options()).map(|_| ()),
         Some(Command::Probe(args)) => crate::commands::run_probe(&args.options()),
         Some(Command::Eval(args)) => crate::commands::run_eval(&args.options()),
-        Some(Command::Study(args)) => crate::study::commands::run(&args.options()),
+        Some(Command::Study(args)) => crate::study::run(&args.options()),
         Some(Command::Bench(args)) => crate::bench::run(&args.options()).map(|_| ()),
         Some(Command::Report(args)) => crate::report::run(&args.options()),
     }

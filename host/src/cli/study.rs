@@ -3,12 +3,18 @@
 use super::parsers::{
     count_in, finite_in, parse_g_coefficient, positive_up_to, DistributionArg, SamplingArg,
 };
+use crate::study::convergence::ConvergenceOptions;
+use crate::study::distributions::DistributionsOptions;
 use crate::study::files::Output;
-use crate::study::{
-    ConvergenceOptions, DistributionsOptions, HistogramOptions, MisBiasOptions, NormalOptions,
-    ProfileOptions, Study, StudyOptions, Table1Options, MAX_BINS, MAX_HISTOGRAM_TRIALS,
-    MAX_SAMPLES, MAX_SIGMA, MAX_TAU, MAX_TRIALS,
+use crate::study::histogram::HistogramOptions;
+use crate::study::limits::{
+    MAX_BINS, MAX_HISTOGRAM_TRIALS, MAX_SAMPLES, MAX_SIGMA, MAX_TAU, MAX_TRIALS,
 };
+use crate::study::mis_bias::MisBiasOptions;
+use crate::study::normal::NormalOptions;
+use crate::study::profile_study::ProfileOptions;
+use crate::study::table1::Table1Options;
+use crate::study::{Study, StudyOptions};
 use clap::{Args, Subcommand};
 use std::path::PathBuf;
 
@@ -229,8 +235,8 @@ impl OutputArgs {
 
 impl ProfileFlag {
     /// The library's profile choice.
-    fn options(&self) -> crate::study::ProfileFlag {
-        crate::study::ProfileFlag {
+    fn options(&self) -> crate::study::profile::ProfileFlag {
+        crate::study::profile::ProfileFlag {
             profile: self.profile.clone(),
         }
     }

@@ -1,11 +1,13 @@
 //! `host study convergence`: RMSE of optical depth estimates against the sample count N for the
 //! midpoint rule, uniform jittered, stratified jittered and i.i.d. sampling (Fig. 5).
 
+use super::files::Output;
+use super::limits::check_trials;
 use super::plot::{Figure, Legend, LinePanel, Series, Style, BLUE, GREEN, GREY, ORANGE, PURPLE};
-use super::profile::{Profile, Sampling};
+use super::profile::{Profile, ProfileFlag, Sampling};
 use super::rng::sub_seed;
-use super::stats::{log_log_slope, run_chunked, Moments};
-use anyhow::Result;
+use super::stats::{log_log_slope, progress, run_chunked, Moments};
+use anyhow::{bail, Result};
 use indicatif::ProgressBar;
 use plotters::coord::Shift;
 use plotters::prelude::{DrawingArea, DrawingBackend};
@@ -184,4 +186,68 @@ impl Figure for ConvergenceFigure {
         }
         panel.draw(root)
     }
+}
+
+/// Options of `host study convergence` (the CLI's flags, checked by `run`).
+#[derive(Debug, Clone)]
+pub struct ConvergenceOptions {
+    /// The extinction profile.
+    pub profile: ProfileFlag,
+    /// Largest sample count N, 1 to 10^6.
+    pub max_n: usize,
+    /// Sample counts, log-spaced from 1 to max-n, 2 to 1000.
+    pub points: usize,
+    /// Estimates per (sampling, N), 2 to 10^8 (the paper uses 10^4).
+    pub trials: u64,
+    /// Sampling schemes (curves).
+    pub sampling: Vec<Sampling>,
+    /// Seed, JSON and plot files, progress bar.
+    pub out: Output,
+}
+
+/// Runs `host study convergence`: measures, prints the table, writes the JSON and the plot.
+pub fn run(a: &ConvergenceOptions) -> Result<()> {
+    check_trials(a.trials)?;
+    if a.max_n < 1 || a.points < 2 || a.sampling.is_empty() || a.sampling.len() > 8 {
+        bail!("convergence needs --max-n >= 1, --points >= 2 and 1 to 8 --sampling schemes");
+    }
+    let profile = Profile::load_varying(&a.profile.profile)?;
+    let ns = sample_counts(a.max_n, a.points);
+    let per_n: u64 = a
+        .sampling
+        .iter()
+        .map(|&s| if s == Sampling::Midpoint { 1 } else { a.trials })
+        .sum();
+    let bar = progress(per_n * ns.len() as u64, "convergence", a.out.quiet);
+    let curves = measure(&profile, &a.sampling, &ns, a.trials, a.out.seed, &bar);
+    bar.finish_and_clear();
+    println!(
+        "profile {}: tau = {:.6}; RMSE from {} estimates per N",
+        profile.name,
+        profile.tau(),
+        a.trials
+    );
+    print!("{:>6}", "N");
+    curves
+        .iter()
+        .for_each(|c| print!(" {:>20}", c.sampling.label()));
+    println!();
+    for (i, n) in ns.iter().enumerate() {
+        print!("{n:>6}");
+        curves
+            .iter()
+            .for_each(|c| print!(" {:>20.4e}", c.rmse[i].1));
+        println!();
+    }
+    print!("{:>6}", "slope");
+    curves
+        .iter()
+        .for_each(|c| print!(" {:>9.3} / {:<8.3}", c.slope_up_to_100, c.slope_from_100));
+    println!("   (N <= 100 / N >= 100)");
+    let figure = ConvergenceFigure {
+        profile: profile.name.clone(),
+        tau: profile.tau(),
+        curves: curves.clone(),
+    };
+    a.out.write("convergence", &curves, &figure)
 }

@@ -2,9 +2,12 @@
 //! sample count, with the fitted normal density (Fig. 4, 6), skewness, kurtosis and the
 //! Kolmogorov-Smirnov distance to that normal.
 
+use super::files::Output;
+use super::limits::check_trials;
 use super::plot::{Figure, LinePanel, Series, Style, BLUE, INK, ORANGE};
-use super::profile::{Profile, Sampling};
-use super::stats::{run_chunked, Merge, Moments};
+use super::profile::{Profile, ProfileFlag, Sampling};
+use super::rng;
+use super::stats::{progress, run_chunked, Merge, Moments};
 use anyhow::{bail, Result};
 use indicatif::ProgressBar;
 use plotters::coord::Shift;
@@ -184,4 +187,86 @@ impl Figure for HistogramFigure {
         }
         Ok(())
     }
+}
+
+/// Options of `host study histogram` (the CLI's flags, checked by `run`).
+#[derive(Debug, Clone)]
+pub struct HistogramOptions {
+    /// The extinction profile.
+    pub profile: ProfileFlag,
+    /// Sample counts N (columns), each 1 to 10^6, at most 16 of them.
+    pub n: Vec<usize>,
+    /// Sampling schemes (rows): uniform, stratified or iid (midpoint is deterministic).
+    pub sampling: Vec<Sampling>,
+    /// Estimates per histogram, 2 to 2 x 10^7 (each is kept in memory).
+    pub trials: u64,
+    /// Histogram bins, 1 to 10000.
+    pub bins: usize,
+    /// Seed, JSON and plot files, progress bar.
+    pub out: Output,
+}
+
+/// Runs `host study histogram`: measures, prints the table, writes the JSON and the plot.
+pub fn run(a: &HistogramOptions) -> Result<()> {
+    check_trials(a.trials)?;
+    if a.n.len() > 16 || a.sampling.len() > 8 {
+        bail!("--n takes at most 16 values and --sampling at most 8");
+    }
+    if a.sampling.contains(&Sampling::Midpoint) {
+        bail!("--sampling midpoint is deterministic: no histogram; use uniform, stratified or iid");
+    }
+    let profile = Profile::load_varying(&a.profile.profile)?;
+    let combos: Vec<(Sampling, usize)> = a
+        .sampling
+        .iter()
+        .flat_map(|&s| a.n.iter().map(move |&n| (s, n)))
+        .collect();
+    let bar = progress(combos.len() as u64 * a.trials, "histogram", a.out.quiet);
+    let histograms = combos
+        .iter()
+        .enumerate()
+        .map(|(k, &(s, n))| {
+            measure(
+                &profile,
+                s,
+                n,
+                a.trials,
+                a.bins,
+                rng::sub_seed(a.out.seed, k as u64),
+                &bar,
+            )
+        })
+        .collect::<Result<Vec<_>>>()?;
+    bar.finish_and_clear();
+    println!(
+        "profile {}: tau = {:.6}; {} estimates per histogram",
+        profile.name,
+        profile.tau(),
+        a.trials
+    );
+    println!(
+        "{:<20} {:>4} {:>10} {:>10} {:>9} {:>9} {:>8}",
+        "sampling", "N", "mean", "std", "skewness", "ex.kurt", "KS"
+    );
+    for h in &histograms {
+        println!(
+            "{:<20} {:>4} {:>10.6} {:>10.6} {:>9.4} {:>9.4} {:>8.4}",
+            h.sampling.label(),
+            h.n,
+            h.mean,
+            h.std,
+            h.skewness,
+            h.excess_kurtosis,
+            h.ks_distance
+        );
+    }
+    let name = format!("histogram_{}", profile.stem());
+    a.out.write(
+        &name,
+        &histograms,
+        &HistogramFigure {
+            columns: a.n.len(),
+            histograms: histograms.clone(),
+        },
+    )
 }

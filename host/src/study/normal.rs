@@ -4,10 +4,11 @@
 //! Inputs are drawn in f64 (Box-Muller), rounded to f32 and fed to the renderer's own estimators
 //! `shared::estimators::transmittance::{jackknife, naive}`; statistics are accumulated in f64.
 
+use super::files::Output;
 use super::plot::{Figure, Legend, LinePanel, Series, Style, BLUE, GREY, INK, ORANGE};
 use super::rng::{sub_seed, Rng};
-use super::stats::{run_chunked, Moments, Summary};
-use anyhow::Result;
+use super::stats::{progress, run_chunked, Moments, Summary};
+use anyhow::{bail, Result};
 use indicatif::ProgressBar;
 use plotters::coord::Shift;
 use plotters::prelude::{DrawingArea, DrawingBackend};
@@ -199,4 +200,103 @@ impl Figure for RrmseFigure {
         ));
         right.draw(&areas[1])
     }
+}
+
+/// The sigma values of the Fig. 3 dots.
+pub const NORMAL_SWEEP: [f64; 10] = [0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0, 2.25, 2.5];
+
+/// Options of `host study normal` (the CLI's flags, checked by `run`).
+#[derive(Debug, Clone)]
+pub struct NormalOptions {
+    /// Optical depth tau (the mean of each estimate), 0 to 20.
+    pub tau: f64,
+    /// Standard deviation sigma of each of the two estimates, 0 to 10.
+    pub sigma: f64,
+    /// Trials (independent transmittance estimates), 2 to 10^10.
+    pub trials: u64,
+    /// Trials per sigma of the measured rRMSE dots of the plot, 2 to 10^10 (0: none).
+    pub sweep_trials: u64,
+    /// Seed, JSON and plot files, progress bar.
+    pub out: Output,
+}
+
+/// Runs `host study normal`: measures, prints the table, writes the JSON and the plot.
+pub fn run(a: &NormalOptions) -> Result<()> {
+    if !(a.sigma >= 0.0) || !a.tau.is_finite() || a.trials < 2 || a.sweep_trials == 1 {
+        bail!(
+            "normal needs a finite --tau, --sigma >= 0, --trials >= 2 and --sweep-trials 0 or >= 2"
+        );
+    }
+    let sweep_len = if a.sweep_trials >= 2 {
+        NORMAL_SWEEP.len() as u64
+    } else {
+        0
+    };
+    let bar = progress(a.trials + sweep_len * a.sweep_trials, "normal", a.out.quiet);
+    let point = measure(a.tau, a.sigma, a.trials, a.out.seed, &bar);
+    let sweep = if sweep_len > 0 {
+        sweep(a.tau, &NORMAL_SWEEP, a.sweep_trials, a.out.seed, &bar)
+    } else {
+        Vec::new()
+    };
+    bar.finish_and_clear();
+    println!(
+        "m = 2 normal estimates: tau = {}, sigma = {}, T = {:.6}, {} trials, seed {}",
+        a.tau, a.sigma, point.transmittance, a.trials, a.out.seed
+    );
+    println!(
+        "{:<10} {:<8} {:>24} {:>14}",
+        "estimator", "", "measured +- s.e.", "App. A"
+    );
+    for (name, s, rrmse, c) in [
+        (
+            "jackknife",
+            &point.jackknife,
+            point.jackknife_rrmse,
+            &point.jackknife_closed,
+        ),
+        (
+            "naive",
+            &point.naive,
+            point.naive_rrmse,
+            &point.naive_closed,
+        ),
+    ] {
+        println!(
+            "{name:<10} {:<8} {:>12.6} +- {:<9.6} {:>14.6}",
+            "mean", s.mean, s.mean_se, c.mean
+        );
+        println!(
+            "{:<10} {:<8} {:>+12.6} +- {:<9.6} {:>14.6}",
+            "", "bias", s.bias, s.mean_se, c.bias
+        );
+        println!(
+            "{:<10} {:<8} {:>12.6} +- {:<9.6} {:>14.6}",
+            "", "std", s.std, s.std_se, c.std
+        );
+        println!(
+            "{:<10} {:<8} {:>12.6e} +- {:<9.3e} {:>14.6e}",
+            "", "variance", s.variance, s.variance_se, c.variance
+        );
+        println!(
+            "{:<10} {:<8} {:>12.6} {:>12} {:>14.6}",
+            "", "rRMSE", rrmse, "", c.rrmse
+        );
+    }
+    #[derive(Serialize)]
+    struct Json<'a> {
+        point: &'a NormalPoint,
+        sweep: &'a [NormalPoint],
+    }
+    a.out.write(
+        "normal",
+        &Json {
+            point: &point,
+            sweep: &sweep,
+        },
+        &RrmseFigure {
+            point,
+            sweep: sweep.clone(),
+        },
+    )
 }

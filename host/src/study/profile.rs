@@ -15,6 +15,13 @@ pub const BUILTIN: [(&str, &str); 3] = [
     ("sparse", include_str!("profiles/sparse.csv")),
 ];
 
+/// `--profile`: a built-in name or a CSV file of `t,mu` points.
+#[derive(Debug, Clone)]
+pub struct ProfileFlag {
+    /// Extinction profile: `smooth`, `cloud`, `sparse` (built in) or a CSV file of `t,mu` lines.
+    pub profile: String,
+}
+
 /// mu(t) at increasing knots t, linear in between; the ray segment is [t_first, t_last].
 #[derive(Clone, Debug)]
 pub struct Profile {
@@ -91,6 +98,24 @@ impl Profile {
         let text = read_profile_file(Path::new(spec))
             .with_context(|| format!("reading profile {spec} (built-in: smooth, cloud, sparse)"))?;
         Profile::parse(spec, &text)
+    }
+
+    /// Like `load`, but a constant profile (no spread to measure) is an error.
+    pub fn load_varying(spec: &str) -> Result<Self> {
+        let profile = Profile::load(spec)?;
+        if let Some(why) = profile.constant() {
+            bail!("{why}");
+        }
+        Ok(profile)
+    }
+
+    /// The name without directories and `.csv` (`dir/cloud.csv` -> `cloud`), for file names.
+    pub fn stem(&self) -> &str {
+        self.name
+            .rsplit('/')
+            .next()
+            .unwrap_or("")
+            .trim_end_matches(".csv")
     }
 
     /// Why ray marching estimates of this profile are all exact (mu constant, e.g. all zero), so

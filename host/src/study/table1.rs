@@ -6,9 +6,11 @@
 //! makes. (The rows place their samples on different strata, so they are nearly uncorrelated and
 //! the paired standard error is about sqrt(2) times a row's.)
 
+use super::files::Output;
+use super::limits::check_trials;
 use super::plot::{Figure, Legend, LinePanel, Series, Style, BLUE, INK, ORANGE};
-use super::profile::{Profile, Sampling};
-use super::stats::{run_chunked, Merge, Moments, Summary};
+use super::profile::{Profile, ProfileFlag, Sampling};
+use super::stats::{progress, run_chunked, Merge, Moments, Summary};
 use super::umvu;
 use anyhow::{bail, Result};
 use indicatif::ProgressBar;
@@ -266,4 +268,69 @@ impl Figure for Table1Figure {
         ));
         std.draw(&areas[1])
     }
+}
+
+/// Options of `host study table1` (the CLI's flags, checked by `run`).
+#[derive(Debug, Clone)]
+pub struct Table1Options {
+    /// The extinction profile.
+    pub profile: ProfileFlag,
+    /// Samples per transmittance estimate, m N, 2 to 1024.
+    pub total: usize,
+    /// Smallest N of a row, 1 to --total / 2 (3 gives the paper's rows m = 2, 3, 4, 6, 8 for 24).
+    pub min_n: usize,
+    /// Ray marching of every row: stratified or uniform.
+    pub sampling: Sampling,
+    /// Trials (independent transmittance estimates), 2 to 10^10.
+    pub trials: u64,
+    /// Seed, JSON and plot files, progress bar.
+    pub out: Output,
+}
+
+/// Runs `host study table1`: measures, prints the table, writes the JSON and the plot.
+pub fn run(a: &Table1Options) -> Result<()> {
+    check_trials(a.trials)?;
+    let profile = Profile::load(&a.profile.profile)?;
+    let rows = configs(a.total, a.min_n);
+    if rows.len() < 2 {
+        bail!(
+            "--total {} with --min-n {} leaves no m >= 2 row",
+            a.total,
+            a.min_n
+        );
+    }
+    let bar = progress(a.trials, "table1", a.out.quiet);
+    let report = measure(&profile, &rows, a.sampling, a.trials, a.out.seed, &bar)?;
+    bar.finish_and_clear();
+    println!(
+        "Table 1, profile {}: tau = {:.6}, T = {:.6}, {} sampling, m N = {}, {} trials",
+        report.profile,
+        report.tau,
+        report.transmittance,
+        a.sampling.label(),
+        report.total,
+        report.trials
+    );
+    println!(
+        "{:>3} {:>3} {:>10} {:>22} {:>9} {:>24} | paper: {:>8} {:>8} {:>7}",
+        "m", "N", "mean", "bias +- s.e.", "std", "bias - bias(m=2) +- s.e.", "mean", "bias", "std"
+    );
+    for r in &report.rows {
+        let paper = PAPER.iter().find(|p| p.0 == r.m && p.1 == r.n);
+        let paper = paper.map_or(String::new(), |p| {
+            format!("{:>8.5} {:>8.5} {:>7.4}", p.2, p.3, p.4)
+        });
+        println!(
+            "{:>3} {:>3} {:>10.5} {:>+12.5} +- {:<7.5} {:>9.4} {:>+12.5} +- {:<9.5} | paper: {paper}",
+            r.m, r.n, r.stats.mean, r.stats.bias, r.stats.mean_se, r.stats.std,
+            r.bias_minus_first, r.bias_minus_first_se
+        );
+    }
+    a.out.write(
+        "table1",
+        &report,
+        &Table1Figure {
+            report: report.clone(),
+        },
+    )
 }
