@@ -108,9 +108,9 @@ pub fn std_colour_map(scale: f32) -> ColourMap {
     )
 }
 
-/// The whole evaluation, as written to `--json`.
+/// What every evaluation was run on: volume, backend, image size, spp and seed.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
-pub struct EvalReport {
+pub struct EvalHeader {
     pub volume: String,
     pub backend: String,
     pub device: String,
@@ -118,6 +118,14 @@ pub struct EvalReport {
     pub height: u32,
     pub spp: u32,
     pub seed: u32,
+}
+
+/// The whole evaluation, as written to `--json`.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct EvalReport {
+    /// Volume, backend, image size, spp and seed (their keys come first in the JSON).
+    #[serde(flatten)]
+    pub header: EvalHeader,
     pub n: u32,
     pub lookup: String,
     pub reference: String,
@@ -239,6 +247,21 @@ pub struct EvalSetup<'a> {
     pub progress: bool,
 }
 
+impl EvalSetup<'_> {
+    /// The header of its report.
+    fn header(&self) -> EvalHeader {
+        EvalHeader {
+            volume: self.volume_name.clone(),
+            backend: self.backend.kind().into(),
+            device: self.backend.device(),
+            width: self.params.width,
+            height: self.params.height,
+            spp: self.params.spp,
+            seed: self.params.seed,
+        }
+    }
+}
+
 /// Renders the reference and each estimator and measures them.
 pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Result<EvalReport> {
     std::fs::create_dir_all(setup.out_dir)
@@ -332,13 +355,7 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
         reports.push(report);
     }
     Ok(EvalReport {
-        volume: setup.volume_name.clone(),
-        backend: setup.backend.kind().into(),
-        device: setup.backend.device(),
-        width: w,
-        height: h,
-        spp: setup.params.spp,
-        seed: setup.params.seed,
+        header: setup.header(),
         n: setup.params.n,
         lookup: if setup.volume.desc.lookup == 1 {
             "stochastic"
@@ -412,13 +429,9 @@ pub struct IntegratorReport {
 /// The integrator evaluation, as written to `--json`.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct IntegratorEvalReport {
-    pub volume: String,
-    pub backend: String,
-    pub device: String,
-    pub width: u32,
-    pub height: u32,
-    pub spp: u32,
-    pub seed: u32,
+    /// Volume, backend, image size, spp and seed (their keys come first in the JSON).
+    #[serde(flatten)]
+    pub header: EvalHeader,
     pub lights: usize,
     pub reference: String,
     /// The reference radiance: linear EXR and PNG (tone-mapped like every `png`).
@@ -521,13 +534,7 @@ pub fn evaluate_integrators(
         reports.push(report);
     }
     Ok(IntegratorEvalReport {
-        volume: setup.volume_name.clone(),
-        backend: setup.backend.kind().into(),
-        device: setup.backend.device(),
-        width: w,
-        height: h,
-        spp: setup.params.spp,
-        seed: setup.params.seed,
+        header: setup.header(),
         lights: lights.len(),
         reference: format!(
             "mis-jackknife with ratio-tracking T(t0) (unbiased up to the shadow-ray estimator shared by all) at {} spp, independent seed",

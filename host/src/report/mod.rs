@@ -9,7 +9,7 @@
 
 use crate::backend::BackendChoice;
 use crate::commands::{EvalOptions, SceneOptions};
-use crate::eval::{ColourMap, EvalReport, IntegratorEvalReport};
+use crate::eval::{ColourMap, EvalHeader, EvalReport, IntegratorEvalReport};
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
 use shared::volume::grid::Lookup;
@@ -560,28 +560,34 @@ const INTEGRATOR_COLUMNS: &[Column] = &[
     ),
 ];
 
-fn common_facts(
-    volume: &str,
-    backend: &str,
-    device: &str,
-    w: u32,
-    h: u32,
-    spp: u32,
-) -> Vec<[String; 2]> {
+/// The facts every set starts with: volume, backend, image size and spp.
+fn common_facts(h: &EvalHeader) -> Vec<[String; 2]> {
     vec![
-        ["volume".into(), volume.into()],
-        ["backend".into(), format!("{backend}: {device}")],
-        ["image".into(), format!("{w} x {h}")],
-        ["spp".into(), spp.to_string()],
+        ["volume".into(), h.volume.clone()],
+        ["backend".into(), format!("{}: {}", h.backend, h.device)],
+        ["image".into(), format!("{} x {}", h.width, h.height)],
+        ["spp".into(), h.spp.to_string()],
     ]
 }
 
+/// The first entry of every set: the reference render, with no values.
+fn reference_entry(about: &str, files: &mut Files, png: &str, exr: &str) -> Result<Entry> {
+    Ok(Entry {
+        name: "reference".into(),
+        about: about.into(),
+        reference: true,
+        unbiased: None,
+        images: BTreeMap::from([("render", files.image(png, exr)?)]),
+        values: BTreeMap::new(),
+    })
+}
+
 fn estimator_set(r: &EvalReport, files: &mut Files, id: &str, json: String) -> Result<Set> {
-    let mut facts = common_facts(&r.volume, &r.backend, &r.device, r.width, r.height, r.spp);
+    let mut facts = common_facts(&r.header);
     facts.extend([
         ["N".into(), r.n.to_string()],
         ["lookup".into(), r.lookup.clone()],
-        ["seed".into(), r.seed.to_string()],
+        ["seed".into(), r.header.seed.to_string()],
         ["reference".into(), r.reference.clone()],
         [
             "statistics over".into(),
@@ -591,14 +597,12 @@ fn estimator_set(r: &EvalReport, files: &mut Files, id: &str, json: String) -> R
             ),
         ],
     ]);
-    let mut entries = vec![Entry {
-        name: "reference".into(),
-        about: r.reference.clone(),
-        reference: true,
-        unbiased: None,
-        images: BTreeMap::from([("render", files.image(&r.reference_png, &r.reference_exr)?)]),
-        values: BTreeMap::new(),
-    }];
+    let mut entries = vec![reference_entry(
+        &r.reference,
+        files,
+        &r.reference_png,
+        &r.reference_exr,
+    )?];
     for e in &r.estimators {
         entries.push(Entry {
             name: e.name.clone(),
@@ -627,13 +631,13 @@ fn estimator_set(r: &EvalReport, files: &mut Files, id: &str, json: String) -> R
         kind: "estimators",
         json,
         facts,
-        width: r.width,
-        height: r.height,
+        width: r.header.width,
+        height: r.header.height,
         modes: vec![
             Mode {
                 id: "render",
                 label: "render",
-                caption: format!("mean transmittance of {} estimates per pixel", r.spp),
+                caption: format!("mean transmittance of {} estimates per pixel", r.header.spp),
                 colour_map: Some(transmittance_map()),
             },
             Mode {
@@ -660,20 +664,18 @@ fn integrator_set(
     id: &str,
     json: String,
 ) -> Result<Set> {
-    let mut facts = common_facts(&r.volume, &r.backend, &r.device, r.width, r.height, r.spp);
+    let mut facts = common_facts(&r.header);
     facts.extend([
         ["lights".into(), r.lights.to_string()],
-        ["seed".into(), r.seed.to_string()],
+        ["seed".into(), r.header.seed.to_string()],
         ["reference".into(), r.reference.clone()],
     ]);
-    let mut entries = vec![Entry {
-        name: "reference".into(),
-        about: r.reference.clone(),
-        reference: true,
-        unbiased: None,
-        images: BTreeMap::from([("render", files.image(&r.reference_png, &r.reference_exr)?)]),
-        values: BTreeMap::new(),
-    }];
+    let mut entries = vec![reference_entry(
+        &r.reference,
+        files,
+        &r.reference_png,
+        &r.reference_exr,
+    )?];
     for e in &r.integrators {
         entries.push(Entry {
             name: e.name.clone(),
@@ -698,14 +700,14 @@ fn integrator_set(
         kind: "integrators",
         json,
         facts,
-        width: r.width,
-        height: r.height,
+        width: r.header.width,
+        height: r.header.height,
         modes: vec![Mode {
             id: "render",
             label: "render",
             caption: format!(
                 "radiance L, {} spp, shown as x / (1 + x) with x = {} x L, sRGB-encoded",
-                r.spp, r.exposure
+                r.header.spp, r.exposure
             ),
             colour_map: None,
         }],
