@@ -1,7 +1,11 @@
-//! Helpers for the integration tests: opening the lavapipe GPU and comparing buffers bit for bit.
+//! Helpers for the integration tests: opening the lavapipe GPU, comparing buffers bit for bit,
+//! building test volumes and their cameras.
 
 use bytemuck::Pod;
 use host::gpu::Gpu;
+use host::render::{make_camera, world_bounds, world_to_index, CameraSpec};
+use host::volume::{Affine, DenseVolume};
+use shared::params::RenderParams;
 use std::fmt::Debug;
 
 /// The Vulkan GPU, or a panic that says how to get one (these tests must run, not skip).
@@ -80,4 +84,44 @@ pub fn test_lights() -> Vec<shared::sampling::lights::PointLight> {
             intensity: 0.5,
         },
     ]
+}
+
+/// A test volume of `dims` voxels with density `f(x, y, z)` (x fastest) and the given map.
+pub fn volume(
+    name: &str,
+    dims: [u32; 3],
+    index_to_world: Affine,
+    f: impl Fn(u32, u32, u32) -> f32,
+) -> DenseVolume {
+    let mut v = Vec::with_capacity((dims[0] * dims[1] * dims[2]) as usize);
+    for z in 0..dims[2] {
+        for y in 0..dims[1] {
+            for x in 0..dims[0] {
+                v.push(f(x, y, z));
+            }
+        }
+    }
+    DenseVolume::new(name, dims, v, index_to_world).unwrap()
+}
+
+/// The index-to-world map of an n^3 grid spanning [-1, 1]^3.
+pub fn unit_cube(n: u32) -> Affine {
+    Affine::scale_translate([2.0 / n as f32; 3], [-1.0; 3])
+}
+
+/// Render parameters of a w x h image of `vol` from the default camera (40 degree field of
+/// view); every other parameter is its default.
+pub fn camera_params(vol: &DenseVolume, w: u32, h: u32) -> RenderParams {
+    let spec = CameraSpec {
+        position: None,
+        look_at: None,
+        fov_deg: 40.0,
+    };
+    RenderParams {
+        camera: make_camera(&spec, world_bounds(vol), w, h).unwrap(),
+        world_to_index: world_to_index(&vol.index_to_world).unwrap(),
+        width: w,
+        height: h,
+        ..Default::default()
+    }
 }

@@ -4,10 +4,10 @@
 
 use host::bricks::{pack, PackedVolume};
 use host::diagnostics::RayFlags;
-use host::render::{make_camera, render_scene, world_bounds, world_to_index, CameraSpec};
-use host::volume::{Affine, DenseVolume};
+use host::render::render_scene;
+use host::volume::DenseVolume;
 use host::Backend;
-use integration_tests::{assert_bytes_equal, gpu, test_lights};
+use integration_tests::{assert_bytes_equal, camera_params, gpu, test_lights, unit_cube, volume};
 use shared::kernels::render::PixelOut;
 use shared::params::Estimator;
 use shared::params::RenderParams;
@@ -21,41 +21,19 @@ const SCALES: [f32; 9] = [0.0, 1e-6, 0.5, 8.0, 1e3, 1e5, 1e10, 1e20, 1e30];
 /// A 24^3 volume in [-1, 1]^3 with empty blocks, thin wisps and dense cores.
 fn lumpy() -> DenseVolume {
     let n = 24u32;
-    let mut v = Vec::with_capacity((n * n * n) as usize);
-    for z in 0..n {
-        for y in 0..n {
-            for x in 0..n {
-                let cell = pcg_hash(x / 4 + 101 * (y / 4) + 10007 * (z / 4));
-                let fine = unit_f32(pcg_hash(x + n * (y + n * z)));
-                v.push(match cell % 4 {
-                    0 => 0.0,
-                    1 => 0.02 * fine,
-                    _ => 0.25 + fine,
-                });
-            }
+    volume("lumpy", [n; 3], unit_cube(n), |x, y, z| {
+        let cell = pcg_hash(x / 4 + 101 * (y / 4) + 10007 * (z / 4));
+        let fine = unit_f32(pcg_hash(x + n * (y + n * z)));
+        match cell % 4 {
+            0 => 0.0,
+            1 => 0.02 * fine,
+            _ => 0.25 + fine,
         }
-    }
-    DenseVolume::new(
-        "lumpy",
-        [n; 3],
-        v,
-        Affine::scale_translate([2.0 / n as f32; 3], [-1.0; 3]),
-    )
-    .unwrap()
+    })
 }
 
 fn params(vol: &DenseVolume) -> RenderParams {
-    let spec = CameraSpec {
-        position: None,
-        look_at: None,
-        fov_deg: 40.0,
-    };
-    let (w, h) = (8, 8);
     RenderParams {
-        camera: make_camera(&spec, world_bounds(vol), w, h).unwrap(),
-        world_to_index: world_to_index(&vol.index_to_world).unwrap(),
-        width: w,
-        height: h,
         spp: 2,
         seed: 5,
         n: 10,
@@ -64,7 +42,7 @@ fn params(vol: &DenseVolume) -> RenderParams {
         pixel_jitter: 1,
         light_count: 2,
         albedo: 0.8,
-        ..Default::default()
+        ..camera_params(vol, 8, 8)
     }
 }
 

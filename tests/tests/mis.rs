@@ -1,10 +1,12 @@
 //! MIS weight estimation and the single-scattering integrators (Sec. 5, App. D, Fig. 7).
 
 use host::bricks::pack;
-use host::render::{make_camera, render_scene, world_bounds, world_to_index, CameraSpec};
-use host::volume::{Affine, DenseVolume};
+use host::render::render_scene;
+use host::volume::DenseVolume;
 use host::Backend;
-use integration_tests::{assert_bytes_equal, gpu, mean_se as mean_se_of, test_lights};
+use integration_tests::{
+    assert_bytes_equal, camera_params, gpu, mean_se as mean_se_of, test_lights, unit_cube, volume,
+};
 use shared::estimators::optical_depth::{estimate_pair, prepare};
 use shared::geometry::Ray;
 use shared::geometry::V3;
@@ -20,27 +22,15 @@ use shared::volume::grid::Lookup;
 
 /// Lumpy 32^3 test volume spanning [-1, 1]^3 in world space.
 fn lumpy(n: u32) -> DenseVolume {
-    let mut v = Vec::with_capacity((n * n * n) as usize);
-    for z in 0..n {
-        for y in 0..n {
-            for x in 0..n {
-                let cell = pcg_hash(x / 4 + 101 * (y / 4) + 10007 * (z / 4));
-                let fine = unit_f32(pcg_hash(x + n * (y + n * z)));
-                v.push(if !cell.is_multiple_of(4) {
-                    0.25 + fine * unit_f32(cell)
-                } else {
-                    0.0
-                });
-            }
+    volume("lumpy", [n; 3], unit_cube(n), |x, y, z| {
+        let cell = pcg_hash(x / 4 + 101 * (y / 4) + 10007 * (z / 4));
+        let fine = unit_f32(pcg_hash(x + n * (y + n * z)));
+        if !cell.is_multiple_of(4) {
+            0.25 + fine * unit_f32(cell)
+        } else {
+            0.0
         }
-    }
-    DenseVolume::new(
-        "lumpy",
-        [n; 3],
-        v,
-        Affine::scale_translate([2.0 / n as f32; 3], [-1.0; 3]),
-    )
-    .unwrap()
+    })
 }
 
 fn params(
@@ -51,16 +41,7 @@ fn params(
     integrator: Integrator,
     t_hat: TransmittanceHat,
 ) -> RenderParams {
-    let spec = CameraSpec {
-        position: None,
-        look_at: None,
-        fov_deg: 40.0,
-    };
     RenderParams {
-        camera: make_camera(&spec, world_bounds(vol), w, h).unwrap(),
-        world_to_index: world_to_index(&vol.index_to_world).unwrap(),
-        width: w,
-        height: h,
         spp,
         seed: 1,
         n: 10,
@@ -72,7 +53,7 @@ fn params(
         albedo: 0.8,
         hg_g: 0.0,
         t_hat: t_hat as u32,
-        ..Default::default()
+        ..camera_params(vol, w, h)
     }
 }
 

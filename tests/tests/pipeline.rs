@@ -1,10 +1,10 @@
 //! The jackknife pipeline (Alg. 2 + Alg. 1 + Eq. 4) on volumes built in the test.
 
 use host::bricks::{pack, PackedVolume};
-use host::render::{make_camera, render, world_bounds, world_to_index, CameraSpec};
+use host::render::render;
 use host::volume::{Affine, DenseVolume};
 use host::Backend;
-use integration_tests::{assert_bytes_equal, gpu};
+use integration_tests::{assert_bytes_equal, camera_params, gpu, unit_cube, volume};
 use shared::estimators::optical_depth::{estimate_pair, prepare};
 use shared::geometry::Ray;
 use shared::geometry::V3;
@@ -18,28 +18,16 @@ use shared::volume::grid::Lookup;
 
 /// A sparse, lumpy test volume: hashed blobs with empty regions (deterministic).
 fn lumpy(n: u32) -> DenseVolume {
-    let mut v = Vec::with_capacity((n * n * n) as usize);
-    for z in 0..n {
-        for y in 0..n {
-            for x in 0..n {
-                let cell = pcg_hash(x / 8 + 101 * (y / 8) + 10007 * (z / 8));
-                let inside = !cell.is_multiple_of(3);
-                let fine = unit_f32(pcg_hash(x + n * (y + n * z)));
-                v.push(if inside {
-                    0.5 + 2.0 * fine * unit_f32(cell)
-                } else {
-                    0.0
-                });
-            }
+    volume("lumpy", [n; 3], unit_cube(n), |x, y, z| {
+        let cell = pcg_hash(x / 8 + 101 * (y / 8) + 10007 * (z / 8));
+        let inside = !cell.is_multiple_of(3);
+        let fine = unit_f32(pcg_hash(x + n * (y + n * z)));
+        if inside {
+            0.5 + 2.0 * fine * unit_f32(cell)
+        } else {
+            0.0
         }
-    }
-    DenseVolume::new(
-        "lumpy",
-        [n; 3],
-        v,
-        Affine::scale_translate([2.0 / n as f32; 3], [-1.0; 3]),
-    )
-    .unwrap()
+    })
 }
 
 fn constant(n: u32, c: f32) -> DenseVolume {
@@ -53,16 +41,7 @@ fn constant(n: u32, c: f32) -> DenseVolume {
 }
 
 fn params(vol: &DenseVolume, w: u32, h: u32, spp: u32, estimator: Estimator) -> RenderParams {
-    let spec = CameraSpec {
-        position: None,
-        look_at: None,
-        fov_deg: 40.0,
-    };
     RenderParams {
-        camera: make_camera(&spec, world_bounds(vol), w, h).unwrap(),
-        world_to_index: world_to_index(&vol.index_to_world).unwrap(),
-        width: w,
-        height: h,
         spp,
         seed: 5,
         n: 10,
@@ -72,7 +51,7 @@ fn params(vol: &DenseVolume, w: u32, h: u32, spp: u32, estimator: Estimator) -> 
         rm_scale: 1.0,
         f_delta: 0.3,
         pixel_jitter: 1,
-        ..Default::default()
+        ..camera_params(vol, w, h)
     }
 }
 
@@ -281,6 +260,26 @@ fn gpu_and_cpu_render_identical_images_for_every_estimator_and_lookup() {
     }
 }
 
+/// The first `count` of 40 [`random_rays`] that cross the grid box of `packed`, with their
+/// clipped segment [t0, t1] and its optical depth by regular tracking; panics if fewer cross.
+fn crossing_rays(packed: &PackedVolume, count: usize) -> Vec<(Ray, f32, f32, f32)> {
+    let view = packed.view();
+    let d = packed.desc.dims;
+    let hi = V3::new(d[0] as f32, d[1] as f32, d[2] as f32);
+    let rays: Vec<_> = random_rays(packed, 40)
+        .into_iter()
+        .filter_map(|ray| {
+            let (t0, t1) = clip_to_box(&ray, hi, 0.0, f32::INFINITY);
+            let (tau, _) = (t0 < t1)
+                .then(|| shared::estimators::tracking::regular_tracking_tau(&view, &ray, t0, t1))?;
+            Some((ray, t0, t1, tau))
+        })
+        .take(count)
+        .collect();
+    assert_eq!(rays.len(), count, "too few random rays cross the grid");
+    rays
+}
+
 /// Mean of `trials` optical depth estimates of one ray and its standard error.
 fn mean_depth(trials: u32, f: impl Fn(HashRng) -> f32) -> (f64, f64) {
     let xs: Vec<f64> = (0..trials)
@@ -296,14 +295,8 @@ fn optical_depth_estimates_are_unbiased_in_every_mode() {
     let vol = lumpy(48);
     let packed = pack(&vol, 2.0, 16, Lookup::Nearest).unwrap();
     let view = packed.view();
-    let hi = V3::new(48.0, 48.0, 48.0);
-    let mut checked = 0;
-    for ray in random_rays(&packed, 40).iter() {
-        let (t0, t1) = clip_to_box(ray, hi, 0.0, f32::INFINITY);
-        if !(t0 < t1) {
-            continue;
-        }
-        let (tau, _) = shared::estimators::tracking::regular_tracking_tau(&view, ray, t0, t1);
+    for (ray, t0, t1, tau) in crossing_rays(&packed, 8) {
+        let ray = &ray;
         for mode in [Importance::VarianceAware, Importance::Mean] {
             let prep = prepare(&view, ray, t0, t1, mode);
             for (jitter, n) in [
@@ -330,12 +323,7 @@ fn optical_depth_estimates_are_unbiased_in_every_mode() {
                 );
             }
         }
-        checked += 1;
-        if checked == 8 {
-            break;
-        }
     }
-    assert_eq!(checked, 8);
 }
 
 #[test]
@@ -345,14 +333,8 @@ fn unbiased_ray_marching_matches_regular_tracking() {
     let vol = lumpy(48);
     let packed = pack(&vol, 0.06, 16, Lookup::Nearest).unwrap();
     let view = packed.view();
-    let hi = V3::new(48.0, 48.0, 48.0);
-    let mut checked = 0;
-    for ray in random_rays(&packed, 40).iter() {
-        let (t0, t1) = clip_to_box(ray, hi, 0.0, f32::INFINITY);
-        if !(t0 < t1) {
-            continue;
-        }
-        let (tau, _) = shared::estimators::tracking::regular_tracking_tau(&view, ray, t0, t1);
+    for (ray, t0, t1, tau) in crossing_rays(&packed, 6) {
+        let ray = &ray;
         let exact = (-(tau as f64)).exp();
         for scale in [1.0, 2.0] {
             let (m, se) = mean_depth(100_000, |rng| {
@@ -372,12 +354,7 @@ fn unbiased_ray_marching_matches_regular_tracking() {
                 "scale {scale}: mean {m} vs exp(-tau) {exact} (se {se}, tau {tau})"
             );
         }
-        checked += 1;
-        if checked == 6 {
-            break;
-        }
     }
-    assert_eq!(checked, 6);
 }
 
 #[test]

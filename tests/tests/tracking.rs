@@ -36,8 +36,8 @@ fn length(
     (t, tally.lookups, rng)
 }
 
-/// Ratio tracking without roulette (the default, as in the paper) as (T, lookups, rng).
-fn ratio(
+/// Ratio tracking as (T, lookups, rng), with pbrt-v4's Russian roulette if `ROULETTE`.
+fn ratio_of<const ROULETTE: bool>(
     v: &VolumeView,
     r: &Ray,
     t0: f32,
@@ -45,33 +45,18 @@ fn ratio(
     l: Lookup,
     rng: HashRng,
 ) -> (f32, u32, HashRng) {
-    let (t, tally, rng) = ratio_tracking(v, r, t0, t1, l, false, rng);
+    let (t, tally, rng) = ratio_tracking(v, r, t0, t1, l, ROULETTE, rng);
     (t, tally.lookups, rng)
 }
 
-/// Ratio tracking with pbrt-v4's Russian roulette as (T, lookups, rng).
-fn ratio_rr(
-    v: &VolumeView,
-    r: &Ray,
-    t0: f32,
-    t1: f32,
-    l: Lookup,
-    rng: HashRng,
-) -> (f32, u32, HashRng) {
-    let (t, tally, rng) = ratio_tracking(v, r, t0, t1, l, true, rng);
-    (t, tally.lookups, rng)
-}
+/// Ratio tracking without roulette (the default, as in the paper).
+const RATIO: Estimator = ratio_of::<false>;
+/// Ratio tracking with pbrt-v4's Russian roulette.
+const RATIO_RR: Estimator = ratio_of::<true>;
 
+/// A test volume of `dims` unit voxels with density `f(x, y, z)`.
 fn volume(dims: [u32; 3], f: impl Fn(u32, u32, u32) -> f32) -> DenseVolume {
-    let mut v = Vec::with_capacity((dims[0] * dims[1] * dims[2]) as usize);
-    for z in 0..dims[2] {
-        for y in 0..dims[1] {
-            for x in 0..dims[0] {
-                v.push(f(x, y, z));
-            }
-        }
-    }
-    DenseVolume::new("tracking-test", dims, v, Affine::identity()).unwrap()
+    integration_tests::volume("tracking-test", dims, Affine::identity(), f)
 }
 
 fn packed(vol: &DenseVolume) -> PackedVolume {
@@ -312,8 +297,8 @@ fn track_length_and_ratio_tracking_are_unbiased_against_regular_tracking() {
             let reference = (-(tau as f64)).exp();
             for (est_name, est) in [
                 ("track-length", length as Estimator),
-                ("ratio", ratio as Estimator),
-                ("ratio-roulette", ratio_rr as Estimator),
+                ("ratio", RATIO),
+                ("ratio-roulette", RATIO_RR),
             ] {
                 let xs: Vec<f64> = run(est, &p, &r, t0, t1, id as u32)
                     .iter()
@@ -391,7 +376,7 @@ fn tentative_collisions_are_poisson_in_the_majorant_optical_depth() {
     let (t0, t1) = clip(&p, &r);
     let lambda = 0.5 * (t1 - t0) as f64;
     assert_eq!(lambda, 16.0);
-    let runs = run(ratio, &p, &r, t0, t1, 7);
+    let runs = run(RATIO, &p, &r, t0, t1, 7);
     assert!(runs.iter().all(|&(t, _)| t == 1.0));
     let ns: Vec<f64> = runs.iter().map(|&(_, n)| n as f64).collect();
     let (mean, var, se) = stats(&ns);
@@ -429,14 +414,14 @@ fn ratio_tracking_stays_finite_in_unit_interval_and_russian_roulette_fires() {
                 continue;
             }
             let rng = HashRng::for_sample(i, 0, 3);
-            let (t, _, _) = ratio_rr(&view, &r, t0, t1, lookup, rng);
+            let (t, _, _) = RATIO_RR(&view, &r, t0, t1, lookup, rng);
             assert!(t.is_finite() && (0.0..=1.0).contains(&t), "T = {t}");
         }
     }
     let p = loose();
     let r = ray([-3.0, 3.5, 3.5], [40.0, 3.5, 3.5]);
     let (t0, t1) = clip(&p, &r);
-    let runs = run(ratio_rr, &p, &r, t0, t1, 11);
+    let runs = run(RATIO_RR, &p, &r, t0, t1, 11);
     let zeros = runs.iter().filter(|&&(t, _)| t == 0.0).count();
     let scaled = runs.iter().filter(|&&(t, _)| t >= 0.05).count();
     println!("loose axis ray: {zeros} of {TRIALS} terminated by roulette, {scaled} >= 0.05");
@@ -456,11 +441,7 @@ fn empty_volume_gives_one_without_lookups() {
     let view = p.view();
     let r = ray([-3.0, 1.0, 2.0], [35.0, 30.0, 31.0]);
     let (t0, t1) = clip(&p, &r);
-    for est in [
-        length as Estimator,
-        ratio as Estimator,
-        ratio_rr as Estimator,
-    ] {
+    for est in [length as Estimator, RATIO, RATIO_RR] {
         let rng = HashRng::for_sample(1, 2, 3);
         let (t, n, out) = est(&view, &r, t0, t1, Lookup::Nearest, rng);
         assert_eq!((t, n, out), (1.0, 0, rng), "zero majorants take no sample");
@@ -475,11 +456,7 @@ fn same_rng_state_gives_the_same_result() {
     let mut differ = 0;
     for (_, r, t0, t1) in test_rays("piecewise", &p) {
         for lookup in [Lookup::Nearest, Lookup::Stochastic] {
-            for est in [
-                length as Estimator,
-                ratio as Estimator,
-                ratio_rr as Estimator,
-            ] {
+            for est in [length as Estimator, RATIO, RATIO_RR] {
                 for k in 0..200 {
                     let rng = HashRng::for_sample(5, k, 9);
                     let a = est(&view, &r, t0, t1, lookup, rng);
