@@ -571,15 +571,15 @@ fn common_facts(h: &EvalHeader) -> Vec<[String; 2]> {
 }
 
 /// The first entry of every set: the reference render, with no values.
-fn reference_entry(about: &str, files: &mut Files, png: &str, exr: &str) -> Result<Entry> {
-    Ok(Entry {
+fn reference_entry(about: &str, image: Image) -> Entry {
+    Entry {
         name: "reference".into(),
         about: about.into(),
         reference: true,
         unbiased: None,
-        images: BTreeMap::from([("render", files.image(png, exr)?)]),
+        images: BTreeMap::from([("render", image)]),
         values: BTreeMap::new(),
-    })
+    }
 }
 
 fn estimator_set(r: &EvalReport, files: &mut Files, id: &str, json: String) -> Result<Set> {
@@ -597,12 +597,8 @@ fn estimator_set(r: &EvalReport, files: &mut Files, id: &str, json: String) -> R
             ),
         ],
     ]);
-    let mut entries = vec![reference_entry(
-        &r.reference,
-        files,
-        &r.reference_png,
-        &r.reference_exr,
-    )?];
+    let reference = files.image(&r.reference_png, &r.reference_exr)?;
+    let mut entries = vec![reference_entry(&r.reference, reference)];
     for e in &r.estimators {
         entries.push(Entry {
             name: e.name.clone(),
@@ -670,12 +666,8 @@ fn integrator_set(
         ["seed".into(), r.header.seed.to_string()],
         ["reference".into(), r.reference.clone()],
     ]);
-    let mut entries = vec![reference_entry(
-        &r.reference,
-        files,
-        &r.reference_png,
-        &r.reference_exr,
-    )?];
+    let reference = files.image(&r.reference_png, &r.reference_exr)?;
+    let mut entries = vec![reference_entry(&r.reference, reference)];
     for e in &r.integrators {
         entries.push(Entry {
             name: e.name.clone(),
