@@ -2,7 +2,7 @@
 //! series with aggressive Russian roulette and U-statistics), over mean-based importance sampling
 //! with tight segments and uniform jitter, as the paper compares them (Sec. 6; REFERENCE.md).
 
-use crate::estimators::optical_depth::{estimate_single, prepare};
+use crate::estimators::optical_depth::{estimate_single, prepare, Prep};
 use crate::geometry::Ray;
 use crate::math;
 use crate::params::{Importance, Jitter};
@@ -112,6 +112,29 @@ fn sample_degree(rng: HashRng) -> (usize, HashRng) {
     (m, rng)
 }
 
+/// One optical depth estimate of the ray marching baselines: N mean-importance samples with
+/// one uniform jitter offset (Alg. 1 with m = 1). Returns (X, samples, rng).
+#[inline]
+fn marching_estimate(
+    vol: &VolumeView,
+    ray: &Ray,
+    prep: &Prep,
+    n: u32,
+    lookup: Lookup,
+    rng: HashRng,
+) -> (f32, u32, HashRng) {
+    estimate_single(
+        vol,
+        ray,
+        prep,
+        n,
+        Importance::Mean,
+        Jitter::Uniform,
+        lookup,
+        rng,
+    )
+}
+
 /// Biased ray marching: exp(-X), X from [`tuple_size`] mean-importance samples (the same count
 /// as one estimate of unbiased ray marching, as in the author's code). Returns (T, tally, rng).
 pub fn biased_ray_marching(
@@ -128,16 +151,7 @@ pub fn biased_ray_marching(
         return (1.0, Tally::default(), rng);
     }
     let (n, capped) = tuple_size(prep.f, scale, MAX_BIASED_SAMPLES);
-    let (x, samples, rng) = estimate_single(
-        vol,
-        ray,
-        &prep,
-        n,
-        Importance::Mean,
-        Jitter::Uniform,
-        lookup,
-        rng,
-    );
+    let (x, samples, rng) = marching_estimate(vol, ray, &prep, n, lookup, rng);
     (
         math::exp(-x),
         Tally::lookups(samples).capped_if(capped),
@@ -167,16 +181,7 @@ pub fn unbiased_ray_marching(
     let mut samples = 0u32;
     let mut i = 0;
     while i <= m {
-        let (x, s, r) = estimate_single(
-            vol,
-            ray,
-            &prep,
-            n,
-            Importance::Mean,
-            Jitter::Uniform,
-            lookup,
-            rng,
-        );
+        let (x, s, r) = marching_estimate(vol, ray, &prep, n, lookup, rng);
         xs[i] = x;
         samples += s;
         rng = r;

@@ -10,7 +10,7 @@ use crate::estimators::optical_depth::mu_at;
 use crate::geometry::Ray;
 use crate::math;
 use crate::rng::HashRng;
-use crate::sampling::exponential::MajorantSampler;
+use crate::sampling::exponential::{Collision, MajorantSampler};
 use crate::tally::Tally;
 use crate::volume::dda::GridDda;
 use crate::volume::grid::{Lookup, VolumeView};
@@ -82,6 +82,27 @@ pub struct FreeFlight {
     pub tally: Tally,
 }
 
+/// The next tentative collision of `sampler` and, when one is found, the extinction there
+/// (jitter key: the rng state after the collision, the lookup's number `lookups`, `salt`; 0
+/// otherwise). The one lookup step of delta and ratio tracking. Returns (collision, mu, rng).
+#[inline]
+fn next_lookup(
+    sampler: &mut MajorantSampler,
+    vol: &VolumeView,
+    ray: &Ray,
+    lookup: Lookup,
+    salt: u32,
+    lookups: u32,
+    rng: HashRng,
+) -> (Collision, f32, HashRng) {
+    let (c, rng) = sampler.next_collision(vol, rng);
+    let mut mu = 0.0f32;
+    if c.found {
+        mu = mu_at(vol, ray.at(c.t), lookup, [rng.state, lookups, salt]);
+    }
+    (c, mu, rng)
+}
+
 /// Delta tracking over [t0, t1] (Woodcock; pbrt-v4's `SampleT_maj` with the real-collision
 /// test): the one free-flight sampler of the track-length estimator and of free-flight distance
 /// sampling. `salt` decorrelates the stochastic-lookup jitter of its users. At the collision cap
@@ -106,12 +127,10 @@ pub fn delta_tracking(
     };
     let mut t_last = t0;
     while !sampler.done && lookups < MAX_TENTATIVE_COLLISIONS {
-        let (c, r) = sampler.next_collision(vol, rng);
+        let (c, m, r) = next_lookup(&mut sampler, vol, ray, lookup, salt, lookups, rng);
         rng = r;
         if c.found {
             t_last = c.t;
-            let key = [rng.state, lookups, salt];
-            let m = mu_at(vol, ray.at(c.t), lookup, key);
             lookups += 1;
             let (u, r) = rng.next_f32();
             rng = r;
@@ -163,12 +182,10 @@ pub fn ratio_tracking(
     let mut lookups = 0u32;
     let mut t_last = t0;
     while !sampler.done && lookups < MAX_TENTATIVE_COLLISIONS {
-        let (c, r) = sampler.next_collision(vol, rng);
+        let (c, mu, r) = next_lookup(&mut sampler, vol, ray, lookup, JITTER_SALT, lookups, rng);
         rng = r;
         if c.found {
             t_last = c.t;
-            let key = [rng.state, lookups, JITTER_SALT];
-            let mu = mu_at(vol, ray.at(c.t), lookup, key);
             lookups += 1;
             let (t, r, stop) = ratio_step(transmittance, mu, c.sigma_maj, roulette, rng);
             transmittance = t;
