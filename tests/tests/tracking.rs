@@ -108,6 +108,22 @@ fn ray(o: [f32; 3], target: [f32; 3]) -> Ray {
     }
 }
 
+/// Ray `i` of the family `seed` along z: from a point of [-s, 2s)^2 x {z0} to one of [0, s)^3.
+fn z_ray(seed: u32, i: u32, z0: f32, s: f32) -> Ray {
+    let u = |k: u32| unit_f32(pcg_hash(seed + i * 8 + k));
+    let w = 3.0 * s;
+    ray(
+        [u(0) * w - s, u(1) * w - s, z0],
+        [u(2) * s, u(3) * s, u(4) * s],
+    )
+}
+
+/// Ray `i` of the family `seed` along x: from x[0] to x[1], both ends in [0, s)^2 in y and z.
+fn x_ray(seed: u32, i: u32, x: [f32; 2], s: f32) -> Ray {
+    let u = |k: u32| unit_f32(pcg_hash(seed + i * 8 + k));
+    ray([x[0], u(0) * s, u(1) * s], [x[1], u(2) * s, u(3) * s])
+}
+
 fn clip(p: &PackedVolume, r: &Ray) -> (f32, f32) {
     let d = p.desc.dims;
     clip_to_box(
@@ -150,11 +166,7 @@ fn regular_tracking_equals_chord_length_times_density_in_a_constant_box() {
     let view = p.view();
     let mut checked = 0;
     for i in 0..2000u32 {
-        let u = |k: u32| unit_f32(pcg_hash(i * 8 + k));
-        let r = ray(
-            [u(0) * 96.0 - 32.0, u(1) * 96.0 - 32.0, -20.0],
-            [u(2) * 32.0, u(3) * 32.0, u(4) * 32.0],
-        );
+        let r = z_ray(0, i, -20.0, 32.0);
         let (t0, t1) = clip(&p, &r);
         if !(t0 < t1) {
             continue;
@@ -191,11 +203,7 @@ fn regular_tracking_equals_sum_of_densities_times_lengths_in_two_halves() {
     assert_eq!(tau, (0.5 * 5.75 + 1.5 * 4.5) as f32, "sub-interval");
     let mut checked = 0;
     for i in 0..2000u32 {
-        let u = |k: u32| unit_f32(pcg_hash(0x5eed + i * 8 + k));
-        let r = ray(
-            [-10.0, u(0) * 8.0, u(1) * 8.0],
-            [42.0, u(2) * 8.0, u(3) * 8.0],
-        );
+        let r = x_ray(0x5eed, i, [-10.0, 42.0], 8.0);
         let (t0, t1) = clip(&p, &r);
         if !(t0 < t1) {
             continue;
@@ -218,11 +226,7 @@ fn majorant_segments_tile_the_ray_and_bound_every_voxel_they_cross() {
     let p = piecewise();
     let view = p.view();
     for i in 0..500u32 {
-        let u = |k: u32| unit_f32(pcg_hash(0xabc + i * 8 + k));
-        let r = ray(
-            [-8.0, u(0) * 32.0, u(1) * 32.0],
-            [72.0, u(2) * 32.0, u(3) * 32.0],
-        );
+        let r = x_ray(0xabc, i, [-8.0, 72.0], 32.0);
         let (t0, t1) = clip(&p, &r);
         if !(t0 < t1) {
             continue;
@@ -404,11 +408,7 @@ fn ratio_tracking_stays_finite_in_unit_interval_and_russian_roulette_fires() {
         let p = pack(&lumpy, 1.0, 16, lookup).unwrap();
         let view = p.view();
         for i in 0..20_000u32 {
-            let u = |k: u32| unit_f32(pcg_hash(0x77 + i * 8 + k));
-            let r = ray(
-                [u(0) * 120.0 - 40.0, u(1) * 120.0 - 40.0, -30.0],
-                [u(2) * 40.0, u(3) * 40.0, u(4) * 40.0],
-            );
+            let r = z_ray(0x77, i, -30.0, 40.0);
             let (t0, t1) = clip(&p, &r);
             if !(t0 < t1) {
                 continue;
