@@ -95,7 +95,14 @@ pub struct RenderOptions {
     /// Single scattering with this integrator instead of primary-ray transmittance.
     pub integrator: Option<Integrator>,
     pub lights: Vec<PointLight>,
-    pub albedo: f32,
+    /// Albedo per channel (the single-scattering integrators need equal channels).
+    pub albedo: [f32; 3],
+    /// Environment light of `direct` (None: the sky unless --sun or --light are given).
+    pub env: Option<crate::lighting::EnvSource>,
+    pub env_scale: f32,
+    /// Degrees about +y.
+    pub env_rotate: f32,
+    pub sun: Option<crate::lighting::SunSpec>,
     pub hg_g: f32,
     pub t_hat: TransmittanceHat,
     pub exposure: f32,
@@ -230,7 +237,13 @@ fn scene_lights(args: &RenderOptions, vol: &DenseVolume) -> Result<Vec<PointLigh
         "--hg-g must be in (-1, 1) (got {})",
         args.hg_g
     );
-    lights_or_default(&args.lights, args.albedo, args.exposure, vol)
+    let [r, g, b] = args.albedo;
+    anyhow::ensure!(
+        r == g && g == b,
+        "--albedo {r},{g},{b}: the single-scattering integrators are scalar; give one value, or use \
+         --integrator direct for an RGB albedo"
+    );
+    lights_or_default(&args.lights, r, args.exposure, vol)
 }
 
 /// Validates light flags; `--light` values or two default lights inside the occupied bounds.
@@ -329,15 +342,52 @@ pub struct RenderSummary {
 #[derive(serde::Serialize)]
 pub struct IntegratorSettings {
     pub name: String,
-    /// The transmittance estimator of the shadow rays (fixed: `--estimator` does not apply).
+    /// The transmittance estimator of the shadow rays (the jackknife for the single-scattering
+    /// integrators; `--estimator` for `direct`).
     pub shadow_rays: String,
     /// Every light as [x, y, z, intensity] in world units (the `--light` syntax).
     pub lights: Vec<[f32; 4]>,
-    pub albedo: f32,
+    /// One number, or [r, g, b] for an RGB albedo.
+    pub albedo: Albedo,
+    /// `direct`: the environment light (`sky`, a file, or `none`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub env: Option<String>,
+    /// `direct`: the sun as [x, y, z] (unit, toward it), irradiance, angular radius in degrees.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sun: Option<SunSettings>,
+    /// `direct`: probability of sampling the sun, the map and the point lights.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub light_pmf: Option<[f32; 3]>,
     pub hg_g: f32,
     pub t_hat: String,
     /// The PNG shows x / (1 + x) of x = exposure * radiance, sRGB-encoded; the EXR is linear.
     pub exposure: f32,
+}
+
+/// An albedo in the JSON summary: a number when the channels agree.
+#[derive(serde::Serialize)]
+#[serde(untagged)]
+pub enum Albedo {
+    Grey(f32),
+    Rgb([f32; 3]),
+}
+
+impl From<[f32; 3]> for Albedo {
+    fn from(a: [f32; 3]) -> Self {
+        if a[0] == a[1] && a[1] == a[2] {
+            Albedo::Grey(a[0])
+        } else {
+            Albedo::Rgb(a)
+        }
+    }
+}
+
+/// The sun of a `direct` render as resolved.
+#[derive(serde::Serialize)]
+pub struct SunSettings {
+    pub direction: [f32; 3],
+    pub irradiance: f32,
+    pub angular_radius_deg: f32,
 }
 
 /// Options that only an integrator render reads (ids in `RenderOptions::given`, flag spelling).
@@ -347,7 +397,22 @@ const INTEGRATOR_ONLY: &[(&str, &str)] = &[
     ("hg_g", "--hg-g"),
     ("t_hat", "--t-hat"),
     ("exposure", "--exposure"),
+    ("env", "--env"),
+    ("env_scale", "--env-scale"),
+    ("env_rotate", "--env-rotate"),
+    ("sun", "--sun"),
 ];
+
+/// Options only `--integrator direct` reads.
+const DIRECT_ONLY: &[(&str, &str)] = &[
+    ("env", "--env"),
+    ("env_scale", "--env-scale"),
+    ("env_rotate", "--env-rotate"),
+    ("sun", "--sun"),
+];
+
+/// Options `--integrator direct` does not read.
+const NOT_DIRECT: &[(&str, &str)] = &[("t_hat", "--t-hat")];
 
 /// Flags that no integrator reads: shadow rays always use the jackknife (shared/src/integrator.rs).
 const TRANSMITTANCE_ONLY: &[(&str, &str)] =
@@ -356,7 +421,19 @@ const TRANSMITTANCE_ONLY: &[(&str, &str)] =
 /// Refuses flag combinations whose flags would be ignored, so no output is mislabelled.
 pub fn check_render_flags(args: &RenderOptions) -> Result<()> {
     let given = |id: &str| args.given.iter().any(|g| g == id);
-    if args.integrator.is_some() {
+    if args.integrator == Some(Integrator::Direct) {
+        if let Some((_, flag)) = NOT_DIRECT.iter().find(|(id, _)| given(id)) {
+            bail!(
+                "{flag} has no effect with --integrator direct (it changes the equiangular \
+                 strategy of the single-scattering integrators); drop {flag}"
+            );
+        }
+    } else if let Some((_, flag)) = DIRECT_ONLY.iter().find(|(id, _)| given(id)) {
+        bail!(
+            "{flag} only applies to --integrator direct (the single-scattering integrators are \
+             lit by point lights, --light); add --integrator direct or drop {flag}"
+        );
+    } else if args.integrator.is_some() {
         if let Some((_, flag)) = TRANSMITTANCE_ONLY.iter().find(|(id, _)| given(id)) {
             bail!(
                 "{flag} has no effect with --integrator: every integrator's shadow rays use the \
@@ -371,6 +448,9 @@ pub fn check_render_flags(args: &RenderOptions) -> Result<()> {
         );
     }
     let uses_ratio = match args.integrator {
+        Some(Integrator::Direct) => {
+            args.estimator.estimator == shared::params::Estimator::RatioTracking
+        }
         Some(_) => args.t_hat == TransmittanceHat::Ratio,
         None => args.estimator.estimator == shared::params::Estimator::RatioTracking,
     };
@@ -422,9 +502,88 @@ fn integrator_settings(
             .iter()
             .map(|l| [l.position.x, l.position.y, l.position.z, l.intensity])
             .collect(),
-        albedo: args.albedo,
+        albedo: args.albedo.into(),
+        env: None,
+        sun: None,
+        light_pmf: None,
         hg_g: args.hg_g,
         t_hat: format!("{:?}", args.t_hat).to_lowercase(),
+        exposure: args.exposure,
+    }
+}
+
+/// The lights of a `direct` render: `--env` (default: the sky unless only --sun or --light are
+/// given), `--sun`, `--light` (no default point lights).
+fn direct_lights(args: &RenderOptions, vol: &DenseVolume) -> Result<crate::lighting::SceneLights> {
+    use crate::lighting::{EnvSource, LightingOptions};
+    anyhow::ensure!(
+        args.hg_g.is_finite() && args.hg_g > -1.0 && args.hg_g < 1.0,
+        "--hg-g must be in (-1, 1) (got {})",
+        args.hg_g
+    );
+    anyhow::ensure!(
+        args.lights.len() <= shared::sampling::lights::MAX_LIGHTS as usize,
+        "--light: at most {} lights (got {})",
+        shared::sampling::lights::MAX_LIGHTS,
+        args.lights.len()
+    );
+    let env = match &args.env {
+        Some(e) => e.clone(),
+        None if args.sun.is_some() || !args.lights.is_empty() => EnvSource::None,
+        None => EnvSource::Sky,
+    };
+    let (lo, hi) = crate::render::occupied_world_bounds(vol);
+    let center = [0, 1, 2].map(|a| 0.5 * (lo[a] + hi[a]));
+    let radius = 0.5 * (0..3).map(|a| (hi[a] - lo[a]).powi(2)).sum::<f64>().sqrt();
+    crate::lighting::build(
+        &LightingOptions {
+            env,
+            env_scale: args.env_scale,
+            env_rotate_deg: args.env_rotate,
+            sun: args.sun,
+            points: args.lights.clone(),
+            albedo: args.albedo,
+        },
+        center,
+        radius,
+    )
+}
+
+/// The settings of a `direct` render for the JSON summary.
+fn direct_settings(
+    args: &RenderOptions,
+    lights: &crate::lighting::SceneLights,
+) -> IntegratorSettings {
+    let l = &lights.lighting;
+    let env = match &args.env {
+        Some(crate::lighting::EnvSource::File(p)) => p.display().to_string(),
+        Some(crate::lighting::EnvSource::None) => "none".into(),
+        _ if l.env.present() => "sky".into(),
+        _ => "none".into(),
+    };
+    let sun = (l.sun.present != 0).then(|| {
+        let omega = l.sun.solid_angle();
+        let lum = l.sun.radiance.luminance();
+        SunSettings {
+            direction: [l.sun.dir.x, l.sun.dir.y, l.sun.dir.z],
+            irradiance: if l.sun.is_delta() { lum } else { lum * omega },
+            angular_radius_deg: (1.0 - l.sun.one_minus_cos as f64).acos().to_degrees() as f32,
+        }
+    });
+    IntegratorSettings {
+        name: "direct".into(),
+        shadow_rays: args.estimator.name.into(),
+        lights: lights
+            .points
+            .iter()
+            .map(|l| [l.position.x, l.position.y, l.position.z, l.intensity])
+            .collect(),
+        albedo: args.albedo.into(),
+        env: Some(env),
+        sun,
+        light_pmf: Some([l.p_sun, l.p_env, l.p_points]),
+        hg_g: args.hg_g,
+        t_hat: "none".into(),
         exposure: args.exposure,
     }
 }
@@ -468,16 +627,22 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         ..Default::default()
     };
     args.estimator.apply(&mut params);
-    let lights = scene_lights(args, vol)?;
+    let direct = args.integrator == Some(Integrator::Direct);
+    let scene_lights = if direct {
+        direct_lights(args, vol)?
+    } else {
+        crate::lighting::SceneLights::points_only(&scene_lights(args, vol)?)
+    };
+    let lights = scene_lights.points.clone();
     if let Some(integrator) = args.integrator {
         params.integrator = integrator as u32;
         params.light_count = lights.len() as u32;
-        params.albedo = args.albedo;
+        params.albedo = args.albedo[0];
         params.hg_g = args.hg_g;
         params.t_hat = args.t_hat as u32;
     }
     let start = Instant::now();
-    let pixels = crate::render::render_scene(&backend, packed, &params, &lights, !args.quiet)?;
+    let pixels = crate::render::render_lit(&backend, packed, &params, &scene_lights, !args.quiet)?;
     let elapsed_ms = start.elapsed().as_secs_f64() * 1e3;
 
     let flags = crate::diagnostics::RayFlags::of(&pixels, args.spp);
@@ -486,7 +651,16 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
     let rays = pixels.len() as f64 * args.spp as f64;
     let samples: f64 = pixels.iter().map(|p| p.samples as f64).sum();
     let mean = t.iter().map(|&v| v as f64).sum::<f64>() / t.len() as f64;
-    write_exr(&args.out, args.width, args.height, &t)?;
+    if direct {
+        let rgb: Vec<[f32; 3]> = pixels
+            .iter()
+            .map(|p| [p.rgb_mean.r, p.rgb_mean.g, p.rgb_mean.b])
+            .collect();
+        crate::output::write_exr_rgb(&args.out, args.width, args.height, &rgb)?;
+        crate::output::write_png_rgb_exposed(&png, args.width, args.height, &rgb, args.exposure)?;
+    } else {
+        write_exr(&args.out, args.width, args.height, &t)?;
+    }
     let preview: Vec<f32> = if args.integrator.is_some() {
         // Radiance: exposure, then Reinhard x / (1 + x) so highlights do not clip.
         t.iter()
@@ -498,7 +672,9 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
     } else {
         t.clone()
     };
-    write_png(&png, args.width, args.height, &preview)?;
+    if !direct {
+        write_png(&png, args.width, args.height, &preview)?;
+    }
     let radiance = args.integrator.is_some();
     let summary = RenderSummary {
         backend: backend.kind().into(),
@@ -526,9 +702,11 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         flags,
         grid: scene.grid.clone(),
         mean_l: radiance.then_some(mean),
-        integrator: args
-            .integrator
-            .map(|i| integrator_settings(args, i, &lights)),
+        integrator: match args.integrator {
+            Some(Integrator::Direct) => Some(direct_settings(args, &scene_lights)),
+            Some(i) => Some(integrator_settings(args, i, &lights)),
+            None => None,
+        },
         underflowed_voxels: packed.underflow.count,
         host_version: env!("CARGO_PKG_VERSION").into(),
         command_line: std::env::args().collect(),

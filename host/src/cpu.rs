@@ -1,13 +1,14 @@
 //! The CPU backend: the same `shared` kernel bodies over the same ids, on all cores with rayon.
 
 use crate::bricks::PackedVolume;
+use crate::lighting::SceneLights;
 use crate::schedule::{RenderBackend, Schedule};
 use anyhow::Result;
 use indicatif::ProgressBar;
 use rayon::prelude::*;
-use shared::kernels::render::{render_pixel_pass, tile_order_pixel, PixelSums};
+use shared::kernels::render::{direct_pixel_pass, render_pixel_pass, tile_order_pixel, PixelSums};
+use shared::params::Integrator;
 use shared::params::RenderParams;
-use shared::sampling::lights::PointLight;
 
 /// Applies `f` to every input on all cores, in id order.
 pub fn map<I, O, F>(inputs: &[I], f: F) -> Vec<O>
@@ -46,11 +47,13 @@ impl RenderBackend for CpuVolume<'_> {
     fn render_sums(
         &self,
         params: &RenderParams,
-        lights: &[PointLight],
+        lights: &SceneLights,
         schedule: &Schedule,
         bar: Option<&ProgressBar>,
     ) -> Result<Vec<PixelSums>> {
         let view = self.vol.view();
+        let scene = lights.view();
+        let direct = params.integrator == Integrator::Direct as u32;
         let count = params.width * params.height;
         let chunk = schedule.chunk;
         let mut sums = vec![PixelSums::default(); count as usize];
@@ -59,7 +62,11 @@ impl RenderBackend for CpuVolume<'_> {
                 let base = c as u32 * chunk;
                 block.par_iter_mut().enumerate().for_each(|(i, acc)| {
                     let pixel = tile_order_pixel(base + i as u32, params.width, params.height);
-                    *acc = render_pixel_pass(&view, params, lights, pixel, s0, s1, *acc);
+                    *acc = if direct {
+                        direct_pixel_pass(&view, params, &scene, pixel, s0, s1, *acc)
+                    } else {
+                        render_pixel_pass(&view, params, &lights.points, pixel, s0, s1, *acc)
+                    };
                 });
                 if let Some(bar) = bar {
                     bar.inc(block.len() as u64 * (s1 - s0) as u64);

@@ -16,8 +16,15 @@ pub const INTEGRATORS: &[(&str, Integrator)] = {
         ("combined-naive", I::CombinedNaive),
         ("miller", I::Miller),
         ("mis-power", I::MisPowerJackknife),
+        ("direct", I::Direct),
     ]
 };
+
+/// True for the integrators `host eval --integrators` compares (single scattering from point
+/// lights; `direct` renders are not evaluated there yet).
+fn evaluated(i: Integrator) -> bool {
+    i != Integrator::Direct
+}
 
 /// Parses an integrator name.
 pub fn parse_integrator(s: &str) -> Result<Integrator, String> {
@@ -46,16 +53,26 @@ pub fn integrator_name(i: Integrator) -> &'static str {
 /// Parses `--integrators`: comma-separated names or "all".
 pub fn parse_integrator_list(list: &str) -> Result<Vec<(&'static str, Integrator)>> {
     if list == "all" {
-        return Ok(INTEGRATORS.to_vec());
+        return Ok(INTEGRATORS
+            .iter()
+            .copied()
+            .filter(|(_, i)| evaluated(*i))
+            .collect());
     }
     list.split(',')
         .map(|n| {
             let n = n.trim();
-            INTEGRATORS
+            let found = INTEGRATORS
                 .iter()
                 .find(|(name, _)| *name == n)
                 .copied()
-                .with_context(|| format!("--integrators: unknown integrator {n:?}"))
+                .with_context(|| format!("--integrators: unknown integrator {n:?}"))?;
+            anyhow::ensure!(
+                evaluated(found.1),
+                "--integrators: {n} is not evaluated by host eval yet; render it with host \
+                 --integrator {n} (every shadow-ray estimator via --estimator)"
+            );
+            Ok(found)
         })
         .collect()
 }

@@ -267,3 +267,44 @@ pub fn progress(len: u64, what: &str, quiet: bool) -> indicatif::ProgressBar {
     );
     bar
 }
+
+/// Writes a linear RGB OpenEXR image (row-major texels).
+pub fn write_exr_rgb(path: &Path, w: u32, h: u32, rgb: &[[f32; 3]]) -> Result<()> {
+    use exr::prelude::*;
+    let encoding = Encoding {
+        compression: Compression::ZIP16,
+        blocks: Blocks::ScanLines,
+        line_order: LineOrder::Increasing,
+    };
+    let channels = SpecificChannels::rgb(|pos: Vec2<usize>| {
+        let v = rgb[pos.y() * w as usize + pos.x()];
+        (v[0], v[1], v[2])
+    });
+    let layer = Layer::new(
+        (w as usize, h as usize),
+        LayerAttributes::named("radiance"),
+        encoding,
+        channels,
+    );
+    Image::from_layer(layer)
+        .write()
+        .non_parallel()
+        .to_file(path)
+        .with_context(|| format!("writing {}", path.display()))
+}
+
+/// Writes an sRGB PNG preview of linear RGB radiance: exposure x radiance, clamped to [0, 1],
+/// sRGB OETF.
+pub fn write_png_rgb_exposed(
+    path: &Path,
+    w: u32,
+    h: u32,
+    rgb: &[[f32; 3]],
+    exposure: f32,
+) -> Result<()> {
+    let bytes: Vec<u8> = rgb
+        .iter()
+        .flat_map(|p| p.map(|v| srgb8(v * exposure)))
+        .collect();
+    write_rgb_png(path, w, h, &bytes)
+}

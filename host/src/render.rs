@@ -2,6 +2,7 @@
 
 use crate::backend::Backend;
 use crate::bricks::PackedVolume;
+use crate::lighting::SceneLights;
 pub use crate::schedule::{RenderBackend, Schedule};
 use crate::volume::{Affine, DenseVolume};
 use anyhow::{Context, Result};
@@ -201,6 +202,13 @@ pub fn loop_iterations_per_ray(
     // voxel DDA (two for free-flight sampling: the flight, then T up to it).
     let tracking =
         2 * shared::estimators::tracking::MAX_TENTATIVE_COLLISIONS as u64 + bricks + 2 * voxels;
+    if params.integrator == shared::params::Integrator::Direct as u32 {
+        // The camera ray's free flight; the background's, the light sample's and the phase
+        // sample's transmittance estimates (the chosen estimator); three CDF searches.
+        let mut estimate = params.clone();
+        estimate.integrator = 0;
+        return fixed + tracking + 3 * loop_iterations_per_ray(&estimate, desc) + 3 * 32;
+    }
     if params.integrator != 0 {
         // Free-flight sampling and one ratio tracking (Miller, --t-hat ratio), up to four pairs
         // of estimates on the camera ray and two shadow rays, and two passes over the lights.
@@ -260,8 +268,25 @@ pub fn render_scene(
     lights: &[PointLight],
     progress: bool,
 ) -> Result<Vec<PixelOut>> {
+    render_lit(
+        backend,
+        vol,
+        params,
+        &SceneLights::points_only(lights),
+        progress,
+    )
+}
+
+/// [`render`] with every kind of light (the `direct` integrator).
+pub fn render_lit(
+    backend: &Backend,
+    vol: &PackedVolume,
+    params: &RenderParams,
+    lights: &SceneLights,
+    progress: bool,
+) -> Result<Vec<PixelOut>> {
     let resident = Resident::new(backend, vol)?;
-    render_resident(&resident, params, lights, progress)
+    render_resident_lit(&resident, params, lights, progress)
 }
 
 /// A volume made ready for rendering on one backend: on a GPU its voxels and bricks are uploaded
@@ -290,9 +315,24 @@ pub fn render_resident(
     lights: &[PointLight],
     progress: bool,
 ) -> Result<Vec<PixelOut>> {
+    render_resident_lit(
+        resident,
+        params,
+        &SceneLights::points_only(lights),
+        progress,
+    )
+}
+
+/// [`render_lit`] of a [`Resident`] volume.
+pub fn render_resident_lit(
+    resident: &Resident,
+    params: &RenderParams,
+    lights: &SceneLights,
+    progress: bool,
+) -> Result<Vec<PixelOut>> {
     let vol = resident.vol;
     anyhow::ensure!(
-        params.light_count as usize <= lights.len()
+        params.light_count as usize <= lights.points.len()
             && params.light_count <= shared::sampling::lights::MAX_LIGHTS,
         "at most {} lights",
         shared::sampling::lights::MAX_LIGHTS

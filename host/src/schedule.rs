@@ -1,11 +1,11 @@
 //! The seam between render planning and the backends: how a render's work is cut, and the one
 //! trait the CPU and GPU render loops implement.
 
+use crate::lighting::SceneLights;
 use anyhow::Result;
 use indicatif::ProgressBar;
 use shared::kernels::render::PixelSums;
 use shared::params::RenderParams;
-use shared::sampling::lights::PointLight;
 
 /// How one backend runs the passes of a render (the CPU loop in `cpu`, the GPU loop in `gpu`).
 pub trait RenderBackend: Sync {
@@ -14,7 +14,7 @@ pub trait RenderBackend: Sync {
     fn render_sums(
         &self,
         params: &RenderParams,
-        lights: &[PointLight],
+        lights: &SceneLights,
         schedule: &Schedule,
         bar: Option<&ProgressBar>,
     ) -> Result<Vec<PixelSums>>;

@@ -10,6 +10,7 @@ use shared::kernels::launch::Launch;
 use shared::kernels::probe::{self, DepthPair, MathValues, RngDraws, TransmittancePair};
 use shared::kernels::render::{self, PixelSums, RenderPass};
 use shared::params::RenderParams;
+use shared::sampling::lighting::{Lighting, Scene};
 use shared::sampling::lights::PointLight;
 use shared::volume::grid::{Brick, GridDesc, VolumeView};
 use spirv_std::glam::UVec3;
@@ -58,7 +59,8 @@ pub fn rng_draws_cs(
     }
 }
 
-/// One pass of a primary-ray transmittance image: adds samples s_begin..s_end of each pixel.
+/// One pass of a transmittance or single-scattering image: adds samples s_begin..s_end of each
+/// pixel.
 #[allow(clippy::too_many_arguments)] // one argument per binding
 #[spirv(compute(threads(64)))]
 pub fn render_cs(
@@ -92,6 +94,54 @@ pub fn render_cs(
         let p = &params[0];
         sums[slot] =
             render::render_pixel_pass(&vol, p, lights, i as u32, pass.s_begin, pass.s_end, prev);
+    }
+}
+
+/// One pass of a `direct` image (RGB direct illumination): adds samples s_begin..s_end of each
+/// pixel.
+#[allow(clippy::too_many_arguments)] // one argument per binding
+#[spirv(compute(threads(64)))]
+pub fn direct_cs(
+    #[spirv(global_invocation_id)] gid: UVec3,
+    #[spirv(push_constant)] pass: &RenderPass,
+    // bindings::direct::PARAMS
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &[RenderParams],
+    // bindings::direct::DESC
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] desc: &[GridDesc],
+    // bindings::direct::VOXELS
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] voxels: &[u32],
+    // bindings::direct::BRICKS
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] bricks: &[Brick],
+    // bindings::direct::LIGHTS
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] lights: &[PointLight],
+    // bindings::direct::SUMS
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] sums: &mut [PixelSums],
+    // bindings::direct::LIGHTING
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] lighting: &[Lighting],
+    // bindings::direct::ENV
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] env: &[f32],
+) {
+    if let Some(i) = pass.launch.id(gid.x) {
+        let vol = VolumeView {
+            desc: &desc[0],
+            voxels,
+            bricks,
+        };
+        let slot = i - pass.sums_base as usize;
+        let prev = if pass.s_begin == 0 {
+            PixelSums::default()
+        } else {
+            sums[slot]
+        };
+        let p = &params[0];
+        let scene = Scene {
+            lighting: &lighting[0],
+            points: lights,
+            point_count: p.light_count,
+            env,
+        };
+        sums[slot] =
+            render::direct_pixel_pass(&vol, p, &scene, i as u32, pass.s_begin, pass.s_end, prev);
     }
 }
 

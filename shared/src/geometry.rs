@@ -42,6 +42,36 @@ impl V3 {
     }
 }
 
+/// Cross product a x b.
+#[inline]
+pub fn cross(a: V3, b: V3) -> V3 {
+    V3::new(
+        a.y * b.z - a.z * b.y,
+        a.z * b.x - a.x * b.z,
+        a.x * b.y - a.y * b.x,
+    )
+}
+
+/// Two unit vectors (t, b) that make (t, b, n) a right-handed orthonormal frame around the unit
+/// vector n (Duff et al. 2017, "Building an Orthonormal Basis, Revisited", branch on sign only).
+#[inline]
+pub fn frame_from_z(n: V3) -> (V3, V3) {
+    let sign = if n.z >= 0.0 { 1.0 } else { -1.0 };
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    (
+        V3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+        V3::new(b, sign + n.y * n.y * a, -n.y),
+    )
+}
+
+/// The direction sin(theta) (cos(phi) t + sin(phi) b) + cos(theta) n of a frame (t, b, n).
+#[inline]
+pub fn from_frame(t: V3, b: V3, n: V3, sin_theta: f32, cos_theta: f32, phi: f32) -> V3 {
+    let (s, c) = crate::math::sin_cos(phi);
+    t * (sin_theta * c) + b * (sin_theta * s) + n * cos_theta
+}
+
 impl Add for V3 {
     type Output = V3;
     #[inline]

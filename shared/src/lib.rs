@@ -2,9 +2,9 @@
 //! SPIR-V (rust-gpu). Nothing here may depend on the target: one body per function.
 //!
 //! Layers, each using only those above it (`scripts/module_cycles.py shared/src` checks):
-//! `math`, `rng`, `half`, `complex`, `geometry`, `camera`, `tally` -> `volume` (grid, lookups,
+//! `math`, `rng`, `rgb`, `half`, `complex`, `geometry`, `camera`, `tally` -> `volume` (grid, lookups,
 //! DDA) -> `params` (the render's launch parameters, the enums that cross the GPU boundary, and
-//! their one decode) -> `sampling` (exponential and equiangular distances, lights, phase) ->
+//! their one decode) -> `sampling` (exponential and equiangular distances, lights, environment map, sun, phase) ->
 //! `estimators` (Eq. 4, Alg. 1/2, tracking, ray marching, one `estimate::transmittance` for every
 //! ray) -> `mis` -> `integrators` -> `kernels` (launch headers, pixel passes, probes).
 #![cfg_attr(not(test), no_std)]
@@ -19,6 +19,7 @@ pub mod kernels;
 pub mod math;
 pub mod mis;
 pub mod params;
+pub mod rgb;
 pub mod rng;
 pub mod sampling;
 pub mod tally;

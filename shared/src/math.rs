@@ -274,6 +274,31 @@ pub fn atan(x: f32) -> f32 {
     }
 }
 
+/// atan2(y, x): the angle of (x, y) in (-pi, pi], from [`atan`] (quadrant by the signs; (0, 0)
+/// gives 0, NaN gives NaN).
+pub fn atan2(y: f32, x: f32) -> f32 {
+    if is_nan(x) || is_nan(y) {
+        return NAN;
+    }
+    if x == 0.0 {
+        return if y > 0.0 {
+            core::f32::consts::FRAC_PI_2
+        } else if y < 0.0 {
+            -core::f32::consts::FRAC_PI_2
+        } else {
+            0.0
+        };
+    }
+    let a = atan(y / x);
+    if x > 0.0 {
+        a
+    } else if y < 0.0 {
+        a - core::f32::consts::PI
+    } else {
+        a + core::f32::consts::PI
+    }
+}
+
 /// tan x = sin x / cos x with the deterministic sin_cos.
 #[inline]
 pub fn tan(x: f32) -> f32 {

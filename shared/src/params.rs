@@ -103,6 +103,9 @@ pub enum Integrator {
     Miller = 7,
     /// Eq. 9 with the power heuristic (exponent 2) through Re g (beyond the paper).
     MisPowerJackknife = 8,
+    /// Direct illumination from the map, the sun and point lights (RGB): a free-flight vertex,
+    /// light and phase sampling by MIS, shadow rays by the chosen estimator (Fig. 1).
+    Direct = 9,
 }
 
 impl Integrator {
@@ -118,6 +121,7 @@ impl Integrator {
             6 => Integrator::CombinedNaive,
             7 => Integrator::Miller,
             8 => Integrator::MisPowerJackknife,
+            9 => Integrator::Direct,
             _ => Integrator::Transmittance,
         }
     }

@@ -218,3 +218,69 @@ pub fn parse_g_coefficient(s: &str) -> Result<f32, String> {
     let v = finite_in(-1e6, 1e6)(s)?;
     Ok(v as f32)
 }
+
+/// `--albedo`: one value in [0, 1] or "r,g,b", each in [0, 1].
+pub fn parse_albedo(s: &str) -> Result<[f32; 3], String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|p| {
+            p.trim()
+                .parse::<f32>()
+                .map_err(|_| format!("{p:?} is not a number in {s:?}"))
+        })
+        .collect::<Result<_, _>>()?;
+    let ok = |x: &f32| x.is_finite() && (0.0..=1.0).contains(x);
+    match v.as_slice() {
+        [a] if ok(a) => Ok([*a; 3]),
+        [r, g, b] if [r, g, b].into_iter().all(ok) => Ok([*r, *g, *b]),
+        _ => Err(format!(
+            "expected one value or r,g,b, each in [0, 1], got {s:?}"
+        )),
+    }
+}
+
+/// `--env`: `sky`, `none` or an equirectangular `.exr` / `.hdr` file.
+pub fn parse_env(s: &str) -> Result<crate::lighting::EnvSource, String> {
+    use crate::lighting::EnvSource;
+    match s {
+        "sky" => Ok(EnvSource::Sky),
+        "none" => Ok(EnvSource::None),
+        "" => Err("expected sky, none or a .exr / .hdr file".into()),
+        path => Ok(EnvSource::File(path.into())),
+    }
+}
+
+/// `--sun x,y,z[,intensity[,angular_radius_deg]]`: the direction toward the sun (non-zero), its
+/// irradiance (finite, >= 0) and its angular radius in [0, 45] degrees.
+pub fn parse_sun(s: &str) -> Result<crate::lighting::SunSpec, String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|p| {
+            p.trim()
+                .parse::<f32>()
+                .map_err(|_| format!("{p:?} is not a number in {s:?}"))
+        })
+        .collect::<Result<_, _>>()?;
+    let usage = || {
+        format!(
+            "expected x,y,z[,intensity[,angular_radius_deg]] with a finite non-zero direction, \
+             intensity >= 0 and a radius in [0, 45] degrees, got {s:?}"
+        )
+    };
+    if !(3..=5).contains(&v.len()) || v.iter().any(|x| !x.is_finite()) {
+        return Err(usage());
+    }
+    if v[..3].iter().all(|x| *x == 0.0) {
+        return Err(usage());
+    }
+    let irradiance = v.get(3).copied();
+    let radius_deg = v.get(4).copied().unwrap_or(crate::lighting::SUN_RADIUS_DEG);
+    if irradiance.is_some_and(|e| e < 0.0) || !(0.0..=45.0).contains(&radius_deg) {
+        return Err(usage());
+    }
+    Ok(crate::lighting::SunSpec {
+        dir: [v[0], v[1], v[2]],
+        irradiance,
+        radius_deg,
+    })
+}

@@ -1,8 +1,8 @@
 //! Flags of `host render` and the scene flags it shares with `host eval` and `host bench`.
 
 use super::parsers::{
-    f32_in, f32_open, parse_density_scale, parse_f_delta, parse_positive, parse_vec3, BackendArg,
-    LookupArg, THatArg,
+    f32_in, f32_open, parse_albedo, parse_density_scale, parse_env, parse_f_delta, parse_positive,
+    parse_sun, parse_vec3, BackendArg, LookupArg, THatArg,
 };
 use crate::commands::{defaults, RenderOptions, SceneOptions};
 use clap::Args;
@@ -82,18 +82,35 @@ pub struct RenderArgs {
     /// ratio` and `--t-hat ratio`; off by default, as in the paper and the author's code.
     #[arg(long)]
     pub ratio_roulette: bool,
-    /// Render single scattering from point lights with this integrator instead of primary-ray
-    /// transmittance: free-flight, equiangular, mis-jackknife, mis-naive, combined-jackknife,
-    /// combined-naive, miller, mis-power (see README).
+    /// Render radiance with this integrator instead of primary-ray transmittance: `direct`
+    /// (RGB direct illumination from --env, --sun and --light, shadow rays by --estimator), or
+    /// single scattering from point lights: free-flight, equiangular, mis-jackknife, mis-naive,
+    /// combined-jackknife, combined-naive, miller, mis-power (see README).
     #[arg(long, value_parser = crate::integrators::parse_integrator)]
     pub integrator: Option<shared::params::Integrator>,
     /// A point light "x,y,z,intensity" in world units (repeat for more; default: two lights
-    /// inside the volume).
+    /// inside the volume; with `direct`, none).
     #[arg(long = "light", value_parser = crate::integrators::parse_light, allow_hyphen_values = true)]
     pub lights: Vec<shared::sampling::lights::PointLight>,
-    /// Single-scattering albedo, in [0, 1].
-    #[arg(long, default_value_t = 0.8, allow_hyphen_values = true, value_parser = f32_in(0.0, 1.0))]
-    pub albedo: f32,
+    /// Single-scattering albedo: one value or r,g,b (RGB: `direct` only), each in [0, 1].
+    #[arg(long, default_value = "0.8", allow_hyphen_values = true, value_parser = parse_albedo)]
+    pub albedo: [f32; 3],
+    /// Environment light of `direct`: `sky` (the embedded Preetham daylight sky with its sun),
+    /// `none`, or an equirectangular .exr / .hdr light probe [default: sky, unless only --sun or
+    /// --light are given].
+    #[arg(long, value_parser = parse_env)]
+    pub env: Option<crate::lighting::EnvSource>,
+    /// Multiplier of the environment map's radiance, finite and >= 0.
+    #[arg(long, default_value_t = 1.0, allow_hyphen_values = true, value_parser = f32_in(0.0, 3.0e38))]
+    pub env_scale: f32,
+    /// Rotation of the environment map about +y, in degrees (-360 to 360).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = f32_in(-360.0, 360.0))]
+    pub env_rotate: f32,
+    /// Sun of `direct`: "x,y,z[,intensity[,angular_radius_deg]]", the direction toward it, its
+    /// irradiance perpendicular to it (default: 4x the sky's horizontal irradiance with --env
+    /// sky, else 1) and its angular radius (default 0.2666; 0: a delta light).
+    #[arg(long, value_parser = parse_sun, allow_hyphen_values = true)]
+    pub sun: Option<crate::lighting::SunSpec>,
     /// Henyey-Greenstein anisotropy g in (-1, 1) (0: isotropic).
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = f32_open(-1.0, 1.0))]
     pub hg_g: f32,
@@ -147,6 +164,10 @@ impl RenderArgs {
             integrator: self.integrator,
             lights: self.lights.clone(),
             albedo: self.albedo,
+            env: self.env.clone(),
+            env_scale: self.env_scale,
+            env_rotate: self.env_rotate,
+            sun: self.sun,
             hg_g: self.hg_g,
             t_hat: self.t_hat.into(),
             exposure: self.exposure,

@@ -4,12 +4,13 @@
 
 use super::Buffer;
 use bytemuck::Pod;
-use shared::kernels::launch::bindings::{map, render, rng_draws};
+use shared::kernels::launch::bindings::{direct, map, render, rng_draws};
 use shared::kernels::launch::Launch;
 use shared::kernels::probe::TransmittancePair;
 use shared::kernels::probe::{DepthPair, EquiangularIn, EquiangularOut, MathValues, RngDraws};
 use shared::kernels::render::{PixelSums, RenderPass};
 use shared::params::RenderParams;
+use shared::sampling::lighting::Lighting;
 use shared::sampling::lights::PointLight;
 use shared::volume::grid::{Brick, GridDesc};
 use std::marker::PhantomData;
@@ -104,6 +105,20 @@ pub const RENDER: KernelDef<RenderPass, { render::COUNT }> =
         s[render::SUMS] = size_of::<PixelSums>();
         s
     });
+/// `direct_cs`.
+pub const DIRECT: KernelDef<RenderPass, { direct::COUNT }> =
+    KernelDef::checked(Kernel::DirectCs, {
+        let mut s = [0; direct::COUNT];
+        s[direct::PARAMS] = size_of::<RenderParams>();
+        s[direct::DESC] = size_of::<GridDesc>();
+        s[direct::VOXELS] = size_of::<u32>();
+        s[direct::BRICKS] = size_of::<Brick>();
+        s[direct::LIGHTS] = size_of::<PointLight>();
+        s[direct::SUMS] = size_of::<PixelSums>();
+        s[direct::LIGHTING] = size_of::<Lighting>();
+        s[direct::ENV] = size_of::<f32>();
+        s
+    });
 
 /// The buffers of a map kernel, by name.
 pub struct MapBuffers<'a> {
@@ -122,6 +137,7 @@ impl<'a> MapBuffers<'a> {
 }
 
 /// The buffers of `render_cs`, by name.
+#[derive(Clone, Copy)]
 pub struct RenderBuffers<'a> {
     pub params: &'a Buffer,
     pub desc: &'a Buffer,
@@ -129,6 +145,30 @@ pub struct RenderBuffers<'a> {
     pub bricks: &'a Buffer,
     pub lights: &'a Buffer,
     pub sums: &'a Buffer,
+}
+
+/// The buffers of `direct_cs`: those of `render_cs`, then the lights'.
+pub struct DirectBuffers<'a> {
+    pub render: RenderBuffers<'a>,
+    pub lighting: &'a Buffer,
+    pub env: &'a Buffer,
+}
+
+impl<'a> DirectBuffers<'a> {
+    /// The buffers in binding order.
+    pub fn slots(&self) -> [&'a Buffer; direct::COUNT] {
+        let r = &self.render;
+        let mut s = [r.params; direct::COUNT];
+        s[direct::PARAMS] = r.params;
+        s[direct::DESC] = r.desc;
+        s[direct::VOXELS] = r.voxels;
+        s[direct::BRICKS] = r.bricks;
+        s[direct::LIGHTS] = r.lights;
+        s[direct::SUMS] = r.sums;
+        s[direct::LIGHTING] = self.lighting;
+        s[direct::ENV] = self.env;
+        s
+    }
 }
 
 impl<'a> RenderBuffers<'a> {

@@ -1,13 +1,15 @@
 //! The GPU backend's render loop: a resident volume, image tiles, passes as submissions.
 
-use super::{Buffer, Gpu, RenderBuffers, Step, Work, RENDER};
+use super::{Buffer, DirectBuffers, Gpu, RenderBuffers, Step, Work, DIRECT, RENDER};
 use crate::bricks::PackedVolume;
+use crate::lighting::SceneLights;
 use crate::schedule::{RenderBackend, Schedule};
 use anyhow::{Context, Result};
 use indicatif::ProgressBar;
 use shared::kernels::launch::Launch;
 use shared::kernels::render::{PixelSums, RenderPass};
-use shared::params::RenderParams;
+use shared::params::{Integrator, RenderParams};
+use shared::sampling::lighting::Lighting;
 use shared::sampling::lights::PointLight;
 use std::sync::Mutex;
 
@@ -45,7 +47,7 @@ impl RenderBackend for GpuVolume<'_> {
     fn render_sums(
         &self,
         params: &RenderParams,
-        lights: &[PointLight],
+        lights: &SceneLights,
         schedule: &Schedule,
         bar: Option<&ProgressBar>,
     ) -> Result<Vec<PixelSums>> {
@@ -57,18 +59,36 @@ impl RenderBackend for GpuVolume<'_> {
 fn render_tiles(
     dev: &GpuVolume,
     params: &RenderParams,
-    lights: &[PointLight],
+    lights: &SceneLights,
     schedule: &Schedule,
     bar: Option<&ProgressBar>,
 ) -> Result<Vec<PixelSums>> {
     let (gpu, passes, chunk) = (dev.gpu, &schedule.passes, schedule.chunk);
     let count = params.width * params.height;
     let p = gpu.buffer(std::mem::size_of::<RenderParams>() as u64)?;
-    let l = gpu.buffer(std::mem::size_of_val(lights) as u64)?;
+    // Storage buffers may not be empty: without point lights, one zeroed light is bound.
+    let points: &[PointLight] = if lights.points.is_empty() {
+        &[PointLight {
+            position: shared::geometry::V3::new(0.0, 0.0, 0.0),
+            intensity: 0.0,
+        }]
+    } else {
+        &lights.points
+    };
+    let l = gpu.buffer(std::mem::size_of_val(points) as u64)?;
+    let direct = params.integrator == Integrator::Direct as u32;
+    // `direct_cs` also reads the lights' block and the map (empty for the other kernels).
+    let env_data: &[f32] = if direct { &lights.env } else { &[0.0] };
+    let lighting = gpu.buffer(std::mem::size_of::<Lighting>() as u64)?;
+    let env = gpu.buffer(std::mem::size_of_val(env_data) as u64)?;
     let mut uploads = vec![
         (&p, bytemuck::bytes_of(params)),
-        (&l, bytemuck::cast_slice::<PointLight, u8>(lights)),
+        (&l, bytemuck::cast_slice::<PointLight, u8>(points)),
     ];
+    if direct {
+        uploads.push((&lighting, bytemuck::bytes_of(&lights.lighting)));
+        uploads.push((&env, bytemuck::cast_slice::<f32, u8>(env_data)));
+    }
     let mut tiles = dev
         .tiles
         .lock()
@@ -110,14 +130,31 @@ fn render_tiles(
             } else {
                 vec![]
             };
-            gpu.submit(Work {
-                kernel: &RENDER,
-                buffers: buffers.slots(),
-                uploads: std::mem::take(&mut uploads),
-                steps,
-                readbacks,
-            })
-            .with_context(|| format!("GPU kernel {}", RENDER.kernel.name()))?;
+            let uploads = std::mem::take(&mut uploads);
+            if direct {
+                let buffers = DirectBuffers {
+                    render: buffers,
+                    lighting: &lighting,
+                    env: &env,
+                };
+                gpu.submit(Work {
+                    kernel: &DIRECT,
+                    buffers: buffers.slots(),
+                    uploads,
+                    steps,
+                    readbacks,
+                })
+                .with_context(|| format!("GPU kernel {}", DIRECT.kernel.name()))?;
+            } else {
+                gpu.submit(Work {
+                    kernel: &RENDER,
+                    buffers: buffers.slots(),
+                    uploads,
+                    steps,
+                    readbacks,
+                })
+                .with_context(|| format!("GPU kernel {}", RENDER.kernel.name()))?;
+            }
             if let Some(bar) = bar {
                 bar.inc(work);
             }

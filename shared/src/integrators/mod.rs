@@ -1,9 +1,11 @@
 //! Single scattering from point lights along primary rays (Sec. 5.2): free-flight and
 //! equiangular distance sampling, their MIS combinations with jackknife or naive MIS weights
 //! (Eq. 9), the biased combined estimate (Eq. 10), Miller et al. 2019 (balance heuristic,
-//! ratio-tracking densities) and the power heuristic through Re g (beyond the paper).
+//! ratio-tracking densities) and the power heuristic through Re g (beyond the paper); and
+//! direct illumination from an environment map, a sun and point lights in RGB (`direct`).
 
 mod context;
+pub mod direct;
 mod equiangular;
 mod free_flight;
 mod lighting;

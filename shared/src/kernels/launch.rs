@@ -76,4 +76,15 @@ pub mod bindings {
         /// Number of bindings.
         pub const COUNT: usize = 6;
     }
+
+    /// `direct_cs`: one pass of a `direct` image: the bindings of `render_cs`, then the lights'.
+    pub mod direct {
+        pub use super::render::{BRICKS, DESC, LIGHTS, PARAMS, SUMS, VOXELS};
+        /// One `Lighting` (map shape, sun, albedo, pmf over light kinds).
+        pub const LIGHTING: usize = 6;
+        /// The environment map's texels and CDFs (`f32`; one unused value without a map).
+        pub const ENV: usize = 7;
+        /// Number of bindings.
+        pub const COUNT: usize = 8;
+    }
 }

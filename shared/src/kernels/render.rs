@@ -1,9 +1,13 @@
-//! Primary-ray transmittance images (like the paper's Fig. 8): one pure function per pixel.
+//! Primary-ray transmittance images (like the paper's Fig. 8) and radiance images of the
+//! integrators: one pure function per pixel.
 
 use crate::estimators::estimate;
 use crate::geometry::{to_index_space, Ray, V3};
+use crate::integrators::direct::direct_radiance;
 use crate::params::{Config, RenderParams};
+use crate::rgb::Rgb;
 use crate::rng::HashRng;
+use crate::sampling::lighting::Scene;
 use crate::sampling::lights::PointLight;
 use crate::tally::Tally;
 use crate::volume::dda::clip_to_box;
@@ -22,7 +26,8 @@ pub struct PixelOut {
     pub capped: u32,
     /// Samples with a jackknife estimate outside its regime ([`Tally::outside`]).
     pub outside: u32,
-    pub _pad: [u32; 3],
+    /// Mean RGB radiance (the `direct` integrator; the scalar integrators repeat `t_mean`).
+    pub rgb_mean: Rgb,
 }
 
 /// Transmittance estimate of one world-space ray through the whole volume, and its tally
@@ -67,7 +72,8 @@ pub struct PixelSums {
     pub capped: u32,
     /// Samples with a jackknife estimate outside its regime.
     pub outside: u32,
-    pub _pad: [u32; 3],
+    /// Sum of the RGB estimates (`t_sum` holds their luminance; scalar integrators: T, T, T).
+    pub rgb_sum: Rgb,
 }
 
 /// Push constants of the render kernel: the launch header, then the pass's sample range.
@@ -88,8 +94,44 @@ pub struct RenderPass {
     pub _pad: u32,
 }
 
-/// Adds samples s_begin..s_end of pixel `id` (row-major) to `prev`: one pass of a render.
-/// Accumulating pass after pass gives exactly the sums of one loop over all samples.
+/// The camera ray of sample s of pixel `id` (row-major) and the sample's generator, after the
+/// two pixel-jitter draws.
+#[inline]
+pub fn camera_ray(params: &RenderParams, id: u32, s: u32) -> (Ray, HashRng) {
+    let x = id % params.width;
+    let y = id / params.width;
+    let rng = HashRng::for_sample(id, s, params.seed);
+    let (jx, rng) = rng.next_f32();
+    let (jy, rng) = rng.next_f32();
+    let (jx, jy) = if params.pixel_jitter == 0 {
+        (0.5, 0.5)
+    } else {
+        (jx, jy)
+    };
+    let world = params
+        .camera
+        .world_ray(x, y, jx, jy, params.width, params.height);
+    (world, rng)
+}
+
+impl PixelSums {
+    /// Adds one sample: its RGB value, the scalar `t` whose moments are kept, and its tally.
+    #[inline]
+    pub fn add(self, rgb: Rgb, t: f32, tally: Tally) -> PixelSums {
+        PixelSums {
+            t_sum: self.t_sum + t,
+            t2_sum: self.t2_sum + t * t,
+            samples: self.samples + tally.lookups,
+            capped: self.capped + tally.capped,
+            outside: self.outside + tally.outside,
+            rgb_sum: self.rgb_sum + rgb,
+        }
+    }
+}
+
+/// Adds samples s_begin..s_end of pixel `id` (row-major) to `prev`: one pass of a transmittance
+/// or single-scattering render (`render_cs`). Accumulating pass after pass gives exactly the
+/// sums of one loop over all samples.
 pub fn render_pixel_pass(
     vol: &VolumeView,
     params: &RenderParams,
@@ -99,33 +141,40 @@ pub fn render_pixel_pass(
     s_end: u32,
     prev: PixelSums,
 ) -> PixelSums {
-    let x = id % params.width;
-    let y = id / params.width;
     let cfg = Config::decode(params, vol.desc);
     let mut acc = prev;
     let mut s = s_begin;
     while s < s_end {
-        let rng = HashRng::for_sample(id, s, params.seed);
-        let (jx, rng) = rng.next_f32();
-        let (jy, rng) = rng.next_f32();
-        let (jx, jy) = if params.pixel_jitter == 0 {
-            (0.5, 0.5)
-        } else {
-            (jx, jy)
-        };
-        let world = params
-            .camera
-            .world_ray(x, y, jx, jy, params.width, params.height);
+        let (world, rng) = camera_ray(params, id, s);
         let (t, tally, _) = if params.integrator == 0 {
             trace_transmittance(vol, &cfg, params, &world, rng)
         } else {
             crate::integrators::trace_radiance(vol, &cfg, params, lights, &world, rng)
         };
-        acc.t_sum += t;
-        acc.t2_sum += t * t;
-        acc.samples += tally.lookups;
-        acc.capped += tally.capped;
-        acc.outside += tally.outside;
+        acc = acc.add(Rgb::splat(t), t, tally);
+        s += 1;
+    }
+    acc
+}
+
+/// [`render_pixel_pass`] of the `direct` integrator (`direct_cs`, its own entry point so that
+/// the transmittance kernel stays small): RGB radiance, its luminance's moments.
+pub fn direct_pixel_pass(
+    vol: &VolumeView,
+    params: &RenderParams,
+    scene: &Scene,
+    id: u32,
+    s_begin: u32,
+    s_end: u32,
+    prev: PixelSums,
+) -> PixelSums {
+    let cfg = Config::decode(params, vol.desc);
+    let mut acc = prev;
+    let mut s = s_begin;
+    while s < s_end {
+        let (world, rng) = camera_ray(params, id, s);
+        let (l, tally, _) = direct_radiance(vol, &cfg, params, scene, &world, rng);
+        acc = acc.add(l, l.luminance(), tally);
         s += 1;
     }
     acc
@@ -168,7 +217,11 @@ pub fn finish_pixel(sums: PixelSums, spp: u32) -> PixelOut {
         samples: sums.samples,
         capped: sums.capped,
         outside: sums.outside,
-        _pad: [0; 3],
+        rgb_mean: Rgb::new(
+            sums.rgb_sum.r / spp as f32,
+            sums.rgb_sum.g / spp as f32,
+            sums.rgb_sum.b / spp as f32,
+        ),
     }
 }
 

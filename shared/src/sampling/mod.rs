@@ -1,7 +1,11 @@
 //! Sampling: distances along a ray (exponential against the brick majorants, equiangular toward
-//! a point), lights (a pmf over point lights), phase.
+//! a point), lights (a pmf over point lights; an environment map, a sun and the pmf over light
+//! kinds), phase.
 
+pub mod env;
 pub mod equiangular;
 pub mod exponential;
+pub mod lighting;
 pub mod lights;
 pub mod phase;
+pub mod sun;

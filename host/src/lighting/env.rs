@@ -1,0 +1,205 @@
+//! Environment maps (light probes): reading equirectangular `.exr` and `.hdr` files, and the data
+//! buffer `shared::sampling::env` samples (texels, then the marginal and conditional CDFs of
+//! luminance x sin(theta), built in f64).
+
+use anyhow::{bail, ensure, Context, Result};
+use std::path::Path;
+
+/// Largest map side accepted (16384 x 8192 RGB texels are 1.5 GiB of f32).
+pub const MAX_SIDE: u32 = 16384;
+
+/// An equirectangular RGB map: row 0 at the +y pole, column 0 at phi = 0 (+x).
+#[derive(Debug, Clone)]
+pub struct EnvMap {
+    pub width: u32,
+    pub height: u32,
+    /// Linear RGB radiance, row-major.
+    pub texels: Vec<[f32; 3]>,
+}
+
+impl EnvMap {
+    /// A map of one radiance everywhere.
+    pub fn constant(rgb: [f32; 3]) -> Self {
+        EnvMap {
+            width: 4,
+            height: 2,
+            texels: vec![rgb; 8],
+        }
+    }
+
+    /// Reads `path` (`.exr`: the first layer's R, G, B; `.hdr`: Radiance RGBE) and checks that
+    /// every texel is finite and non-negative.
+    pub fn load(path: &Path) -> Result<Self> {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .unwrap_or("")
+            .to_ascii_lowercase();
+        ensure!(
+            path.is_file(),
+            "--env {}: no such file (give an equirectangular .exr or .hdr light probe, or `sky`)",
+            path.display()
+        );
+        let map = match ext.as_str() {
+            "exr" => read_exr(path)?,
+            "hdr" => read_hdr(path)?,
+            _ => bail!(
+                "--env {}: unknown light probe format {ext:?}; use an equirectangular .exr or \
+                 .hdr file, or `sky`",
+                path.display()
+            ),
+        };
+        map.check(&format!("--env {}", path.display()))?;
+        Ok(map)
+    }
+
+    /// Refuses empty, oversized, non-finite or negative maps (`what` names the input).
+    pub fn check(&self, what: &str) -> Result<()> {
+        ensure!(
+            self.width >= 1 && self.height >= 1,
+            "{what}: the light probe has no texels"
+        );
+        ensure!(
+            self.width <= MAX_SIDE && self.height <= MAX_SIDE,
+            "{what}: {}x{} texels is larger than {MAX_SIDE} on a side; downsample the probe",
+            self.width,
+            self.height
+        );
+        ensure!(
+            self.texels.len() == (self.width * self.height) as usize,
+            "{what}: texel count does not match its size"
+        );
+        if let Some((k, t)) = self
+            .texels
+            .iter()
+            .enumerate()
+            .find(|(_, t)| t.iter().any(|v| !v.is_finite() || *v < 0.0))
+        {
+            bail!(
+                "{what}: texel ({}, {}) is {:?}; a light probe needs finite, non-negative radiance",
+                k as u32 % self.width,
+                k as u32 / self.width,
+                t
+            );
+        }
+        Ok(())
+    }
+
+    /// The data buffer of `shared::sampling::env` with every texel times `scale`: texels, the
+    /// marginal CDF over rows and one conditional CDF per row of luminance x sin(theta).
+    /// Returns (data, integral of the luminance over the sphere, in W sr^-1-ish units x sr).
+    pub fn data(&self, scale: f32) -> (Vec<f32>, f64) {
+        let (w, h) = (self.width as usize, self.height as usize);
+        let mut data = Vec::with_capacity(shared::sampling::env::EnvDesc::data_len(
+            self.width,
+            self.height,
+        ));
+        for t in &self.texels {
+            data.extend(t.iter().map(|v| v * scale));
+        }
+        let lum = |t: &[f32]| 0.2126 * t[0] as f64 + 0.7152 * t[1] as f64 + 0.0722 * t[2] as f64;
+        // Per-texel weight f = Y sin(theta at the row centre); row sums give the marginal.
+        let mut rows = vec![0.0f64; h];
+        let mut conditional = Vec::with_capacity(h * (w + 1));
+        let mut integral = 0.0f64;
+        for (j, row_sum) in rows.iter_mut().enumerate() {
+            let theta = std::f64::consts::PI * (j as f64 + 0.5) / h as f64;
+            let s = theta.sin();
+            let f: Vec<f64> = (0..w)
+                .map(|i| lum(&data[3 * (j * w + i)..3 * (j * w + i) + 3]) * s)
+                .collect();
+            *row_sum = f.iter().sum();
+            integral += *row_sum;
+            conditional.extend(cdf(&f));
+        }
+        let marginal = cdf(&rows);
+        data.extend(marginal);
+        data.extend(conditional);
+        // Sum of Y sin(theta) dtheta dphi over texels of size (pi / h) x (2 pi / w).
+        let integral =
+            integral * (std::f64::consts::PI / h as f64) * (2.0 * std::f64::consts::PI / w as f64);
+        (data, integral)
+    }
+}
+
+/// The CDF (n + 1 values from 0 to 1) of non-negative weights, in f64 and rounded once to f32;
+/// all-zero weights give the uniform CDF.
+fn cdf(f: &[f64]) -> Vec<f32> {
+    let total: f64 = f.iter().sum();
+    let n = f.len();
+    let mut out = Vec::with_capacity(n + 1);
+    let mut acc = 0.0f64;
+    out.push(0.0);
+    for (k, v) in f.iter().enumerate() {
+        acc += if total > 0.0 {
+            v / total
+        } else {
+            1.0 / n as f64
+        };
+        out.push(if k + 1 == n { 1.0 } else { acc.min(1.0) as f32 });
+    }
+    out
+}
+
+/// The first layer of an OpenEXR file as RGB (a missing channel reads as 0; alpha is ignored).
+fn read_exr(path: &Path) -> Result<EnvMap> {
+    use exr::prelude::*;
+    let image = read_first_rgba_layer_from_file(
+        path,
+        |resolution, _| {
+            let (w, h) = (resolution.width(), resolution.height());
+            // Oversized headers allocate nothing (refused below), so a hostile file cannot OOM.
+            let fits = w <= MAX_SIDE as usize && h <= MAX_SIDE as usize;
+            let n = if fits { w * h } else { 0 };
+            (w, h, vec![[0.0f32; 3]; n])
+        },
+        |(w, _, texels): &mut (usize, usize, Vec<[f32; 3]>),
+         pos,
+         (r, g, b, _a): (f32, f32, f32, f32)| {
+            if let Some(t) = texels.get_mut(pos.y() * *w + pos.x()) {
+                *t = [r, g, b];
+            }
+        },
+    )
+    .with_context(|| format!("--env {}: not a readable RGB OpenEXR file", path.display()))?;
+    let (w, h, texels) = image.layer_data.channel_data.pixels;
+    ensure!(
+        w as u64 <= MAX_SIDE as u64 && h as u64 <= MAX_SIDE as u64,
+        "--env {}: {w}x{h} texels is larger than {MAX_SIDE} on a side; downsample the probe",
+        path.display()
+    );
+    Ok(EnvMap {
+        width: w as u32,
+        height: h as u32,
+        texels,
+    })
+}
+
+/// A Radiance `.hdr` (RGBE) file.
+fn read_hdr(path: &Path) -> Result<EnvMap> {
+    let img = image::ImageReader::open(path)
+        .and_then(|r| r.with_guessed_format())
+        .with_context(|| format!("--env {}: cannot open", path.display()))?;
+    let (w, h) = img
+        .into_dimensions()
+        .with_context(|| format!("--env {}: not a Radiance .hdr file", path.display()))?;
+    ensure!(
+        w <= MAX_SIDE && h <= MAX_SIDE,
+        "--env {}: {w}x{h} texels is larger than {MAX_SIDE} on a side; downsample the probe",
+        path.display()
+    );
+    let img = image::open(path)
+        .with_context(|| {
+            format!(
+                "--env {}: not a readable Radiance .hdr file",
+                path.display()
+            )
+        })?
+        .into_rgb32f();
+    let texels = img.pixels().map(|p| p.0).collect();
+    Ok(EnvMap {
+        width: w,
+        height: h,
+        texels,
+    })
+}

@@ -1,0 +1,222 @@
+//! The lights of the light-transport integrators, prepared on the host: an environment map
+//! (`--env FILE` or the embedded `--env sky`), a sun (`--sun`), point lights (`--light`), the
+//! RGB albedo, and the pmf over the three kinds of light.
+
+pub mod env;
+pub mod sky;
+
+use anyhow::{ensure, Result};
+use env::EnvMap;
+use shared::geometry::V3;
+use shared::rgb::Rgb;
+use shared::sampling::env::EnvDesc;
+use shared::sampling::lighting::{Lighting, Scene};
+use shared::sampling::lights::PointLight;
+use shared::sampling::sun::Sun;
+use std::path::PathBuf;
+
+/// Angular radius of the sun as seen from the earth, in degrees (the default of `--sun`).
+pub const SUN_RADIUS_DEG: f32 = 0.2666;
+/// Direction toward the default sun (about 37 degrees above the horizon, from the right of the
+/// default camera): unnormalized.
+pub const DEFAULT_SUN: [f32; 3] = [0.8, 0.6, 0.25];
+/// Share of the light pmf spread uniformly over the kinds present (so none is starved).
+const UNIFORM_SHARE: f64 = 0.1;
+/// Colour of the sun (linear Rec. 709, luminance 1): a slightly warm white.
+const SUN_COLOUR: [f64; 3] = [1.0, 0.93, 0.85];
+
+/// Where the environment light comes from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum EnvSource {
+    /// No environment light (black background).
+    None,
+    /// The embedded Preetham daylight sky, with its sun unless `--sun` says otherwise.
+    Sky,
+    /// An equirectangular `.exr` or `.hdr` light probe.
+    File(PathBuf),
+}
+
+/// `--sun x,y,z[,intensity[,angular_radius_deg]]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SunSpec {
+    /// Direction toward the sun (any length > 0).
+    pub dir: [f32; 3],
+    /// Irradiance perpendicular to the sun (None: from the sky, or 1 without one).
+    pub irradiance: Option<f32>,
+    /// Angular radius in degrees (0: a delta direction).
+    pub radius_deg: f32,
+}
+
+/// The light options of a `direct` render.
+#[derive(Debug, Clone)]
+pub struct LightingOptions {
+    pub env: EnvSource,
+    /// Multiplies the map's radiance.
+    pub env_scale: f32,
+    /// Rotation of the map about +y, in degrees.
+    pub env_rotate_deg: f32,
+    pub sun: Option<SunSpec>,
+    pub points: Vec<PointLight>,
+    pub albedo: [f32; 3],
+}
+
+/// The lights as the backends upload them: the `Lighting` block, the point lights and the map.
+#[derive(Debug, Clone)]
+pub struct SceneLights {
+    pub lighting: Lighting,
+    pub points: Vec<PointLight>,
+    /// The map's data buffer (one 0 without a map: GPU buffers may not be empty).
+    pub env: Vec<f32>,
+}
+
+impl SceneLights {
+    /// Point lights only (the single-scattering integrators and transmittance renders).
+    pub fn points_only(points: &[PointLight]) -> Self {
+        SceneLights {
+            lighting: Lighting::default(),
+            points: points.to_vec(),
+            env: vec![0.0],
+        }
+    }
+
+    /// The view the `shared` integrators take.
+    pub fn view(&self) -> Scene<'_> {
+        Scene {
+            lighting: &self.lighting,
+            points: &self.points,
+            point_count: self.points.len() as u32,
+            env: &self.env,
+        }
+    }
+}
+
+/// Unit vector of `d` in f64, refusing the zero vector (`what` names the flag).
+fn unit(d: [f32; 3], what: &str) -> Result<[f64; 3]> {
+    let d = d.map(|v| v as f64);
+    let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    ensure!(
+        len > 0.0 && len.is_finite(),
+        "{what}: the direction must be a finite, non-zero vector"
+    );
+    Ok(d.map(|v| v / len))
+}
+
+/// The sun of `spec` with irradiance `e` (luminance): radiance E / solid angle of the disk.
+fn make_sun(dir: [f64; 3], e: f64, radius_deg: f64) -> Sun {
+    let one_minus_cos = 1.0 - radius_deg.to_radians().cos();
+    // 1 - cos in f64, then rounded: tiny disks keep their size.
+    let omega = 2.0 * std::f64::consts::PI * one_minus_cos;
+    let per = if one_minus_cos > 0.0 { e / omega } else { e };
+    Sun {
+        dir: V3::new(dir[0] as f32, dir[1] as f32, dir[2] as f32),
+        one_minus_cos: one_minus_cos as f32,
+        radiance: Rgb::new(
+            (SUN_COLOUR[0] * per / lum(SUN_COLOUR)) as f32,
+            (SUN_COLOUR[1] * per / lum(SUN_COLOUR)) as f32,
+            (SUN_COLOUR[2] * per / lum(SUN_COLOUR)) as f32,
+        ),
+        present: 1,
+    }
+}
+
+/// Rec. 709 luminance.
+fn lum(c: [f64; 3]) -> f64 {
+    0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
+}
+
+/// Builds the lights of a `direct` render; `center` and `radius` bound the volume (for the
+/// point lights' share of the pmf).
+pub fn build(opts: &LightingOptions, center: [f64; 3], radius: f64) -> Result<SceneLights> {
+    ensure!(
+        opts.env_scale.is_finite() && opts.env_scale >= 0.0,
+        "--env-scale must be finite and >= 0"
+    );
+    ensure!(
+        opts.env_rotate_deg.is_finite(),
+        "--env-rotate must be a finite angle in degrees"
+    );
+    let sun_spec = match (&opts.sun, &opts.env) {
+        (Some(s), _) => Some(*s),
+        (None, EnvSource::Sky) => Some(SunSpec {
+            dir: DEFAULT_SUN,
+            irradiance: None,
+            radius_deg: SUN_RADIUS_DEG,
+        }),
+        (None, _) => None,
+    };
+    let sun_dir = match &sun_spec {
+        Some(s) => Some(unit(s.dir, "--sun")?),
+        None => None,
+    };
+    let (map, sun_e) = match &opts.env {
+        EnvSource::None => (None, sun_spec.map(|s| s.irradiance.unwrap_or(1.0) as f64)),
+        EnvSource::File(p) => (
+            Some(EnvMap::load(p)?),
+            sun_spec.map(|s| s.irradiance.unwrap_or(1.0) as f64),
+        ),
+        EnvSource::Sky => {
+            let dir = sun_dir.unwrap_or([0.0, 1.0, 0.0]);
+            let given = sun_spec.and_then(|s| s.irradiance).map(|e| e as f64);
+            let (map, e) = sky::preetham(dir, given);
+            (Some(map), Some(e))
+        }
+    };
+    let mut lighting = Lighting {
+        albedo: Rgb::new(opts.albedo[0], opts.albedo[1], opts.albedo[2]),
+        ..Default::default()
+    };
+    let mut env_data = vec![0.0f32];
+    let mut w_env = 0.0;
+    if let Some(map) = map {
+        let (data, integral) = map.data(opts.env_scale);
+        let rot = (opts.env_rotate_deg as f64).to_radians();
+        lighting.env = EnvDesc {
+            width: map.width,
+            height: map.height,
+            cos_rotation: rot.cos() as f32,
+            sin_rotation: rot.sin() as f32,
+        };
+        env_data = data;
+        w_env = integral;
+    }
+    let mut w_sun = 0.0;
+    if let (Some(spec), Some(dir), Some(e)) = (sun_spec, sun_dir, sun_e) {
+        ensure!(
+            e.is_finite() && e >= 0.0,
+            "--sun: the intensity must be finite and >= 0"
+        );
+        ensure!(
+            spec.radius_deg.is_finite() && (0.0..=45.0).contains(&spec.radius_deg),
+            "--sun: the angular radius must be in [0, 45] degrees"
+        );
+        lighting.sun = make_sun(dir, e, spec.radius_deg as f64);
+        w_sun = e;
+    }
+    let w_points: f64 = opts
+        .points
+        .iter()
+        .map(|l| {
+            let p = [l.position.x, l.position.y, l.position.z].map(|v| v as f64);
+            let d2: f64 = (0..3).map(|a| (p[a] - center[a]).powi(2)).sum();
+            l.intensity as f64 / d2.max(0.25 * radius * radius)
+        })
+        .sum();
+    let weights = [w_sun, w_env, w_points];
+    let present = weights.iter().filter(|w| **w > 0.0).count();
+    let total: f64 = weights.iter().sum();
+    let p = weights.map(|w| {
+        if w > 0.0 {
+            (1.0 - UNIFORM_SHARE) * w / total + UNIFORM_SHARE / present as f64
+        } else {
+            0.0
+        }
+    });
+    lighting.p_sun = p[0] as f32;
+    lighting.p_env = p[1] as f32;
+    lighting.p_points = p[2] as f32;
+    Ok(SceneLights {
+        lighting,
+        points: opts.points.clone(),
+        env: env_data,
+    })
+}

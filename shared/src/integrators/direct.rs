@@ -1,0 +1,221 @@
+//! Direct illumination in a volume (the paper's Fig. 1; Sec. 2: transmittance of shadow rays in a
+//! renderer): a free-flight vertex on the camera ray, light sampling of the map, the sun and the
+//! point lights combined with phase sampling by the balance heuristic, and every shadow ray's
+//! transmittance from the chosen estimator. The background seen through the volume is
+//! attenuated by the same estimator.
+//!
+//! Camera ray x(t) = o + t d over [ta, tb] in the grid:
+//! L = T̂(ta, tb) L_bg(d) + 1[collision at t] albedo L_s(x(t)), where delta tracking draws t with
+//! density mu(t) T(t), so the second term estimates the in-scattered integral. L_s(x) is one
+//! light sample plus one phase sample, each weighted by p / (p_light + p_phase) (T is common to
+//! both strategies and cancels from the weights).
+//!
+//! The three transmittance estimates (background, light sample, phase sample) are made in one
+//! loop with one call of [`estimate::transmittance`], so the kernel holds the estimators once.
+
+use crate::estimators::estimate;
+use crate::estimators::tracking::delta_tracking;
+use crate::geometry::{to_index_space, Ray, V3};
+use crate::math::sqrt;
+use crate::params::{Config, RenderParams};
+use crate::rgb::Rgb;
+use crate::rng::HashRng;
+use crate::sampling::lighting::{LightKind, Scene};
+use crate::sampling::phase::{phase_hg, sample_hg};
+use crate::tally::Tally;
+use crate::volume::dda::clip_to_box;
+use crate::volume::grid::VolumeView;
+
+/// Salt of the stochastic-lookup jitter key of the camera ray's free flight.
+const FLIGHT_SALT: u32 = 0x6c8e_9cf5;
+
+/// A transmittance still to be estimated: the world ray from `o` along unit `w` up to `dist`,
+/// and what its transmittance multiplies.
+#[derive(Clone, Copy)]
+struct ShadowQuery {
+    o: V3,
+    w: V3,
+    dist: f32,
+    weight: Rgb,
+}
+
+impl ShadowQuery {
+    /// A query that contributes nothing (no ray is traced for it).
+    const NONE: ShadowQuery = ShadowQuery {
+        o: V3::new(0.0, 0.0, 0.0),
+        w: V3::new(0.0, 0.0, 1.0),
+        dist: 0.0,
+        weight: Rgb::ZERO,
+    };
+}
+
+/// Radiance along one world-space camera ray (RGB), its tally and the generator.
+pub fn direct_radiance(
+    vol: &VolumeView,
+    cfg: &Config,
+    params: &RenderParams,
+    scene: &Scene,
+    world: &Ray,
+    rng: HashRng,
+) -> (Rgb, Tally, HashRng) {
+    let background = scene.directional_radiance(world.d);
+    let ray = to_index_space(world, &params.world_to_index);
+    let (ta, tb) = clip_to_box(&ray, grid_hi(vol), 0.0, f32::INFINITY);
+    if !(ta < tb) {
+        return (background, Tally::default(), rng);
+    }
+    let (ff, rng) = delta_tracking(vol, &ray, ta, tb, cfg.lookup, FLIGHT_SALT, rng);
+    let mut tally = ff.tally;
+    let mut queries = [
+        ShadowQuery {
+            o: world.o,
+            w: world.d,
+            dist: f32::INFINITY,
+            weight: background,
+        },
+        ShadowQuery::NONE,
+        ShadowQuery::NONE,
+    ];
+    let mut rng = rng;
+    if ff.found {
+        let x = world.at(ff.t);
+        let wo = world.d * -1.0;
+        let albedo = scene.lighting.albedo;
+        let (light, r) = light_sample(scene, params.hg_g, x, wo, rng);
+        let (phase, r) = phase_sample(scene, params.hg_g, x, wo, r);
+        rng = r;
+        queries[1] = ShadowQuery {
+            weight: light.weight.mul_rgb(albedo),
+            ..light
+        };
+        queries[2] = ShadowQuery {
+            weight: phase.weight.mul_rgb(albedo),
+            ..phase
+        };
+    }
+    let mut total = Rgb::ZERO;
+    let mut k = 0;
+    while k < queries.len() {
+        let q = queries[k];
+        if !q.weight.is_black() {
+            let (tr, t, r) = shadow(vol, cfg, params, &q, rng);
+            rng = r;
+            tally = tally.merge(t);
+            total = total + q.weight * tr;
+        }
+        k += 1;
+    }
+    (total, tally, rng)
+}
+
+/// The box [0, dims] of the grid as a vector.
+#[inline]
+fn grid_hi(vol: &VolumeView) -> V3 {
+    let d = &vol.desc.dims;
+    V3::new(d[0] as f32, d[1] as f32, d[2] as f32)
+}
+
+/// Transmittance along a query's ray through the grid, by the estimator of the render.
+fn shadow(
+    vol: &VolumeView,
+    cfg: &Config,
+    params: &RenderParams,
+    q: &ShadowQuery,
+    rng: HashRng,
+) -> (f32, Tally, HashRng) {
+    let world = Ray { o: q.o, d: q.w };
+    let ray = to_index_space(&world, &params.world_to_index);
+    let (t0, t1) = clip_to_box(&ray, grid_hi(vol), 0.0, q.dist);
+    if !(t0 < t1) {
+        return (1.0, Tally::default(), rng);
+    }
+    estimate::transmittance(vol, cfg, params, &ray, t0, t1, rng)
+}
+
+/// Strategy 1 at x (per unit albedo, before T): a light drawn by the pmf over kinds, then a
+/// direction (or point) on it.
+fn light_sample(scene: &Scene, g: f32, x: V3, wo: V3, rng: HashRng) -> (ShadowQuery, HashRng) {
+    let l = scene.lighting;
+    let (u_kind, rng) = rng.next_f32();
+    let (u0, rng) = rng.next_f32();
+    let (u1, rng) = rng.next_f32();
+    let kind = scene.select_kind(u_kind);
+    let query = match kind {
+        LightKind::None => ShadowQuery::NONE,
+        LightKind::Points => {
+            let n = scene.point_count;
+            let k = (u0 * n as f32) as u32;
+            let k = if k >= n { n - 1 } else { k };
+            let light = scene.points[k as usize];
+            let to = light.position - x;
+            let d2 = to.dot(to);
+            if !(d2 > 0.0) {
+                ShadowQuery::NONE
+            } else {
+                let dist = sqrt(d2);
+                let w = to * (1.0 / dist);
+                let p = l.p_points / n as f32;
+                let v = phase_hg(wo.dot(w), g) * light.intensity / d2 / p;
+                ShadowQuery {
+                    o: x,
+                    w,
+                    dist,
+                    weight: Rgb::splat(v),
+                }
+            }
+        }
+        LightKind::Sun if l.sun.is_delta() => {
+            let w = l.sun.dir;
+            ShadowQuery {
+                o: x,
+                w,
+                dist: f32::INFINITY,
+                weight: l.sun.radiance * (phase_hg(wo.dot(w), g) / l.p_sun),
+            }
+        }
+        LightKind::Sun | LightKind::Env => {
+            let w = if kind == LightKind::Sun {
+                l.sun.sample(u0, u1).dir
+            } else {
+                l.env.sample(scene.env, u0, u1).dir
+            };
+            // The full mixture density and radiance of the direction (map and disk overlap).
+            let p_light = scene.directional_pdf(w);
+            let radiance = scene.directional_radiance(w);
+            if !(p_light > 0.0) || radiance.is_black() {
+                ShadowQuery::NONE
+            } else {
+                let p_phase = phase_hg(wo.dot(w), g);
+                // f / p_light x p_light / (p_light + p_phase), f = phase L T.
+                ShadowQuery {
+                    o: x,
+                    w,
+                    dist: f32::INFINITY,
+                    weight: radiance * (p_phase / (p_light + p_phase)),
+                }
+            }
+        }
+    };
+    (query, rng)
+}
+
+/// Strategy 2 at x (per unit albedo, before T): a direction drawn from the phase function; it
+/// reaches the map and a sun disk.
+fn phase_sample(scene: &Scene, g: f32, x: V3, wo: V3, rng: HashRng) -> (ShadowQuery, HashRng) {
+    let (u0, rng) = rng.next_f32();
+    let (u1, rng) = rng.next_f32();
+    let (w, p_phase) = sample_hg(wo, g, u0, u1);
+    let radiance = scene.directional_radiance(w);
+    if radiance.is_black() || !(p_phase > 0.0) {
+        return (ShadowQuery::NONE, rng);
+    }
+    let p_light = scene.directional_pdf(w);
+    // f / p_phase x p_phase / (p_light + p_phase), f = phase L T and phase = p_phase.
+    let query = ShadowQuery {
+        o: x,
+        w,
+        dist: f32::INFINITY,
+        weight: radiance * (p_phase / (p_light + p_phase)),
+    };
+    (query, rng)
+}
