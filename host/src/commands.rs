@@ -358,6 +358,10 @@ pub struct IntegratorSettings {
     /// `direct`: probability of sampling the sun, the map and the point lights.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub light_pmf: Option<[f32; 3]>,
+    /// `direct`: the collision cap of every tracking loop (lowered from 10000 where four
+    /// tracking loops per camera ray would exceed a GPU invocation's loop budget).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub collision_cap: Option<u32>,
     pub hg_g: f32,
     pub t_hat: String,
     /// The PNG shows x / (1 + x) of x = exposure * radiance, sRGB-encoded; the EXR is linear.
@@ -506,6 +510,7 @@ fn integrator_settings(
         env: None,
         sun: None,
         light_pmf: None,
+        collision_cap: None,
         hg_g: args.hg_g,
         t_hat: format!("{:?}", args.t_hat).to_lowercase(),
         exposure: args.exposure,
@@ -553,6 +558,7 @@ fn direct_lights(args: &RenderOptions, vol: &DenseVolume) -> Result<crate::light
 fn direct_settings(
     args: &RenderOptions,
     lights: &crate::lighting::SceneLights,
+    collision_cap: u32,
 ) -> IntegratorSettings {
     let l = &lights.lighting;
     let env = match &args.env {
@@ -582,6 +588,7 @@ fn direct_settings(
         env: Some(env),
         sun,
         light_pmf: Some([l.p_sun, l.p_env, l.p_points]),
+        collision_cap: Some(collision_cap),
         hg_g: args.hg_g,
         t_hat: "none".into(),
         exposure: args.exposure,
@@ -640,6 +647,10 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         params.albedo = args.albedo[0];
         params.hg_g = args.hg_g;
         params.t_hat = args.t_hat as u32;
+    }
+    if direct {
+        // Four tracking loops per camera ray: lower their collision cap to fit one invocation.
+        params = crate::render::fit_collision_cap(&params, &packed.desc);
     }
     let start = Instant::now();
     let pixels = crate::render::render_lit(&backend, packed, &params, &scene_lights, !args.quiet)?;
@@ -703,7 +714,11 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         grid: scene.grid.clone(),
         mean_l: radiance.then_some(mean),
         integrator: match args.integrator {
-            Some(Integrator::Direct) => Some(direct_settings(args, &scene_lights)),
+            Some(Integrator::Direct) => Some(direct_settings(
+                args,
+                &scene_lights,
+                crate::render::collision_cap(&params),
+            )),
             Some(i) => Some(integrator_settings(args, i, &lights)),
             None => None,
         },

@@ -73,13 +73,16 @@ impl RayFlags {
 /// What the loop bound of this render's estimator does when reached, and what to change.
 pub fn capped_advice(params: &RenderParams) -> String {
     use shared::estimators::ray_marching::{MAX_BIASED_SAMPLES, MAX_UNBIASED_SAMPLES};
-    use shared::estimators::tracking::MAX_TENTATIVE_COLLISIONS;
+    let cap = crate::render::collision_cap(params);
     let tracking = format!(
-        "after {MAX_TENTATIVE_COLLISIONS} tentative collisions the rest of the ray was finished \
+        "after {cap} tentative collisions the rest of the ray was finished \
          by regular tracking (exact for --lookup nearest, approximate for stochastic lookups); \
          the medium is too dense for its per-brick majorants: lower --density-scale or use a \
          smaller --brick-size"
     );
+    if params.integrator == shared::params::Integrator::Direct as u32 {
+        return format!("free-flight sampling or a tracking estimate {tracking}");
+    }
     if params.integrator != 0 {
         return format!("free-flight sampling or ratio tracking {tracking}");
     }

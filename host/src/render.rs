@@ -200,12 +200,11 @@ pub fn loop_iterations_per_ray(
     // A tracking loop: two iterations per tentative collision (the collision loop and the
     // sampler's), one sampler iteration per brick segment, and at the cap the completion by a
     // voxel DDA (two for free-flight sampling: the flight, then T up to it).
-    let tracking =
-        2 * shared::estimators::tracking::MAX_TENTATIVE_COLLISIONS as u64 + bricks + 2 * voxels;
+    let tracking = 2 * collision_cap(params) as u64 + bricks + 2 * voxels;
     if params.integrator == shared::params::Integrator::Direct as u32 {
         // The camera ray's free flight; the background's, the light sample's and the phase
         // sample's transmittance estimates (the chosen estimator); three CDF searches.
-        let mut estimate = params.clone();
+        let mut estimate = *params;
         estimate.integrator = 0;
         return fixed + tracking + 3 * loop_iterations_per_ray(&estimate, desc) + 3 * 32;
     }
@@ -239,9 +238,60 @@ pub fn loop_iterations_per_ray(
         }
 }
 
+/// The collision cap of the tracking loops of `params` (its decode in `shared::params::Config`).
+pub fn collision_cap(params: &RenderParams) -> u32 {
+    use shared::params::MAX_TENTATIVE_COLLISIONS as MAX;
+    if params.max_collisions == 0 || params.max_collisions > MAX {
+        MAX
+    } else {
+        params.max_collisions
+    }
+}
+
+/// Smallest collision cap [`fit_collision_cap`] lowers to before refusing the render.
+pub const MIN_COLLISION_CAP: u32 = 1000;
+
+/// `params` with the tracking loops' collision cap lowered, where one ray holds so many tracking
+/// loops (`direct` with track-length or ratio shadow rays: four) that the full cap would exceed
+/// a GPU invocation's loop budget. Both backends use the returned cap, so images stay identical;
+/// rays that reach it are counted as capped.
+pub fn fit_collision_cap(
+    params: &RenderParams,
+    desc: &shared::volume::grid::GridDesc,
+) -> RenderParams {
+    let mut p = *params;
+    if loop_iterations_per_ray(&p, desc) <= LOOP_BUDGET {
+        return p;
+    }
+    // The bound is linear in the cap: find the slope from two caps.
+    p.max_collisions = 1;
+    let at_one = loop_iterations_per_ray(&p, desc);
+    p.max_collisions = 2;
+    let slope = loop_iterations_per_ray(&p, desc) - at_one;
+    if slope == 0 || at_one > LOOP_BUDGET {
+        return *params;
+    }
+    let cap = 1 + (LOOP_BUDGET - at_one) / slope;
+    if cap < MIN_COLLISION_CAP as u64 {
+        return *params;
+    }
+    p.max_collisions = cap.min(shared::params::MAX_TENTATIVE_COLLISIONS as u64) as u32;
+    p
+}
+
 /// Samples per pixel per pass so that one invocation stays within the loop budget.
 pub fn spp_per_pass(params: &RenderParams, desc: &shared::volume::grid::GridDesc) -> Result<u32> {
     let per_ray = loop_iterations_per_ray(params, desc);
+    if params.integrator == shared::params::Integrator::Direct as u32 {
+        anyhow::ensure!(
+            per_ray <= LOOP_BUDGET,
+            "one camera ray of --integrator direct holds a free flight and three transmittance \
+             estimates by --estimator, which may need {per_ray} loop iterations, more than the \
+             {LOOP_BUDGET} a GPU invocation may run (lavapipe's limit; the CPU backend keeps the \
+             same bound so both give the same image); use another --estimator (unbiased-rm's \
+             estimates are the largest) or a smaller volume"
+        );
+    }
     anyhow::ensure!(
         per_ray <= LOOP_BUDGET,
         "one ray of this estimator may need {per_ray} loop iterations, more than the {LOOP_BUDGET} a GPU invocation may run; lower --n or use a smaller volume"

@@ -81,6 +81,7 @@ impl SegmentEstimator {
             integrator: shared::params::Integrator::Transmittance,
             t_hat: shared::params::TransmittanceHat::Jackknife,
             roulette: self.roulette,
+            max_collisions: shared::params::MAX_TENTATIVE_COLLISIONS,
         };
         let params = RenderParams {
             n: self.n,

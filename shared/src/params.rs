@@ -6,6 +6,15 @@ use crate::geometry::Affine3x4;
 use crate::volume::grid::{GridDesc, Lookup};
 use bytemuck::{Pod, Zeroable};
 
+/// Most tentative collisions per tracking loop; at the cap the rest of the ray is completed by
+/// regular tracking (`estimators::tracking::complete_exactly`) and the ray is counted as capped.
+/// Each collision costs two loop iterations (the collision loop and the sampler's), and lavapipe
+/// (gallivm) silently ends a shader after 65535 loop iterations summed over all loops: an
+/// integrator ray runs two tracking loops, so 4 x 10,000 plus its traversals must fit
+/// (`host::render::LOOP_BUDGET`); `direct` runs four and lowers the cap
+/// ([`RenderParams::max_collisions`]).
+pub const MAX_TENTATIVE_COLLISIONS: u32 = 10_000;
+
 /// Transmittance estimators selectable at run time (u32 in [`RenderParams`]).
 #[repr(u32)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -175,7 +184,10 @@ pub struct RenderParams {
     /// 1: ratio tracking uses pbrt-v4's Russian roulette; 0: none, as the paper and the author's
     /// code (Miller et al.'s MIS always runs without it: its weights need the plain product).
     pub roulette: u32,
-    pub _pad: u32,
+    /// Collision cap of every tracking loop (0: [`MAX_TENTATIVE_COLLISIONS`]; the host lowers it
+    /// where a ray holds several tracking loops, so one GPU invocation stays within its loop
+    /// budget; reaching it is counted as capped).
+    pub max_collisions: u32,
 }
 
 /// The enums of [`RenderParams`] (and the volume's lookup), decoded once per pixel pass.
@@ -189,6 +201,8 @@ pub struct Config {
     pub t_hat: TransmittanceHat,
     /// Ratio tracking with Russian roulette.
     pub roulette: bool,
+    /// Collision cap of the tracking loops, 1 to [`MAX_TENTATIVE_COLLISIONS`].
+    pub max_collisions: u32,
 }
 
 impl Config {
@@ -215,6 +229,13 @@ impl Config {
                 TransmittanceHat::Jackknife
             },
             roulette: params.roulette != 0,
+            max_collisions: if params.max_collisions == 0
+                || params.max_collisions > MAX_TENTATIVE_COLLISIONS
+            {
+                MAX_TENTATIVE_COLLISIONS
+            } else {
+                params.max_collisions
+            },
         }
     }
 }

@@ -5,7 +5,9 @@ use crate::estimators::optical_depth::{
     adaptive_capped, estimate_pair, estimate_pair_adaptive, estimate_single, prepare,
 };
 use crate::estimators::ray_marching::{biased_ray_marching, unbiased_ray_marching};
-use crate::estimators::tracking::{ratio_tracking, regular_tracking_tau, track_length};
+use crate::estimators::tracking::{
+    ratio_tracking_capped, regular_tracking_tau, track_length_capped,
+};
 use crate::estimators::transmittance;
 use crate::geometry::Ray;
 use crate::math;
@@ -96,7 +98,18 @@ pub fn transmittance(
             let (tau, n) = regular_tracking_tau(vol, ray, t0, t1);
             (math::exp(-tau), Tally::lookups(n), rng)
         }
-        Estimator::TrackLength => track_length(vol, ray, t0, t1, cfg.lookup, rng),
-        Estimator::RatioTracking => ratio_tracking(vol, ray, t0, t1, cfg.lookup, cfg.roulette, rng),
+        Estimator::TrackLength => {
+            track_length_capped(vol, ray, t0, t1, cfg.lookup, cfg.max_collisions, rng)
+        }
+        Estimator::RatioTracking => ratio_tracking_capped(
+            vol,
+            ray,
+            t0,
+            t1,
+            cfg.lookup,
+            cfg.roulette,
+            cfg.max_collisions,
+            rng,
+        ),
     }
 }

@@ -15,12 +15,7 @@ use crate::tally::Tally;
 use crate::volume::dda::GridDda;
 use crate::volume::grid::{Lookup, VolumeView};
 
-/// Most tentative collisions per tracking loop; at the cap the rest of the ray is completed by
-/// regular tracking ([`complete_exactly`]) and the ray is counted as capped. Each collision costs
-/// two loop iterations (the collision loop and the sampler's), and lavapipe (gallivm) silently
-/// ends a shader after 65535 loop iterations summed over all loops: an integrator ray runs two
-/// tracking loops, so 4 x 10,000 plus its traversals must fit (`host::render::LOOP_BUDGET`).
-pub const MAX_TENTATIVE_COLLISIONS: u32 = 10_000;
+pub use crate::params::MAX_TENTATIVE_COLLISIONS;
 
 /// Ratio tracking starts Russian roulette once the running estimate drops below this (pbrt-v4).
 pub const RR_THRESHOLD: f32 = 0.05;
@@ -61,7 +56,20 @@ pub fn track_length(
     lookup: Lookup,
     rng: HashRng,
 ) -> (f32, Tally, HashRng) {
-    let (flight, rng) = delta_tracking(vol, ray, t0, t1, lookup, JITTER_SALT, rng);
+    track_length_capped(vol, ray, t0, t1, lookup, MAX_TENTATIVE_COLLISIONS, rng)
+}
+
+/// [`track_length`] with a collision cap `cap` (at most [`MAX_TENTATIVE_COLLISIONS`]).
+pub fn track_length_capped(
+    vol: &VolumeView,
+    ray: &Ray,
+    t0: f32,
+    t1: f32,
+    lookup: Lookup,
+    cap: u32,
+    rng: HashRng,
+) -> (f32, Tally, HashRng) {
+    let (flight, rng) = delta_tracking_capped(vol, ray, t0, t1, lookup, JITTER_SALT, cap, rng);
     (if flight.found { 0.0 } else { 1.0 }, flight.tally, rng)
 }
 
@@ -109,6 +117,7 @@ fn next_lookup(
 /// the flight continues exactly in the nearest-neighbour grid ([`exact_free_flight`];
 /// memoryless, so the distance keeps its distribution), the null product takes the exact T of
 /// that part, and the ray is counted as capped.
+#[inline]
 pub fn delta_tracking(
     vol: &VolumeView,
     ray: &Ray,
@@ -116,6 +125,30 @@ pub fn delta_tracking(
     t1: f32,
     lookup: Lookup,
     salt: u32,
+    rng: HashRng,
+) -> (FreeFlight, HashRng) {
+    delta_tracking_capped(
+        vol,
+        ray,
+        t0,
+        t1,
+        lookup,
+        salt,
+        MAX_TENTATIVE_COLLISIONS,
+        rng,
+    )
+}
+
+/// [`delta_tracking`] with a collision cap `cap` (at most [`MAX_TENTATIVE_COLLISIONS`]).
+#[allow(clippy::too_many_arguments)]
+pub fn delta_tracking_capped(
+    vol: &VolumeView,
+    ray: &Ray,
+    t0: f32,
+    t1: f32,
+    lookup: Lookup,
+    salt: u32,
+    cap: u32,
     rng: HashRng,
 ) -> (FreeFlight, HashRng) {
     let mut sampler = MajorantSampler::new(vol, ray, t0, t1);
@@ -126,7 +159,7 @@ pub fn delta_tracking(
         ..Default::default()
     };
     let mut t_last = t0;
-    while !sampler.done && lookups < MAX_TENTATIVE_COLLISIONS {
+    while !sampler.done && lookups < cap {
         let (c, m, r) = next_lookup(&mut sampler, vol, ray, lookup, salt, lookups, rng);
         rng = r;
         if c.found {
@@ -176,12 +209,36 @@ pub fn ratio_tracking(
     roulette: bool,
     rng: HashRng,
 ) -> (f32, Tally, HashRng) {
+    ratio_tracking_capped(
+        vol,
+        ray,
+        t0,
+        t1,
+        lookup,
+        roulette,
+        MAX_TENTATIVE_COLLISIONS,
+        rng,
+    )
+}
+
+/// [`ratio_tracking`] with a collision cap `cap` (at most [`MAX_TENTATIVE_COLLISIONS`]).
+#[allow(clippy::too_many_arguments)]
+pub fn ratio_tracking_capped(
+    vol: &VolumeView,
+    ray: &Ray,
+    t0: f32,
+    t1: f32,
+    lookup: Lookup,
+    roulette: bool,
+    cap: u32,
+    rng: HashRng,
+) -> (f32, Tally, HashRng) {
     let mut sampler = MajorantSampler::new(vol, ray, t0, t1);
     let mut rng = rng;
     let mut transmittance = 1.0f32;
     let mut lookups = 0u32;
     let mut t_last = t0;
-    while !sampler.done && lookups < MAX_TENTATIVE_COLLISIONS {
+    while !sampler.done && lookups < cap {
         let (c, mu, r) = next_lookup(&mut sampler, vol, ray, lookup, JITTER_SALT, lookups, rng);
         rng = r;
         if c.found {

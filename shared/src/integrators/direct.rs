@@ -14,7 +14,7 @@
 //! loop with one call of [`estimate::transmittance`], so the kernel holds the estimators once.
 
 use crate::estimators::estimate;
-use crate::estimators::tracking::delta_tracking;
+use crate::estimators::tracking::delta_tracking_capped;
 use crate::geometry::{to_index_space, Ray, V3};
 use crate::math::sqrt;
 use crate::params::{Config, RenderParams};
@@ -64,7 +64,16 @@ pub fn direct_radiance(
     if !(ta < tb) {
         return (background, Tally::default(), rng);
     }
-    let (ff, rng) = delta_tracking(vol, &ray, ta, tb, cfg.lookup, FLIGHT_SALT, rng);
+    let (ff, rng) = delta_tracking_capped(
+        vol,
+        &ray,
+        ta,
+        tb,
+        cfg.lookup,
+        FLIGHT_SALT,
+        cfg.max_collisions,
+        rng,
+    );
     let mut tally = ff.tally;
     let mut queries = [
         ShadowQuery {
