@@ -132,6 +132,11 @@ pub struct EvalOptions {
     pub t_hat: TransmittanceHat,
     pub lights: Vec<PointLight>,
     pub albedo: f32,
+    /// `--integrators direct`: the environment light (None: the sky unless --sun or --light).
+    pub env: Option<crate::lighting::EnvSource>,
+    pub env_scale: f32,
+    pub env_rotate: f32,
+    pub sun: Option<crate::lighting::SunSpec>,
     pub exposure: f32,
     pub n: u32,
     pub f_delta: f32,
@@ -162,6 +167,10 @@ impl Default for EvalOptions {
             t_hat: TransmittanceHat::Jackknife,
             lights: Vec::new(),
             albedo: defaults::ALBEDO,
+            env: None,
+            env_scale: 1.0,
+            env_rotate: 0.0,
+            sun: None,
             exposure: defaults::EXPOSURE,
             n: defaults::N,
             f_delta: defaults::F_DELTA,
@@ -870,6 +879,14 @@ fn report_underflow(vol: &DenseVolume, u: &crate::bricks::Underflow, scale: f32)
 
 /// `host eval`: the reference and each estimator on pixel-center rays; JSON + images.
 pub fn run_eval(args: &EvalOptions) -> Result<()> {
+    if args.integrators.as_deref().map(str::trim) == Some("direct") {
+        return run_eval_direct(args);
+    }
+    let given_direct = args.env.is_some() || args.sun.is_some();
+    anyhow::ensure!(
+        !given_direct,
+        "--env and --sun only apply to --integrators direct; add it or drop them"
+    );
     let estimators = crate::eval::parse_list(&args.estimators)?;
     let integrators = args
         .integrators
@@ -982,6 +999,90 @@ fn run_eval_integrators(
     };
     let report = crate::eval::evaluate_integrators(&setup, &lights, integrators, args.exposure)?;
     crate::output::write_json(json, &report)?;
+    println!("wrote {}", json.display());
+    Ok(())
+}
+
+/// `host eval --integrators direct`: each shadow-ray estimator of `--estimators` in the `direct`
+/// integrator against ratio-tracking shadow rays at `--reference-spp` (default 16 x `--spp`).
+fn run_eval_direct(args: &EvalOptions) -> Result<()> {
+    let all = args.estimators == "all";
+    let estimators: Vec<_> = crate::eval::parse_list(&args.estimators)?
+        .into_iter()
+        .filter(|e| !(all && crate::eval_direct::too_large_for_direct(e.estimator)))
+        .collect();
+    if let Some(e) = estimators
+        .iter()
+        .find(|e| crate::eval_direct::too_large_for_direct(e.estimator))
+    {
+        bail!(
+            "--estimators {}: its three estimates per camera ray of the direct integrator exceed \
+             a GPU invocation's loop budget; leave it out",
+            e.name
+        );
+    }
+    let images = crate::eval_direct::direct_files(&args.out_dir, estimators.iter().map(|e| e.name));
+    let json = plan_eval_outputs(args, &images)?;
+    let scene = prepare_scene(&args.scene, args.lookup, args.width, args.height)?;
+    let (vol, packed) = (&scene.volume, &scene.packed);
+    let backend = Backend::open_for(args.backend, packed)?;
+    if !args.quiet {
+        tracing::info!("backend: {} ({})", backend.kind(), backend.device());
+    }
+    let render = RenderOptions {
+        scene: args.scene.clone(),
+        lookup: args.lookup,
+        estimator: crate::estimators::by_name("jackknife").expect("registered"),
+        n: args.n,
+        f_delta: args.f_delta,
+        ratio_roulette: args.ratio_roulette,
+        integrator: Some(Integrator::Direct),
+        lights: args.lights.clone(),
+        albedo: [args.albedo; 3],
+        env: args.env.clone(),
+        env_scale: args.env_scale,
+        env_rotate: args.env_rotate,
+        sun: args.sun,
+        hg_g: 0.0,
+        t_hat: TransmittanceHat::Jackknife,
+        exposure: args.exposure,
+        width: args.width,
+        height: args.height,
+        spp: args.spp,
+        seed: args.seed,
+        backend: args.backend,
+        out: PathBuf::from("unused.exr"),
+        json: None,
+        quiet: args.quiet,
+        given: Vec::new(),
+    };
+    let lights = direct_lights(&render, vol)?;
+    let params = RenderParams {
+        camera: scene.camera,
+        world_to_index: scene.world_to_index,
+        width: args.width,
+        height: args.height,
+        spp: args.spp,
+        seed: args.seed,
+        n: args.n,
+        f_delta: args.f_delta,
+        pixel_jitter: 1,
+        ..Default::default()
+    };
+    let setup = crate::eval::EvalSetup {
+        backend: &backend,
+        volume: packed,
+        volume_name: vol.name.clone(),
+        params,
+        reference: crate::estimators::by_name("ratio").expect("registered"),
+        reference_spp: args.reference_spp.unwrap_or(16 * args.spp),
+        out_dir: &args.out_dir,
+        bias_scale: args.bias_scale,
+        std_scale: args.std_scale,
+        progress: !args.quiet,
+    };
+    let report = crate::eval_direct::evaluate_direct(&setup, &lights, &estimators, args.exposure)?;
+    crate::output::write_json(&json, &report)?;
     println!("wrote {}", json.display());
     Ok(())
 }

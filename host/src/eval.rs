@@ -226,7 +226,7 @@ pub fn integrator_files<'a>(out_dir: &Path, names: impl Iterator<Item = &'a str>
 
 /// Prints one progress line to stderr (also when it is not a terminal, where the progress bar
 /// stays hidden): render `k` of `total` (0: the reference).
-fn step(setup: &EvalSetup, k: usize, total: usize, what: &str, spp: u32) {
+pub fn step(setup: &EvalSetup, k: usize, total: usize, what: &str, spp: u32) {
     if setup.progress {
         let (w, h) = (setup.params.width, setup.params.height);
         tracing::info!("eval [{k}/{total}] rendering {what}: {w}x{h} at {spp} spp");
@@ -249,7 +249,7 @@ pub struct EvalSetup<'a> {
 
 impl EvalSetup<'_> {
     /// The header of its report.
-    fn header(&self) -> EvalHeader {
+    pub fn header(&self) -> EvalHeader {
         EvalHeader {
             volume: self.volume_name.clone(),
             backend: self.backend.kind().into(),

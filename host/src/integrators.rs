@@ -69,8 +69,8 @@ pub fn parse_integrator_list(list: &str) -> Result<Vec<(&'static str, Integrator
                 .with_context(|| format!("--integrators: unknown integrator {n:?}"))?;
             anyhow::ensure!(
                 evaluated(found.1),
-                "--integrators: {n} is not evaluated by host eval yet; render it with host \
-                 --integrator {n} (every shadow-ray estimator via --estimator)"
+                "--integrators: {n} is evaluated alone (--integrators {n} --estimators LIST: \
+                 one entry per shadow-ray estimator); do not mix it with other integrators"
             );
             Ok(found)
         })

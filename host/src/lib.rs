@@ -20,6 +20,7 @@ pub use volume_io as io;
 pub use volume_io::dense as volume;
 pub mod bricks;
 pub mod eval;
+pub mod eval_direct;
 pub mod output;
 pub mod render;
 pub mod report;

@@ -122,6 +122,8 @@ const NUMERIC_FLAGS: &[(&[&str], &str)] = &[
     (&["render"], "--albedo"),
     (&["render"], "--hg-g"),
     (&["render"], "--exposure"),
+    (&["render"], "--env-scale"),
+    (&["render"], "--env-rotate"),
     (&["render"], "--width"),
     (&["render"], "--height"),
     (&["render"], "--spp"),
@@ -130,6 +132,8 @@ const NUMERIC_FLAGS: &[(&[&str], &str)] = &[
     (&["eval"], "--f-delta"),
     (&["eval"], "--albedo"),
     (&["eval"], "--exposure"),
+    (&["eval"], "--env-scale"),
+    (&["eval"], "--env-rotate"),
     (&["eval"], "--width"),
     (&["eval"], "--height"),
     (&["eval"], "--spp"),
@@ -202,13 +206,15 @@ fn numeric_values(cli: &host::cli::Cli) -> Vec<f64> {
             let mut v = vec![s.resolution as f64, s.brick_size as f64, s.fov as f64];
             v.extend(s.density_scale.map(f64::from));
             v.extend([a.n, a.width, a.height, a.spp].map(f64::from));
-            v.extend([a.f_delta, a.albedo, a.hg_g, a.exposure].map(f64::from));
+            v.extend([a.f_delta, a.hg_g, a.exposure, a.env_scale, a.env_rotate].map(f64::from));
+            v.extend(a.albedo.map(f64::from));
             v
         }
         C::Eval(a) => {
             let mut v: Vec<f64> = [a.n, a.width, a.height, a.spp].map(f64::from).to_vec();
             v.extend(a.reference_spp.map(f64::from));
             v.extend([a.f_delta, a.albedo, a.exposure, a.bias_scale, a.std_scale].map(f64::from));
+            v.extend([a.env_scale, a.env_rotate].map(f64::from));
             v
         }
         C::Report(a) => [

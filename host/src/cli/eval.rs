@@ -18,8 +18,10 @@ pub struct EvalArgs {
     /// Comma-separated estimators, or "all" (every one but the reference).
     #[arg(long, default_value = "all")]
     pub estimators: String,
-    /// Evaluate single-scattering integrators instead of transmittance estimators:
-    /// comma-separated names or "all" (see `host render --integrator`). Reference: mis-jackknife
+    /// Evaluate integrators instead of transmittance estimators: `direct` alone (one entry
+    /// direct/<estimator> per --estimators entry, reference: ratio-tracking shadow rays at
+    /// --reference-spp), or single-scattering integrators, comma-separated or "all" (see `host
+    /// render --integrator`). Reference: mis-jackknife
     /// with ratio-tracking T(t0) at --reference-spp (default 16 x --spp; with the default --spp
     /// of 1024 that is slow, about 25 min at 128^2 on 2 CPU cores: try --spp 16).
     #[arg(long)]
@@ -33,6 +35,19 @@ pub struct EvalArgs {
     /// Single-scattering albedo, in [0, 1].
     #[arg(long, default_value_t = defaults::ALBEDO, allow_hyphen_values = true, value_parser = f32_in(0.0, 1.0))]
     pub albedo: f32,
+    /// `--integrators direct`: environment light (`sky`, `none` or a .exr / .hdr probe) [default:
+    /// sky, unless only --sun or --light are given].
+    #[arg(long, value_parser = super::parsers::parse_env)]
+    pub env: Option<crate::lighting::EnvSource>,
+    /// `--integrators direct`: multiplier of the environment map, finite and >= 0.
+    #[arg(long, default_value_t = 1.0, allow_hyphen_values = true, value_parser = f32_in(0.0, 3.0e38))]
+    pub env_scale: f32,
+    /// `--integrators direct`: rotation of the environment map about +y in degrees.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = f32_in(-360.0, 360.0))]
+    pub env_rotate: f32,
+    /// `--integrators direct`: sun "x,y,z[,intensity[,angular_radius_deg]]" (see host render).
+    #[arg(long, value_parser = super::parsers::parse_sun, allow_hyphen_values = true)]
+    pub sun: Option<crate::lighting::SunSpec>,
     /// Multiplier before the PNG previews' tone mapping, a finite number > 0.
     #[arg(long, default_value_t = defaults::EXPOSURE, allow_hyphen_values = true, value_parser = parse_positive)]
     pub exposure: f32,
@@ -92,6 +107,10 @@ impl EvalArgs {
             t_hat: self.t_hat.into(),
             lights: self.lights.clone(),
             albedo: self.albedo,
+            env: self.env.clone(),
+            env_scale: self.env_scale,
+            env_rotate: self.env_rotate,
+            sun: self.sun,
             exposure: self.exposure,
             n: self.n,
             f_delta: self.f_delta,

@@ -17,9 +17,9 @@ use std::path::PathBuf;
 
 /// Angular radius of the sun as seen from the earth, in degrees (the default of `--sun`).
 pub const SUN_RADIUS_DEG: f32 = 0.2666;
-/// Direction toward the default sun (about 37 degrees above the horizon, from the right of the
-/// default camera): unnormalized.
-pub const DEFAULT_SUN: [f32; 3] = [0.8, 0.6, 0.25];
+/// Direction toward the default sun (about 35 degrees above the horizon, in front of the volume
+/// and to the left as the default camera sees it): unnormalized.
+pub const DEFAULT_SUN: [f32; 3] = [0.7, 0.6, -0.45];
 /// Share of the light pmf spread uniformly over the kinds present (so none is starved).
 const UNIFORM_SHARE: f64 = 0.1;
 /// Colour of the sun (linear Rec. 709, luminance 1): a slightly warm white.
