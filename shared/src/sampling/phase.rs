@@ -23,6 +23,8 @@ pub fn sample_hg(wo: crate::geometry::V3, g: f32, u0: f32, u1: f32) -> (crate::g
         let q = (1.0 - g * g) / (1.0 + g - 2.0 * g * u0);
         -1.0 / (2.0 * g) * (1.0 + g * g - q * q)
     };
+    // Not f32::clamp: NaN must not reach an assertion in a shader.
+    #[allow(clippy::manual_clamp)]
     let cos_theta = if cos_theta > 1.0 {
         1.0
     } else if cos_theta < -1.0 {
