@@ -79,7 +79,18 @@ pub mod bindings {
 
     /// `direct_cs`: one pass of a `direct` image: the bindings of `render_cs`, then the lights'.
     pub mod direct {
-        pub use super::render::{BRICKS, DESC, LIGHTS, PARAMS, SUMS, VOXELS};
+        /// One `RenderParams` (as `render_cs`).
+        pub const PARAMS: usize = 0;
+        /// One `GridDesc`.
+        pub const DESC: usize = 1;
+        /// The packed voxels (`u32` words).
+        pub const VOXELS: usize = 2;
+        /// The bricks (`Brick`).
+        pub const BRICKS: usize = 3;
+        /// The point lights (`PointLight`).
+        pub const LIGHTS: usize = 4;
+        /// One `PixelSums` per pixel of the tile, read and written.
+        pub const SUMS: usize = 5;
         /// One `Lighting` (map shape, sun, albedo, pmf over light kinds).
         pub const LIGHTING: usize = 6;
         /// The environment map's texels and CDFs (`f32`; one unused value without a map).
