@@ -28,6 +28,10 @@ pub mod defaults {
     pub const ALBEDO: f32 = 0.8;
     /// `--exposure`.
     pub const EXPOSURE: f32 = 1.0;
+    /// `--rr-depth` of `path`.
+    pub const RR_DEPTH: u32 = 5;
+    /// `--max-depth` of `path`.
+    pub const MAX_DEPTH: u32 = 64;
     /// `--n`.
     pub const N: u32 = 10;
     /// `--f-delta`.
@@ -103,6 +107,10 @@ pub struct RenderOptions {
     /// Degrees about +y.
     pub env_rotate: f32,
     pub sun: Option<crate::lighting::SunSpec>,
+    /// `path`: vertices before Russian roulette.
+    pub rr_depth: u32,
+    /// `path`: most vertices of a path.
+    pub max_depth: u32,
     pub hg_g: f32,
     pub t_hat: TransmittanceHat,
     pub exposure: f32,
@@ -371,6 +379,11 @@ pub struct IntegratorSettings {
     /// tracking loops per camera ray would exceed a GPU invocation's loop budget).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub collision_cap: Option<u32>,
+    /// `path`: vertices before Russian roulette, and the most vertices of a path.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rr_depth: Option<u32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_depth: Option<u32>,
     pub hg_g: f32,
     pub t_hat: String,
     /// The PNG shows x / (1 + x) of x = exposure * radiance, sRGB-encoded; the EXR is linear.
@@ -424,6 +437,9 @@ const DIRECT_ONLY: &[(&str, &str)] = &[
     ("sun", "--sun"),
 ];
 
+/// Options only `--integrator path` reads.
+const PATH_ONLY: &[(&str, &str)] = &[("rr_depth", "--rr-depth"), ("max_depth", "--max-depth")];
+
 /// Options `--integrator direct` does not read.
 const NOT_DIRECT: &[(&str, &str)] = &[("t_hat", "--t-hat")];
 
@@ -434,17 +450,23 @@ const TRANSMITTANCE_ONLY: &[(&str, &str)] =
 /// Refuses flag combinations whose flags would be ignored, so no output is mislabelled.
 pub fn check_render_flags(args: &RenderOptions) -> Result<()> {
     let given = |id: &str| args.given.iter().any(|g| g == id);
-    if args.integrator == Some(Integrator::Direct) {
+    let lit = matches!(args.integrator, Some(Integrator::Direct | Integrator::Path));
+    if args.integrator != Some(Integrator::Path) {
+        if let Some((_, flag)) = PATH_ONLY.iter().find(|(id, _)| given(id)) {
+            bail!("{flag} only applies to --integrator path; add it or drop {flag}");
+        }
+    }
+    if lit {
         if let Some((_, flag)) = NOT_DIRECT.iter().find(|(id, _)| given(id)) {
             bail!(
-                "{flag} has no effect with --integrator direct (it changes the equiangular \
-                 strategy of the single-scattering integrators); drop {flag}"
+                "{flag} has no effect with --integrator direct or path (it changes the \
+                 equiangular strategy of the single-scattering integrators); drop {flag}"
             );
         }
     } else if let Some((_, flag)) = DIRECT_ONLY.iter().find(|(id, _)| given(id)) {
         bail!(
-            "{flag} only applies to --integrator direct (the single-scattering integrators are \
-             lit by point lights, --light); add --integrator direct or drop {flag}"
+            "{flag} only applies to --integrator direct or path (the single-scattering \
+             integrators are lit by point lights, --light); add --integrator direct or drop {flag}"
         );
     } else if args.integrator.is_some() {
         if let Some((_, flag)) = TRANSMITTANCE_ONLY.iter().find(|(id, _)| given(id)) {
@@ -461,7 +483,7 @@ pub fn check_render_flags(args: &RenderOptions) -> Result<()> {
         );
     }
     let uses_ratio = match args.integrator {
-        Some(Integrator::Direct) => {
+        Some(Integrator::Direct | Integrator::Path) => {
             args.estimator.estimator == shared::params::Estimator::RatioTracking
         }
         Some(_) => args.t_hat == TransmittanceHat::Ratio,
@@ -520,6 +542,8 @@ fn integrator_settings(
         sun: None,
         light_pmf: None,
         collision_cap: None,
+        rr_depth: None,
+        max_depth: None,
         hg_g: args.hg_g,
         t_hat: format!("{:?}", args.t_hat).to_lowercase(),
         exposure: args.exposure,
@@ -586,7 +610,8 @@ fn direct_settings(
         }
     });
     IntegratorSettings {
-        name: "direct".into(),
+        name: crate::integrators::integrator_name(args.integrator.unwrap_or(Integrator::Direct))
+            .into(),
         shadow_rays: args.estimator.name.into(),
         lights: lights
             .points
@@ -598,6 +623,8 @@ fn direct_settings(
         sun,
         light_pmf: Some([l.p_sun, l.p_env, l.p_points]),
         collision_cap: Some(collision_cap),
+        rr_depth: (args.integrator == Some(Integrator::Path)).then_some(args.rr_depth),
+        max_depth: (args.integrator == Some(Integrator::Path)).then_some(args.max_depth),
         hg_g: args.hg_g,
         t_hat: "none".into(),
         exposure: args.exposure,
@@ -643,7 +670,7 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         ..Default::default()
     };
     args.estimator.apply(&mut params);
-    let direct = args.integrator == Some(Integrator::Direct);
+    let direct = matches!(args.integrator, Some(Integrator::Direct | Integrator::Path));
     let scene_lights = if direct {
         direct_lights(args, vol)?
     } else {
@@ -656,9 +683,11 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         params.albedo = args.albedo[0];
         params.hg_g = args.hg_g;
         params.t_hat = args.t_hat as u32;
+        params.rr_depth = args.rr_depth;
+        params.max_depth = args.max_depth;
     }
     if direct {
-        // Four tracking loops per camera ray: lower their collision cap to fit one invocation.
+        // Several tracking loops per invocation: lower their collision cap to fit one.
         params = crate::render::fit_collision_cap(&params, &packed.desc);
     }
     let start = Instant::now();
@@ -723,7 +752,7 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         grid: scene.grid.clone(),
         mean_l: radiance.then_some(mean),
         integrator: match args.integrator {
-            Some(Integrator::Direct) => Some(direct_settings(
+            Some(Integrator::Direct | Integrator::Path) => Some(direct_settings(
                 args,
                 &scene_lights,
                 crate::render::collision_cap(&params),
@@ -1043,6 +1072,8 @@ fn run_eval_direct(args: &EvalOptions) -> Result<()> {
         env_scale: args.env_scale,
         env_rotate: args.env_rotate,
         sun: args.sun,
+        rr_depth: defaults::RR_DEPTH,
+        max_depth: defaults::MAX_DEPTH,
         hg_g: 0.0,
         t_hat: TransmittanceHat::Jackknife,
         exposure: args.exposure,

@@ -6,7 +6,9 @@ use crate::schedule::{RenderBackend, Schedule};
 use anyhow::Result;
 use indicatif::ProgressBar;
 use rayon::prelude::*;
-use shared::kernels::render::{direct_pixel_pass, render_pixel_pass, tile_order_pixel, PixelSums};
+use shared::kernels::render::{
+    direct_pixel_pass, path_pixel_pass, render_pixel_pass, tile_order_pixel, PixelSums,
+};
 use shared::params::Integrator;
 use shared::params::RenderParams;
 
@@ -54,6 +56,7 @@ impl RenderBackend for CpuVolume<'_> {
         let view = self.vol.view();
         let scene = lights.view();
         let direct = params.integrator == Integrator::Direct as u32;
+        let path = params.integrator == Integrator::Path as u32;
         let count = params.width * params.height;
         let chunk = schedule.chunk;
         let mut sums = vec![PixelSums::default(); count as usize];
@@ -62,7 +65,9 @@ impl RenderBackend for CpuVolume<'_> {
                 let base = c as u32 * chunk;
                 block.par_iter_mut().enumerate().for_each(|(i, acc)| {
                     let pixel = tile_order_pixel(base + i as u32, params.width, params.height);
-                    *acc = if direct {
+                    *acc = if path {
+                        path_pixel_pass(&view, params, &scene, pixel, s0, s1, *acc)
+                    } else if direct {
                         direct_pixel_pass(&view, params, &scene, pixel, s0, s1, *acc)
                     } else {
                         render_pixel_pass(&view, params, &lights.points, pixel, s0, s1, *acc)

@@ -17,13 +17,14 @@ pub const INTEGRATORS: &[(&str, Integrator)] = {
         ("miller", I::Miller),
         ("mis-power", I::MisPowerJackknife),
         ("direct", I::Direct),
+        ("path", I::Path),
     ]
 };
 
 /// True for the integrators `host eval --integrators` compares (single scattering from point
 /// lights; `direct` renders are not evaluated there yet).
 fn evaluated(i: Integrator) -> bool {
-    i != Integrator::Direct
+    i != Integrator::Direct && i != Integrator::Path
 }
 
 /// Parses an integrator name.

@@ -201,6 +201,12 @@ pub fn loop_iterations_per_ray(
     // sampler's), one sampler iteration per brick segment, and at the cap the completion by a
     // voxel DDA (two for free-flight sampling: the flight, then T up to it).
     let tracking = 2 * collision_cap(params) as u64 + bricks + 2 * voxels;
+    if params.integrator == shared::params::Integrator::Path as u32 {
+        // One bounce per invocation: a free flight, one shadow ray's estimate, a CDF search.
+        let mut estimate = *params;
+        estimate.integrator = 0;
+        return fixed + tracking + loop_iterations_per_ray(&estimate, desc) + 32;
+    }
     if params.integrator == shared::params::Integrator::Direct as u32 {
         // The camera ray's free flight; the background's, the light sample's and the phase
         // sample's transmittance estimates (the chosen estimator); three CDF searches.

@@ -6,9 +6,10 @@
 //! push constants are one `shared` struct per kernel (`Launch`, or `RenderPass` for `render_cs`).
 #![cfg_attr(target_arch = "spirv", no_std)]
 
+use shared::integrators::path::PathState;
 use shared::kernels::launch::Launch;
 use shared::kernels::probe::{self, DepthPair, MathValues, RngDraws, TransmittancePair};
-use shared::kernels::render::{self, PixelSums, RenderPass};
+use shared::kernels::render::{self, PathPass, PixelSums, RenderPass};
 use shared::params::RenderParams;
 use shared::sampling::lighting::{Lighting, Scene};
 use shared::sampling::lights::PointLight;
@@ -142,6 +143,61 @@ pub fn direct_cs(
         };
         sums[slot] =
             render::direct_pixel_pass(&vol, p, &scene, i as u32, pass.s_begin, pass.s_end, prev);
+    }
+}
+
+/// One step of a `path` image (multiple scattering, wavefront): start each pixel's path of one
+/// sample, or advance every live path by one vertex.
+#[allow(clippy::too_many_arguments)] // one argument per binding
+#[spirv(compute(threads(64)))]
+pub fn path_cs(
+    #[spirv(global_invocation_id)] gid: UVec3,
+    #[spirv(push_constant)] pass: &PathPass,
+    // bindings::path::PARAMS
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &[RenderParams],
+    // bindings::path::DESC
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] desc: &[GridDesc],
+    // bindings::path::VOXELS
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] voxels: &[u32],
+    // bindings::path::BRICKS
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] bricks: &[Brick],
+    // bindings::path::LIGHTS
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] lights: &[PointLight],
+    // bindings::path::SUMS
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] sums: &mut [PixelSums],
+    // bindings::path::LIGHTING
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] lighting: &[Lighting],
+    // bindings::path::ENV
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] env: &[f32],
+    // bindings::path::STATES
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] states: &mut [PathState],
+) {
+    if let Some(i) = pass.launch.id(gid.x) {
+        let vol = VolumeView {
+            desc: &desc[0],
+            voxels,
+            bricks,
+        };
+        let slot = i - pass.sums_base as usize;
+        let p = &params[0];
+        let scene = Scene {
+            lighting: &lighting[0],
+            points: lights,
+            point_count: p.light_count,
+            env,
+        };
+        let (st, s) = render::path_step(
+            &vol,
+            p,
+            &scene,
+            i as u32,
+            pass.sample,
+            pass.mode == 0,
+            states[slot],
+            sums[slot],
+        );
+        states[slot] = st;
+        sums[slot] = s;
     }
 }
 

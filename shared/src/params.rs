@@ -115,6 +115,9 @@ pub enum Integrator {
     /// Direct illumination from the map, the sun and point lights (RGB): a free-flight vertex,
     /// light and phase sampling by MIS, shadow rays by the chosen estimator (Fig. 1).
     Direct = 9,
+    /// Multiple scattering (RGB): a volumetric path tracer with next-event estimation at every
+    /// vertex, shadow rays by the chosen estimator.
+    Path = 10,
 }
 
 impl Integrator {
@@ -131,6 +134,7 @@ impl Integrator {
             7 => Integrator::Miller,
             8 => Integrator::MisPowerJackknife,
             9 => Integrator::Direct,
+            10 => Integrator::Path,
             _ => Integrator::Transmittance,
         }
     }
@@ -188,6 +192,12 @@ pub struct RenderParams {
     /// where a ray holds several tracking loops, so one GPU invocation stays within its loop
     /// budget; reaching it is counted as capped).
     pub max_collisions: u32,
+    /// `path`: vertices before Russian roulette starts.
+    pub rr_depth: u32,
+    /// `path`: most vertices (scattering events) of a path, at least 1.
+    pub max_depth: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
 }
 
 /// The enums of [`RenderParams`] (and the volume's lookup), decoded once per pixel pass.

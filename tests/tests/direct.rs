@@ -305,6 +305,18 @@ fn gauss_legendre(n: usize, a: f64, b: f64) -> Vec<(f64, f64)> {
 /// Seed 11; the quadrature's own error is below 1e-4 relative (texel borders on cell borders).
 #[test]
 fn direct_is_unbiased_against_a_quadrature_of_single_scattering() {
+    single_scattering_against_quadrature(Integrator::Direct);
+}
+
+/// `path` with `--max-depth 1` (one vertex; the ray leaving it still meets the lights) is the
+/// same estimate in expectation: the same quadrature, z < 4 (2^17 samples, seed 11).
+#[test]
+fn path_of_depth_one_is_unbiased_against_the_same_quadrature() {
+    single_scattering_against_quadrature(Integrator::Path);
+}
+
+/// The body of the two quadrature tests.
+fn single_scattering_against_quadrature(integrator: Integrator) {
     let n = 16u32;
     let mu = 0.9f64;
     let vol = DenseVolume::new(
@@ -384,9 +396,11 @@ fn direct_is_unbiased_against_a_quadrature_of_single_scattering() {
         estimator: Estimator::RegularTracking as u32,
         rm_scale: 1.0,
         pixel_jitter: 0,
-        integrator: Integrator::Direct as u32,
+        integrator: integrator as u32,
         hg_g: g as f32,
         light_count: 1,
+        rr_depth: 5,
+        max_depth: 1,
         ..Default::default()
     };
     let px = render_lit(&Backend::Cpu, &packed, &p, &lights, false).unwrap()[0];
@@ -477,7 +491,7 @@ fn direct_is_unbiased_against_a_quadrature_of_single_scattering() {
     let z = (mean - exact) / se;
     assert!(
         z.abs() < 4.0,
-        "direct: mean {mean:.6} +- {se:.6} vs quadrature {exact:.6}: z = {z:.2}"
+        "{integrator:?}: mean {mean:.6} +- {se:.6} vs quadrature {exact:.6}: z = {z:.2}"
     );
     assert_eq!(px.capped, 0);
 }

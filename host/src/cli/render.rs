@@ -83,7 +83,8 @@ pub struct RenderArgs {
     #[arg(long)]
     pub ratio_roulette: bool,
     /// Render radiance with this integrator instead of primary-ray transmittance: `direct`
-    /// (RGB direct illumination from --env, --sun and --light, shadow rays by --estimator), or
+    /// (RGB direct illumination from --env, --sun and --light, shadow rays by --estimator),
+    /// `path` (RGB multiple scattering, the same lights and shadow rays), or
     /// single scattering from point lights: free-flight, equiangular, mis-jackknife, mis-naive,
     /// combined-jackknife, combined-naive, miller, mis-power (see README).
     #[arg(long, value_parser = crate::integrators::parse_integrator)]
@@ -111,6 +112,13 @@ pub struct RenderArgs {
     /// sky, else 1) and its angular radius (default 0.2666; 0: a delta light).
     #[arg(long, value_parser = parse_sun, allow_hyphen_values = true)]
     pub sun: Option<crate::lighting::SunSpec>,
+    /// `path`: vertices before Russian roulette starts (survival = the throughput's largest
+    /// channel, at least 0.05), 0 to 1024.
+    #[arg(long, default_value_t = defaults::RR_DEPTH, allow_hyphen_values = true, value_parser = clap::value_parser!(u32).range(0..=1024))]
+    pub rr_depth: u32,
+    /// `path`: most vertices (scattering events) of a path, 1 to 1024.
+    #[arg(long, default_value_t = defaults::MAX_DEPTH, allow_hyphen_values = true, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    pub max_depth: u32,
     /// Henyey-Greenstein anisotropy g in (-1, 1) (0: isotropic).
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = f32_open(-1.0, 1.0))]
     pub hg_g: f32,
@@ -168,6 +176,8 @@ impl RenderArgs {
             env_scale: self.env_scale,
             env_rotate: self.env_rotate,
             sun: self.sun,
+            rr_depth: self.rr_depth,
+            max_depth: self.max_depth,
             hg_g: self.hg_g,
             t_hat: self.t_hat.into(),
             exposure: self.exposure,

@@ -4,11 +4,12 @@
 
 use super::Buffer;
 use bytemuck::Pod;
-use shared::kernels::launch::bindings::{direct, map, render, rng_draws};
+use shared::integrators::path::PathState;
+use shared::kernels::launch::bindings::{direct, map, path, render, rng_draws};
 use shared::kernels::launch::Launch;
 use shared::kernels::probe::TransmittancePair;
 use shared::kernels::probe::{DepthPair, EquiangularIn, EquiangularOut, MathValues, RngDraws};
-use shared::kernels::render::{PixelSums, RenderPass};
+use shared::kernels::render::{PathPass, PixelSums, RenderPass};
 use shared::params::RenderParams;
 use shared::sampling::lighting::Lighting;
 use shared::sampling::lights::PointLight;
@@ -31,6 +32,12 @@ impl PushConstants for Launch {
 }
 
 impl PushConstants for RenderPass {
+    fn launch_mut(&mut self) -> &mut Launch {
+        &mut self.launch
+    }
+}
+
+impl PushConstants for PathPass {
     fn launch_mut(&mut self) -> &mut Launch {
         &mut self.launch
     }
@@ -120,6 +127,21 @@ pub const DIRECT: KernelDef<RenderPass, { direct::COUNT }> =
         s
     });
 
+/// `path_cs`.
+pub const PATH: KernelDef<PathPass, { path::COUNT }> = KernelDef::checked(Kernel::PathCs, {
+    let mut s = [0; path::COUNT];
+    s[path::PARAMS] = size_of::<RenderParams>();
+    s[path::DESC] = size_of::<GridDesc>();
+    s[path::VOXELS] = size_of::<u32>();
+    s[path::BRICKS] = size_of::<Brick>();
+    s[path::LIGHTS] = size_of::<PointLight>();
+    s[path::SUMS] = size_of::<PixelSums>();
+    s[path::LIGHTING] = size_of::<Lighting>();
+    s[path::ENV] = size_of::<f32>();
+    s[path::STATES] = size_of::<PathState>();
+    s
+});
+
 /// The buffers of a map kernel, by name.
 pub struct MapBuffers<'a> {
     pub input: &'a Buffer,
@@ -202,5 +224,29 @@ mod tests {
             );
             assert!(!k.strides().is_empty(), "{k:?} binds no storage buffer");
         }
+    }
+}
+
+/// The buffers of `path_cs`: those of `direct_cs`, then the paths' states.
+pub struct PathBuffers<'a> {
+    pub direct: DirectBuffers<'a>,
+    pub states: &'a Buffer,
+}
+
+impl<'a> PathBuffers<'a> {
+    /// The buffers in binding order.
+    pub fn slots(&self) -> [&'a Buffer; path::COUNT] {
+        let d = self.direct.slots();
+        let mut s = [d[0]; path::COUNT];
+        s[path::PARAMS] = d[direct::PARAMS];
+        s[path::DESC] = d[direct::DESC];
+        s[path::VOXELS] = d[direct::VOXELS];
+        s[path::BRICKS] = d[direct::BRICKS];
+        s[path::LIGHTS] = d[direct::LIGHTS];
+        s[path::SUMS] = d[direct::SUMS];
+        s[path::LIGHTING] = d[direct::LIGHTING];
+        s[path::ENV] = d[direct::ENV];
+        s[path::STATES] = self.states;
+        s
     }
 }

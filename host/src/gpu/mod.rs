@@ -15,8 +15,8 @@ mod resources;
 pub use device::{pick_memory_type, DeviceOwner, MemoryChoice, MemoryRole};
 pub use error::GpuError;
 pub use kernels::{
-    DirectBuffers, Kernel, KernelDef, MapBuffers, PushConstants, RenderBuffers, DIRECT,
-    EQUIANGULAR, MATH_VALUES, RENDER, RNG_DRAWS, TRANSMITTANCE_PAIR,
+    DirectBuffers, Kernel, KernelDef, MapBuffers, PathBuffers, PushConstants, RenderBuffers,
+    DIRECT, EQUIANGULAR, MATH_VALUES, PATH, RENDER, RNG_DRAWS, TRANSMITTANCE_PAIR,
 };
 pub use plan::{plan, Command, Step};
 pub use resources::Buffer;

@@ -1,13 +1,16 @@
 //! The GPU backend's render loop: a resident volume, image tiles, passes as submissions.
 
-use super::{Buffer, DirectBuffers, Gpu, RenderBuffers, Step, Work, DIRECT, RENDER};
+use super::{
+    Buffer, DirectBuffers, Gpu, PathBuffers, RenderBuffers, Step, Work, DIRECT, PATH, RENDER,
+};
 use crate::bricks::PackedVolume;
 use crate::lighting::SceneLights;
 use crate::schedule::{RenderBackend, Schedule};
 use anyhow::{Context, Result};
 use indicatif::ProgressBar;
+use shared::integrators::path::PathState;
 use shared::kernels::launch::Launch;
-use shared::kernels::render::{PixelSums, RenderPass};
+use shared::kernels::render::{PathPass, PixelSums, RenderPass};
 use shared::params::{Integrator, RenderParams};
 use shared::sampling::lighting::Lighting;
 use shared::sampling::lights::PointLight;
@@ -76,7 +79,8 @@ fn render_tiles(
         &lights.points
     };
     let l = gpu.buffer(std::mem::size_of_val(points) as u64)?;
-    let direct = params.integrator == Integrator::Direct as u32;
+    let path = params.integrator == Integrator::Path as u32;
+    let direct = path || params.integrator == Integrator::Direct as u32;
     // `direct_cs` also reads the lights' block and the map (empty for the other kernels).
     let env_data: &[f32] = if direct { &lights.env } else { &[0.0] };
     let lighting = gpu.buffer(std::mem::size_of::<Lighting>() as u64)?;
@@ -95,7 +99,13 @@ fn render_tiles(
         .map_err(|_| anyhow::anyhow!("internal: poisoned tile cache"))?;
     // Tiles of whole workgroups, each small enough for one storage buffer.
     let sums_size = std::mem::size_of::<PixelSums>() as u64;
-    let tile = (gpu.max_buffer_bytes() / sums_size / 64 * 64)
+    // With paths, the states (64 B per pixel) must fit one buffer too.
+    let per_pixel = if path {
+        sums_size.max(std::mem::size_of::<PathState>() as u64)
+    } else {
+        sums_size
+    };
+    let tile = (gpu.max_buffer_bytes() / per_pixel / 64 * 64)
         .max(64)
         .min(u64::from(count)) as u32;
     let tile_count = count.div_ceil(tile) as usize;
@@ -106,6 +116,15 @@ fn render_tiles(
             tiles.push(gpu.buffer(tile_bytes).context("allocating the image")?);
         }
     }
+    // The paths' states: one per pixel of a tile (`path` only; one unused element otherwise).
+    let state_size = std::mem::size_of::<PathState>() as u64;
+    let states = gpu
+        .buffer(if path {
+            u64::from(tile) * state_size
+        } else {
+            state_size
+        })
+        .context("allocating the path states")?;
     let mut sums = vec![PixelSums::default(); count as usize];
     for (k, tile_start) in (0..count).step_by(tile as usize).enumerate() {
         let ids = tile_start..tile_start.saturating_add(tile).min(count);
@@ -117,6 +136,20 @@ fn render_tiles(
             lights: &l,
             sums: &tiles[k],
         };
+        if path {
+            let slice = &mut sums[ids.start as usize..ids.end as usize];
+            let buffers = PathBuffers {
+                direct: DirectBuffers {
+                    render: buffers,
+                    lighting: &lighting,
+                    env: &env,
+                },
+                states: &states,
+            };
+            let uploads_now = std::mem::take(&mut uploads);
+            render_paths(gpu, params, ids, chunk, &buffers, uploads_now, slice, bar)?;
+            continue;
+        }
         let submissions = tile_submissions(params.seed, passes, ids.clone(), chunk, bar.is_none());
         let last = submissions.len() - 1;
         let slice = &mut sums[ids.start as usize..ids.end as usize];
@@ -161,6 +194,81 @@ fn render_tiles(
         }
     }
     Ok(sums)
+}
+
+/// The `path` render of one tile: per sample, a start step, then `max_depth + 1` bounce steps with a
+/// barrier after each (one submission per sample, so the progress bar moves per sample); the
+/// sums are read back after the last sample.
+#[allow(clippy::too_many_arguments)]
+fn render_paths(
+    gpu: &Gpu,
+    params: &RenderParams,
+    ids: std::ops::Range<u32>,
+    chunk: u32,
+    buffers: &PathBuffers,
+    uploads: Vec<(&Buffer, &[u8])>,
+    slice: &mut [PixelSums],
+    bar: Option<&ProgressBar>,
+) -> Result<()> {
+    let mut uploads = Some(uploads);
+    let mut readback = Some(bytemuck::cast_slice_mut::<PixelSums, u8>(slice));
+    for s in 0..params.spp {
+        let steps = path_steps(params, s, ids.clone(), chunk);
+        let readbacks = if s + 1 == params.spp {
+            vec![(
+                buffers.direct.render.sums,
+                readback.take().expect("one readback per tile"),
+            )]
+        } else {
+            vec![]
+        };
+        gpu.submit(Work {
+            kernel: &PATH,
+            buffers: buffers.slots(),
+            uploads: uploads.take().unwrap_or_default(),
+            steps,
+            readbacks,
+        })
+        .with_context(|| format!("GPU kernel {}", PATH.kernel.name()))?;
+        if let Some(bar) = bar {
+            bar.inc(u64::from(ids.end - ids.start));
+        }
+    }
+    Ok(())
+}
+
+/// The steps of sample `s` of a tile's paths: start, then `max_depth + 1` bounces, each over all
+/// ids in dispatches of at most `chunk` ids, a barrier after each step.
+fn path_steps(
+    params: &RenderParams,
+    s: u32,
+    ids: std::ops::Range<u32>,
+    chunk: u32,
+) -> Vec<Step<PathPass>> {
+    let mut steps = Vec::new();
+    for mode in std::iter::once(0).chain(std::iter::repeat_n(1, params.max_depth as usize + 1)) {
+        let push = PathPass {
+            launch: Launch {
+                seed: params.seed,
+                ..Launch::default()
+            },
+            sample: s,
+            mode,
+            sums_base: ids.start,
+            _pad: 0,
+        };
+        let mut start = ids.start;
+        while start < ids.end {
+            let end = start.saturating_add(chunk).min(ids.end);
+            steps.push(Step::Run {
+                push,
+                ids: start..end,
+            });
+            start = end;
+        }
+        steps.push(Step::Barrier);
+    }
+    steps
 }
 
 /// The submissions of one tile (ids `ids`): its steps and the samples they add. Pass after pass

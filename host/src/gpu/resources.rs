@@ -274,7 +274,7 @@ pub struct Submitter {
 }
 
 /// Most storage buffers one dispatch can bind.
-pub const MAX_BINDINGS: u32 = 8;
+pub const MAX_BINDINGS: u32 = 12;
 
 impl Submitter {
     pub fn new(owner: &Arc<DeviceOwner>) -> Result<Self, GpuError> {

@@ -32,16 +32,16 @@ const FLIGHT_SALT: u32 = 0x6c8e_9cf5;
 /// A transmittance still to be estimated: the world ray from `o` along unit `w` up to `dist`,
 /// and what its transmittance multiplies.
 #[derive(Clone, Copy)]
-struct ShadowQuery {
-    o: V3,
-    w: V3,
-    dist: f32,
-    weight: Rgb,
+pub(super) struct ShadowQuery {
+    pub(super) o: V3,
+    pub(super) w: V3,
+    pub(super) dist: f32,
+    pub(super) weight: Rgb,
 }
 
 impl ShadowQuery {
     /// A query that contributes nothing (no ray is traced for it).
-    const NONE: ShadowQuery = ShadowQuery {
+    pub(super) const NONE: ShadowQuery = ShadowQuery {
         o: V3::new(0.0, 0.0, 0.0),
         w: V3::new(0.0, 0.0, 1.0),
         dist: 0.0,
@@ -119,13 +119,13 @@ pub fn direct_radiance(
 
 /// The box [0, dims] of the grid as a vector.
 #[inline]
-fn grid_hi(vol: &VolumeView) -> V3 {
+pub(super) fn grid_hi(vol: &VolumeView) -> V3 {
     let d = &vol.desc.dims;
     V3::new(d[0] as f32, d[1] as f32, d[2] as f32)
 }
 
 /// Transmittance along a query's ray through the grid, by the estimator of the render.
-fn shadow(
+pub(super) fn shadow(
     vol: &VolumeView,
     cfg: &Config,
     params: &RenderParams,
@@ -143,7 +143,13 @@ fn shadow(
 
 /// Strategy 1 at x (per unit albedo, before T): a light drawn by the pmf over kinds, then a
 /// direction (or point) on it.
-fn light_sample(scene: &Scene, g: f32, x: V3, wo: V3, rng: HashRng) -> (ShadowQuery, HashRng) {
+pub(super) fn light_sample(
+    scene: &Scene,
+    g: f32,
+    x: V3,
+    wo: V3,
+    rng: HashRng,
+) -> (ShadowQuery, HashRng) {
     let l = scene.lighting;
     let (u_kind, rng) = rng.next_f32();
     let (u0, rng) = rng.next_f32();

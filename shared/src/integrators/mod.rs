@@ -2,13 +2,15 @@
 //! equiangular distance sampling, their MIS combinations with jackknife or naive MIS weights
 //! (Eq. 9), the biased combined estimate (Eq. 10), Miller et al. 2019 (balance heuristic,
 //! ratio-tracking densities) and the power heuristic through Re g (beyond the paper); and
-//! direct illumination from an environment map, a sun and point lights in RGB (`direct`).
+//! direct illumination from an environment map, a sun and point lights in RGB (`direct`), and
+//! multiple scattering (`path`).
 
 mod context;
 pub mod direct;
 mod equiangular;
 mod free_flight;
 mod lighting;
+pub mod path;
 mod weights;
 
 use crate::geometry::{to_index_space, Ray};

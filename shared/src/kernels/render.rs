@@ -4,6 +4,7 @@
 use crate::estimators::estimate;
 use crate::geometry::{to_index_space, Ray, V3};
 use crate::integrators::direct::direct_radiance;
+use crate::integrators::path::{path_bounce, path_radiance, path_start, PathState};
 use crate::params::{Config, RenderParams};
 use crate::rgb::Rgb;
 use crate::rng::HashRng;
@@ -175,6 +176,79 @@ pub fn direct_pixel_pass(
         let (world, rng) = camera_ray(params, id, s);
         let (l, tally, _) = direct_radiance(vol, &cfg, params, scene, &world, rng);
         acc = acc.add(l, l.luminance(), tally);
+        s += 1;
+    }
+    acc
+}
+
+/// Push constants of the path kernel: the launch header, the sample, and the step (0: start
+/// the sample's paths at the camera, 1: one bounce of every live path).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct PathPass {
+    pub launch: crate::kernels::launch::Launch,
+    /// Sample index of the paths.
+    pub sample: u32,
+    /// 0: start, 1: bounce.
+    pub mode: u32,
+    /// Pixel id held by element 0 of the sums and states buffers.
+    pub sums_base: u32,
+    pub _pad: u32,
+}
+
+/// One step of the wavefront `path` render of pixel `id` (`path_cs`): start sample `sample`'s
+/// path at the camera (`start`), or advance it by one vertex; a path that ends adds its
+/// radiance to the pixel's sums. Returns the new state and sums.
+#[allow(clippy::too_many_arguments)]
+pub fn path_step(
+    vol: &VolumeView,
+    params: &RenderParams,
+    scene: &Scene,
+    id: u32,
+    sample: u32,
+    start: bool,
+    st: PathState,
+    sums: PixelSums,
+) -> (PathState, PixelSums) {
+    if start {
+        let (world, rng) = camera_ray(params, id, sample);
+        let sums = if sample == 0 {
+            PixelSums::default()
+        } else {
+            sums
+        };
+        return (path_start(&world, rng), sums);
+    }
+    if st.alive == 0 {
+        return (st, sums);
+    }
+    let cfg = Config::decode(params, vol.desc);
+    let next = path_bounce(vol, &cfg, params, scene, st);
+    if next.alive != 0 {
+        return (next, sums);
+    }
+    let l = next.radiance;
+    (next, sums.add(l, l.luminance(), next.tally()))
+}
+
+/// [`render_pixel_pass`] of the `path` integrator on the CPU: each sample's whole path, the same
+/// bounces as the GPU's steps.
+pub fn path_pixel_pass(
+    vol: &VolumeView,
+    params: &RenderParams,
+    scene: &Scene,
+    id: u32,
+    s_begin: u32,
+    s_end: u32,
+    prev: PixelSums,
+) -> PixelSums {
+    let cfg = Config::decode(params, vol.desc);
+    let mut acc = prev;
+    let mut s = s_begin;
+    while s < s_end {
+        let (world, rng) = camera_ray(params, id, s);
+        let st = path_radiance(vol, &cfg, params, scene, path_start(&world, rng));
+        acc = acc.add(st.radiance, st.radiance.luminance(), st.tally());
         s += 1;
     }
     acc

@@ -1,0 +1,213 @@
+//! Multiple scattering (`--integrator path`): a volumetric path tracer with delta-tracking
+//! vertices, next-event estimation at every vertex (one light sample, its shadow ray's
+//! transmittance by the chosen estimator, balance-heuristic weighted against phase sampling),
+//! Henyey-Greenstein continuation, Russian roulette after `rr_depth` vertices and at most
+//! `max_depth` vertices (the ray leaving the last vertex still meets the lights: `max_depth` 1 is
+//! direct illumination).
+//!
+//! One call of [`path_bounce`] advances a path by one vertex, so a GPU invocation runs one
+//! free flight and one shadow ray (lavapipe's loop budget); the state between calls is a
+//! [`PathState`] in a buffer (wavefront). The continuation's transmittance is the next free
+//! flight's escape; an escape after a phase sample meets the map and the sun disk with the MIS
+//! weight p_phase / (p_phase + p_light), the counterpart of the light sample's.
+
+use super::direct::{light_sample, shadow};
+use crate::estimators::tracking::delta_tracking_capped;
+use crate::geometry::{to_index_space, Ray, V3};
+use crate::params::{Config, RenderParams};
+use crate::rgb::Rgb;
+use crate::rng::HashRng;
+use crate::sampling::lighting::Scene;
+use crate::sampling::phase::sample_hg;
+use crate::tally::Tally;
+use crate::volume::dda::clip_to_box;
+use crate::volume::grid::VolumeView;
+use bytemuck::{Pod, Zeroable};
+
+/// Salt of the stochastic-lookup jitter key of the path's free flights.
+const FLIGHT_SALT: u32 = 0x2f6b_3c1d;
+/// Smallest survival probability of Russian roulette.
+const MIN_SURVIVAL: f32 = 0.05;
+
+/// One path between bounces (64 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct PathState {
+    /// Origin of the next flight (world space).
+    pub o: V3,
+    /// Vertices so far.
+    pub depth: u32,
+    /// Unit direction of the next flight.
+    pub d: V3,
+    /// 1 while the path continues.
+    pub alive: u32,
+    /// Throughput so far (albedo products and roulette weights).
+    pub throughput: Rgb,
+    /// Density of the phase sample that chose `d` (0 for the camera ray: no MIS on escape).
+    pub p_phase: f32,
+    /// Radiance gathered so far.
+    pub radiance: Rgb,
+    /// The path's generator state.
+    pub rng: u32,
+    /// Lookups, capped and out-of-regime estimates of the whole path.
+    pub lookups: u32,
+    pub capped: u32,
+    pub outside: u32,
+    pub _pad: u32,
+}
+
+impl PathState {
+    /// The tally of the path.
+    #[inline]
+    pub fn tally(&self) -> Tally {
+        Tally {
+            lookups: self.lookups,
+            capped: self.capped,
+            outside: self.outside,
+        }
+    }
+
+    /// Adds a tally to the path's.
+    #[inline]
+    fn count(&mut self, t: Tally) {
+        self.lookups += t.lookups;
+        self.capped += t.capped;
+        self.outside += t.outside;
+    }
+}
+
+/// A path leaving the camera along `world` with generator `rng`.
+#[inline]
+pub fn path_start(world: &Ray, rng: HashRng) -> PathState {
+    PathState {
+        o: world.o,
+        d: world.d,
+        alive: 1,
+        throughput: Rgb::splat(1.0),
+        rng: rng.state,
+        ..Default::default()
+    }
+}
+
+/// Advances a live path by one vertex (see the module doc); a finished path is returned as is.
+pub fn path_bounce(
+    vol: &VolumeView,
+    cfg: &Config,
+    params: &RenderParams,
+    scene: &Scene,
+    st: PathState,
+) -> PathState {
+    if st.alive == 0 {
+        return st;
+    }
+    let mut st = st;
+    let mut rng = HashRng { state: st.rng };
+    let world = Ray { o: st.o, d: st.d };
+    let ray = to_index_space(&world, &params.world_to_index);
+    let (ta, tb) = clip_to_box(&ray, super::direct::grid_hi(vol), 0.0, f32::INFINITY);
+    let mut found = false;
+    let mut t = 0.0f32;
+    if ta < tb {
+        let (ff, r) = delta_tracking_capped(
+            vol,
+            &ray,
+            ta,
+            tb,
+            cfg.lookup,
+            FLIGHT_SALT,
+            cfg.max_collisions,
+            rng,
+        );
+        rng = r;
+        st.count(ff.tally);
+        found = ff.found;
+        t = ff.t;
+    }
+    if !found {
+        // Escape: the map and the sun disk, MIS-weighted after a phase sample.
+        let l = scene.directional_radiance(st.d);
+        let w = if st.p_phase > 0.0 {
+            st.p_phase / (st.p_phase + scene.directional_pdf(st.d))
+        } else {
+            1.0
+        };
+        st.radiance = st.radiance + l.mul_rgb(st.throughput) * w;
+        st.alive = 0;
+        st.rng = rng.state;
+        return st;
+    }
+    if st.depth >= params.max_depth {
+        // A vertex beyond the last: the path ends (as pbrt-v4's volpath, the escape of the ray
+        // after the last vertex still counted above).
+        st.alive = 0;
+        st.rng = rng.state;
+        return st;
+    }
+    let x = world.at(t);
+    let wo = st.d * -1.0;
+    st.throughput = st.throughput.mul_rgb(scene.lighting.albedo);
+    st.depth += 1;
+    // Next-event estimation.
+    let (q, r) = light_sample(scene, params.hg_g, x, wo, rng);
+    rng = r;
+    if !q.weight.is_black() {
+        let (tr, tally, r) = shadow(vol, cfg, params, &q, rng);
+        rng = r;
+        st.count(tally);
+        st.radiance = st.radiance + q.weight.mul_rgb(st.throughput) * tr;
+    }
+    // Continuation: phase sampling (phase / pdf = 1), roulette, depth limit.
+    let (u0, r) = rng.next_f32();
+    let (u1, r) = r.next_f32();
+    let (u2, r) = r.next_f32();
+    rng = r;
+    let (wi, p_phase) = sample_hg(wo, params.hg_g, u0, u1);
+    st.o = x;
+    st.d = wi;
+    st.p_phase = p_phase;
+    if st.depth >= params.rr_depth {
+        let q = max3(st.throughput);
+        if q < 1.0 {
+            let survive = if q > MIN_SURVIVAL { q } else { MIN_SURVIVAL };
+            if u2 < survive {
+                st.throughput = st.throughput * (1.0 / survive);
+            } else {
+                st.alive = 0;
+            }
+        }
+    }
+    if !(p_phase > 0.0) {
+        st.alive = 0;
+    }
+    st.rng = rng.state;
+    st
+}
+
+/// The largest component.
+#[inline]
+fn max3(c: Rgb) -> f32 {
+    let m = if c.r > c.g { c.r } else { c.g };
+    if m > c.b {
+        m
+    } else {
+        c.b
+    }
+}
+
+/// A whole path (the CPU backend; the GPU runs the same `max_depth + 1` bounces, one dispatch
+/// each): its radiance and tally.
+pub fn path_radiance(
+    vol: &VolumeView,
+    cfg: &Config,
+    params: &RenderParams,
+    scene: &Scene,
+    start: PathState,
+) -> PathState {
+    let mut st = start;
+    let mut k = 0;
+    while k <= params.max_depth && st.alive != 0 {
+        st = path_bounce(vol, cfg, params, scene, st);
+        k += 1;
+    }
+    st
+}
