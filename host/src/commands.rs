@@ -145,6 +145,9 @@ pub struct EvalOptions {
     pub env_scale: f32,
     pub env_rotate: f32,
     pub sun: Option<crate::lighting::SunSpec>,
+    /// `--integrators path`: vertices before roulette, most vertices.
+    pub rr_depth: u32,
+    pub max_depth: u32,
     pub exposure: f32,
     pub n: u32,
     pub f_delta: f32,
@@ -179,6 +182,8 @@ impl Default for EvalOptions {
             env_scale: 1.0,
             env_rotate: 0.0,
             sun: None,
+            rr_depth: defaults::RR_DEPTH,
+            max_depth: defaults::MAX_DEPTH,
             exposure: defaults::EXPOSURE,
             n: defaults::N,
             f_delta: defaults::F_DELTA,
@@ -908,8 +913,10 @@ fn report_underflow(vol: &DenseVolume, u: &crate::bricks::Underflow, scale: f32)
 
 /// `host eval`: the reference and each estimator on pixel-center rays; JSON + images.
 pub fn run_eval(args: &EvalOptions) -> Result<()> {
-    if args.integrators.as_deref().map(str::trim) == Some("direct") {
-        return run_eval_direct(args);
+    match args.integrators.as_deref().map(str::trim) {
+        Some("direct") => return run_eval_direct(args, Integrator::Direct),
+        Some("path") => return run_eval_direct(args, Integrator::Path),
+        _ => {}
     }
     let given_direct = args.env.is_some() || args.sun.is_some();
     anyhow::ensure!(
@@ -1034,15 +1041,18 @@ fn run_eval_integrators(
 
 /// `host eval --integrators direct`: each shadow-ray estimator of `--estimators` in the `direct`
 /// integrator against ratio-tracking shadow rays at `--reference-spp` (default 16 x `--spp`).
-fn run_eval_direct(args: &EvalOptions) -> Result<()> {
+fn run_eval_direct(args: &EvalOptions, integrator: Integrator) -> Result<()> {
+    let label = crate::integrators::integrator_name(integrator);
+    // Direct holds three estimates per camera ray; path one per bounce.
+    let too_large = |e| integrator == Integrator::Direct && crate::eval_direct::too_large_for_direct(e);
     let all = args.estimators == "all";
     let estimators: Vec<_> = crate::eval::parse_list(&args.estimators)?
         .into_iter()
-        .filter(|e| !(all && crate::eval_direct::too_large_for_direct(e.estimator)))
+        .filter(|e| !(all && too_large(e.estimator)))
         .collect();
     if let Some(e) = estimators
         .iter()
-        .find(|e| crate::eval_direct::too_large_for_direct(e.estimator))
+        .find(|e| too_large(e.estimator))
     {
         bail!(
             "--estimators {}: its three estimates per camera ray of the direct integrator exceed \
@@ -1050,7 +1060,8 @@ fn run_eval_direct(args: &EvalOptions) -> Result<()> {
             e.name
         );
     }
-    let images = crate::eval_direct::direct_files(&args.out_dir, estimators.iter().map(|e| e.name));
+    let images =
+        crate::eval_direct::direct_files(&args.out_dir, label, estimators.iter().map(|e| e.name));
     let json = plan_eval_outputs(args, &images)?;
     let scene = prepare_scene(&args.scene, args.lookup, args.width, args.height)?;
     let (vol, packed) = (&scene.volume, &scene.packed);
@@ -1065,15 +1076,15 @@ fn run_eval_direct(args: &EvalOptions) -> Result<()> {
         n: args.n,
         f_delta: args.f_delta,
         ratio_roulette: args.ratio_roulette,
-        integrator: Some(Integrator::Direct),
+        integrator: Some(integrator),
         lights: args.lights.clone(),
         albedo: [args.albedo; 3],
         env: args.env.clone(),
         env_scale: args.env_scale,
         env_rotate: args.env_rotate,
         sun: args.sun,
-        rr_depth: defaults::RR_DEPTH,
-        max_depth: defaults::MAX_DEPTH,
+        rr_depth: args.rr_depth,
+        max_depth: args.max_depth,
         hg_g: 0.0,
         t_hat: TransmittanceHat::Jackknife,
         exposure: args.exposure,
@@ -1098,6 +1109,8 @@ fn run_eval_direct(args: &EvalOptions) -> Result<()> {
         n: args.n,
         f_delta: args.f_delta,
         pixel_jitter: 1,
+        rr_depth: args.rr_depth,
+        max_depth: args.max_depth,
         ..Default::default()
     };
     let setup = crate::eval::EvalSetup {
@@ -1112,7 +1125,13 @@ fn run_eval_direct(args: &EvalOptions) -> Result<()> {
         std_scale: args.std_scale,
         progress: !args.quiet,
     };
-    let report = crate::eval_direct::evaluate_direct(&setup, &lights, &estimators, args.exposure)?;
+    let report = crate::eval_direct::evaluate_direct(
+        &setup,
+        integrator,
+        &lights,
+        &estimators,
+        args.exposure,
+    )?;
     crate::output::write_json(&json, &report)?;
     println!("wrote {}", json.display());
     Ok(())

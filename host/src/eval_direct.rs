@@ -1,6 +1,7 @@
-//! `host eval --integrators direct --estimators LIST`: the `direct` integrator with each
-//! shadow-ray estimator (entries `direct/<estimator>`) against a reference made with ratio-
-//! tracking shadow rays (unbiased) at `--reference-spp`, as in the paper's Fig. 1.
+//! `host eval --integrators direct|path --estimators LIST`: the `direct` (or `path`) integrator
+//! with each shadow-ray estimator (entries `direct/<estimator>`, `path/<estimator>`) against a
+//! reference made with ratio-tracking shadow rays (unbiased) at `--reference-spp`, as in the
+//! paper's Fig. 1.
 //!
 //! Statistics are of each pixel's luminance: SMAPE (epsilon 0.01), mean bias over the image with
 //! its standard error from the per-pixel variances of both images, mean per-sample standard
@@ -56,17 +57,21 @@ pub struct DirectEvalReport {
     pub entries: Vec<DirectEntry>,
 }
 
-/// File stem of an entry's images.
-fn stem(name: &str) -> String {
-    format!("direct-{name}")
+/// File stem of an entry's images (`direct-jackknife`, `path-ratio`, ...).
+fn stem(integrator: &str, name: &str) -> String {
+    format!("{integrator}-{name}")
 }
 
 /// Every image [`evaluate_direct`] writes in `out_dir` for these estimators.
-pub fn direct_files<'a>(out_dir: &Path, names: impl Iterator<Item = &'a str>) -> Vec<PathBuf> {
+pub fn direct_files<'a>(
+    out_dir: &Path,
+    integrator: &str,
+    names: impl Iterator<Item = &'a str>,
+) -> Vec<PathBuf> {
     let mut files = vec![out_dir.join("reference.exr"), out_dir.join("reference.png")];
     for name in names {
-        files.push(out_dir.join(format!("{}.exr", stem(name))));
-        files.push(out_dir.join(format!("{}.png", stem(name))));
+        files.push(out_dir.join(format!("{}.exr", stem(integrator, name))));
+        files.push(out_dir.join(format!("{}.png", stem(integrator, name))));
     }
     files
 }
@@ -114,9 +119,11 @@ fn render_one(
     ))
 }
 
-/// Renders the reference (ratio-tracking shadow rays) and each estimator's `direct` image.
+/// Renders the reference (ratio-tracking shadow rays) and each estimator's image with
+/// `integrator` (`direct` or `path`; `setup.params` carries its depths).
 pub fn evaluate_direct(
     setup: &EvalSetup,
+    integrator: Integrator,
     lights: &SceneLights,
     estimators: &[&'static crate::estimators::EstimatorSpec],
     exposure: f32,
@@ -124,7 +131,8 @@ pub fn evaluate_direct(
     std::fs::create_dir_all(setup.out_dir)
         .with_context(|| format!("creating {}", setup.out_dir.display()))?;
     let mut base = setup.params;
-    base.integrator = Integrator::Direct as u32;
+    base.integrator = integrator as u32;
+    let label = crate::integrators::integrator_name(integrator);
     base.light_count = lights.points.len() as u32;
     let reference = crate::estimators::by_name("ratio").expect("registered");
     let mut ref_params = base;
@@ -140,13 +148,13 @@ pub fn evaluate_direct(
     let n = ref_m.len() as f64;
     let mut entries = Vec::new();
     for (k, spec) in estimators.iter().enumerate() {
-        let name = format!("direct/{}", spec.name);
+        let name = format!("{label}/{}", spec.name);
         let mut params = base;
         spec.apply(&mut params);
         let params = crate::render::fit_collision_cap(&params, &setup.volume.desc);
         crate::eval::step(setup, k + 1, estimators.len(), &name, params.spp);
         let (px, elapsed_ms, exr, png) =
-            render_one(setup, &params, lights, &stem(spec.name), exposure)?;
+            render_one(setup, &params, lights, &stem(label, spec.name), exposure)?;
         let m = moments(&px);
         let pairs = m.iter().zip(&ref_m);
         let smape = pairs
@@ -191,7 +199,7 @@ pub fn evaluate_direct(
     let l = &lights.lighting;
     Ok(DirectEvalReport {
         header: setup.header(),
-        reference: format!("direct/ratio at {} spp", ref_params.spp),
+        reference: format!("{label}/ratio at {} spp", ref_params.spp),
         reference_spp: ref_params.spp,
         reference_exr,
         reference_png,

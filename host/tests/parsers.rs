@@ -124,6 +124,8 @@ const NUMERIC_FLAGS: &[(&[&str], &str)] = &[
     (&["render"], "--exposure"),
     (&["render"], "--env-scale"),
     (&["render"], "--env-rotate"),
+    (&["render"], "--rr-depth"),
+    (&["render"], "--max-depth"),
     (&["render"], "--width"),
     (&["render"], "--height"),
     (&["render"], "--spp"),
@@ -134,6 +136,8 @@ const NUMERIC_FLAGS: &[(&[&str], &str)] = &[
     (&["eval"], "--exposure"),
     (&["eval"], "--env-scale"),
     (&["eval"], "--env-rotate"),
+    (&["eval"], "--rr-depth"),
+    (&["eval"], "--max-depth"),
     (&["eval"], "--width"),
     (&["eval"], "--height"),
     (&["eval"], "--spp"),
@@ -208,6 +212,7 @@ fn numeric_values(cli: &host::cli::Cli) -> Vec<f64> {
             v.extend([a.n, a.width, a.height, a.spp].map(f64::from));
             v.extend([a.f_delta, a.hg_g, a.exposure, a.env_scale, a.env_rotate].map(f64::from));
             v.extend(a.albedo.map(f64::from));
+            v.extend([a.rr_depth, a.max_depth].map(f64::from));
             v
         }
         C::Eval(a) => {
@@ -215,6 +220,7 @@ fn numeric_values(cli: &host::cli::Cli) -> Vec<f64> {
             v.extend(a.reference_spp.map(f64::from));
             v.extend([a.f_delta, a.albedo, a.exposure, a.bias_scale, a.std_scale].map(f64::from));
             v.extend([a.env_scale, a.env_rotate].map(f64::from));
+            v.extend([a.rr_depth, a.max_depth].map(f64::from));
             v
         }
         C::Report(a) => [

@@ -18,8 +18,8 @@ pub struct EvalArgs {
     /// Comma-separated estimators, or "all" (every one but the reference).
     #[arg(long, default_value = "all")]
     pub estimators: String,
-    /// Evaluate integrators instead of transmittance estimators: `direct` alone (one entry
-    /// direct/<estimator> per --estimators entry, reference: ratio-tracking shadow rays at
+    /// Evaluate integrators instead of transmittance estimators: `direct` or `path` alone (one
+    /// entry direct/<estimator> per --estimators entry, reference: ratio-tracking shadow rays at
     /// --reference-spp), or single-scattering integrators, comma-separated or "all" (see `host
     /// render --integrator`). Reference: mis-jackknife
     /// with ratio-tracking T(t0) at --reference-spp (default 16 x --spp; with the default --spp
@@ -48,6 +48,12 @@ pub struct EvalArgs {
     /// `--integrators direct`: sun "x,y,z[,intensity[,angular_radius_deg]]" (see host render).
     #[arg(long, value_parser = super::parsers::parse_sun, allow_hyphen_values = true)]
     pub sun: Option<crate::lighting::SunSpec>,
+    /// `--integrators path`: vertices before Russian roulette, 0 to 1024.
+    #[arg(long, default_value_t = defaults::RR_DEPTH, allow_hyphen_values = true, value_parser = clap::value_parser!(u32).range(0..=1024))]
+    pub rr_depth: u32,
+    /// `--integrators path`: most vertices of a path, 1 to 1024.
+    #[arg(long, default_value_t = defaults::MAX_DEPTH, allow_hyphen_values = true, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    pub max_depth: u32,
     /// Multiplier before the PNG previews' tone mapping, a finite number > 0.
     #[arg(long, default_value_t = defaults::EXPOSURE, allow_hyphen_values = true, value_parser = parse_positive)]
     pub exposure: f32,
@@ -111,6 +117,8 @@ impl EvalArgs {
             env_scale: self.env_scale,
             env_rotate: self.env_rotate,
             sun: self.sun,
+            rr_depth: self.rr_depth,
+            max_depth: self.max_depth,
             exposure: self.exposure,
             n: self.n,
             f_delta: self.f_delta,
