@@ -636,7 +636,8 @@ fn sun_dirs() -> Vec<V3> {
 /// For radii 0.2666 (the real sun), 5, 30 and 45 degrees and each sun direction, 50,000 samples
 /// (PCG32 seed 6000 + 10 radius-index + dir-index): every direction is a unit vector, lies in the
 /// cone (1 - cos computed accurately in f64 <= (1 - cos alpha)(1 + 1e-5)), `covers` it (at least
-/// 99.9% of the samples: rounding of the f32 test 1 - d . dir at the rim), the pdf is
+/// 99.99% of the samples; observed: all. `covers` tested 1 - d . dir in f32 before, which
+/// refused 0.3% of the real sun's samples at the rim), the pdf is
 /// 1 / solid angle = `Sun::pdf` there; (1 - cos) / (1 - cos alpha) is uniform (20 bins,
 /// chi-square, reject at p < 1e-4).
 #[test]
@@ -675,7 +676,7 @@ fn sun_samples_are_uniform_in_the_cone() {
                  {dof} p {pv:.3}"
             );
             assert!(
-                uncovered <= N / 1000,
+                uncovered <= N / 10_000,
                 "radius {deg}, dir {dir:?}: `covers` refuses {uncovered} of {N} samples"
             );
             assert!(
