@@ -257,7 +257,7 @@ fn maps() -> Vec<TestMap> {
     };
     let lumpy = |i: u32, j: u32| {
         let h = shared::rng::pcg_hash(i + 31 * j);
-        if h % 5 == 0 {
+        if h.is_multiple_of(5) {
             [0.0; 3]
         } else {
             let v = shared::rng::unit_f32(h);
@@ -390,8 +390,9 @@ fn env_pdf_integrates_to_one() {
             }
             sum += row * st * dt * dp;
         }
-        let aligned =
-            map.rotate_deg == 0.0 && NT % map.height as usize == 0 && NP % map.width as usize == 0;
+        let aligned = map.rotate_deg == 0.0
+            && NT.is_multiple_of(map.height as usize)
+            && NP.is_multiple_of(map.width as usize);
         let tol = if aligned { 1e-5 } else { 1e-3 };
         println!("{}: integral of pdf = {sum:.8}", map.name);
         assert!(
