@@ -208,6 +208,54 @@ fn truncated_and_garbled_files_are_refused() {
     assert_load_refused(&empty, &["OpenEXR"]);
 }
 
+/// Malformed headers are refused with the file's name: an .hdr of 0 x 0 pixels, with a
+/// negative or non-numeric size, with a flipped (+Y) orientation, without the `#?RADIANCE`
+/// magic; an .exr with only a luminance (Y) channel.
+#[test]
+fn malformed_headers_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, header) in [
+        (
+            "zero.hdr",
+            "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 0 +X 0\n",
+        ),
+        (
+            "negative.hdr",
+            "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y -4 +X 8\n",
+        ),
+        (
+            "words.hdr",
+            "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y four +X eight\n",
+        ),
+        (
+            "flipped.hdr",
+            "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n+Y 4 +X 8\n",
+        ),
+        ("nomagic.hdr", "FORMAT=32-bit_rle_rgbe\n\n-Y 4 +X 8\n"),
+    ] {
+        let path = dir.path().join(name);
+        let mut bytes = header.as_bytes().to_vec();
+        bytes.extend(std::iter::repeat_n([128u8, 128, 128, 129], 32).flatten());
+        std::fs::write(&path, bytes).unwrap();
+        let msg = assert_load_refused(&path, &[".hdr"]);
+        println!("{name}: {msg}");
+    }
+    let luma = dir.path().join("luma.exr");
+    {
+        use exr::prelude::*;
+        let channel = AnyChannel::new("Y", FlatSamples::F32(vec![1.0; 8]));
+        let layer = Layer::new(
+            (4, 2),
+            LayerAttributes::default(),
+            Encoding::UNCOMPRESSED,
+            AnyChannels::sort(SmallVec::from_vec(vec![channel])),
+        );
+        Image::from_layer(layer).write().to_file(&luma).unwrap();
+    }
+    let msg = assert_load_refused(&luma, &["OpenEXR"]);
+    println!("luma.exr: {msg}");
+}
+
 /// Texels that are NaN, infinite or negative are refused, naming the texel (x, y) and the rule
 /// (finite, non-negative), in .exr and (infinity is not representable in RGBE) the check itself.
 #[test]
