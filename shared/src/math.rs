@@ -275,10 +275,19 @@ pub fn atan(x: f32) -> f32 {
 }
 
 /// atan2(y, x): the angle of (x, y) in (-pi, pi], from [`atan`] (quadrant by the signs; (0, 0)
-/// gives 0, NaN gives NaN).
+/// gives 0, NaN gives NaN, two infinities the quadrant's diagonal).
 pub fn atan2(y: f32, x: f32) -> f32 {
     if is_nan(x) || is_nan(y) {
         return NAN;
+    }
+    if abs(x) == f32::INFINITY && abs(y) == f32::INFINITY {
+        // y / x would be NaN: the diagonal of the quadrant, as IEEE atan2.
+        let a = if x > 0.0 {
+            core::f32::consts::FRAC_PI_4
+        } else {
+            3.0 * core::f32::consts::FRAC_PI_4
+        };
+        return if y > 0.0 { a } else { -a };
     }
     if x == 0.0 {
         return if y > 0.0 {

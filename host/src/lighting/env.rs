@@ -146,27 +146,35 @@ fn read_exr(path: &Path) -> Result<EnvMap> {
     use exr::prelude::*;
     let image = read_first_rgba_layer_from_file(
         path,
-        |resolution, _| {
-            let (w, h) = (resolution.width(), resolution.height());
-            // Oversized headers allocate nothing (refused below), so a hostile file cannot OOM.
-            let fits = w <= MAX_SIDE as usize && h <= MAX_SIDE as usize;
-            let n = if fits { w * h } else { 0 };
-            (w, h, vec![[0.0f32; 3]; n])
+        // Nothing is allocated from the header alone: a header that claims a huge image over
+        // missing blocks is refused by the reader before the first texel arrives.
+        |resolution, _| ExrTexels {
+            width: resolution.width(),
+            height: resolution.height(),
+            texels: Vec::new(),
+            failed: false,
         },
-        |(w, _, texels): &mut (usize, usize, Vec<[f32; 3]>),
-         pos,
-         (r, g, b, _a): (f32, f32, f32, f32)| {
-            if let Some(t) = texels.get_mut(pos.y() * *w + pos.x()) {
-                *t = [r, g, b];
-            }
+        |t: &mut ExrTexels, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+            t.set(pos.x(), pos.y(), [r, g, b])
         },
     )
     .with_context(|| format!("--env {}: not a readable RGB OpenEXR file", path.display()))?;
-    let (w, h, texels) = image.layer_data.channel_data.pixels;
+    let ExrTexels {
+        width: w,
+        height: h,
+        texels,
+        failed,
+    } = image.layer_data.channel_data.pixels;
     ensure!(
         w as u64 <= MAX_SIDE as u64 && h as u64 <= MAX_SIDE as u64,
         "--env {}: {w}x{h} texels is larger than {MAX_SIDE} on a side; downsample the probe",
         path.display()
+    );
+    ensure!(
+        !failed,
+        "--env {}: cannot allocate memory for {w}x{h} RGB texels ({:.1} GiB); downsample the probe",
+        path.display(),
+        (w * h * 12) as f64 / (1u64 << 30) as f64
     );
     Ok(EnvMap {
         width: w as u32,
@@ -175,12 +183,47 @@ fn read_exr(path: &Path) -> Result<EnvMap> {
     })
 }
 
+/// The texels of an OpenEXR layer being read, allocated (fallibly) when the first one arrives.
+struct ExrTexels {
+    width: usize,
+    height: usize,
+    texels: Vec<[f32; 3]>,
+    /// The image is larger than [`MAX_SIDE`] or its texels could not be allocated.
+    failed: bool,
+}
+
+impl ExrTexels {
+    /// Stores texel (x, y), allocating all texels first (nothing when oversized).
+    fn set(&mut self, x: usize, y: usize, rgb: [f32; 3]) {
+        if self.texels.is_empty() && !self.failed {
+            let n = self.width * self.height;
+            let fits = self.width <= MAX_SIDE as usize && self.height <= MAX_SIDE as usize;
+            if !fits || self.texels.try_reserve_exact(n).is_err() {
+                self.failed = true;
+                return;
+            }
+            self.texels.resize(n, [0.0; 3]);
+        }
+        if let Some(t) = self.texels.get_mut(y * self.width + x) {
+            *t = rgb;
+        }
+    }
+}
+
+/// A reader of `path` as Radiance RGBE, whatever its bytes look like (a PNG renamed .hdr is
+/// not decoded as 8-bit sRGB "radiance").
+fn hdr_reader(path: &Path) -> Result<image::ImageReader<std::io::BufReader<std::fs::File>>> {
+    let file = std::fs::File::open(path)
+        .with_context(|| format!("--env {}: cannot open", path.display()))?;
+    Ok(image::ImageReader::with_format(
+        std::io::BufReader::new(file),
+        image::ImageFormat::Hdr,
+    ))
+}
+
 /// A Radiance `.hdr` (RGBE) file.
 fn read_hdr(path: &Path) -> Result<EnvMap> {
-    let img = image::ImageReader::open(path)
-        .and_then(|r| r.with_guessed_format())
-        .with_context(|| format!("--env {}: cannot open", path.display()))?;
-    let (w, h) = img
+    let (w, h) = hdr_reader(path)?
         .into_dimensions()
         .with_context(|| format!("--env {}: not a Radiance .hdr file", path.display()))?;
     ensure!(
@@ -188,7 +231,14 @@ fn read_hdr(path: &Path) -> Result<EnvMap> {
         "--env {}: {w}x{h} texels is larger than {MAX_SIDE} on a side; downsample the probe",
         path.display()
     );
-    let img = image::open(path)
+    // The decoder's default 512 MiB allocation limit would refuse valid probes above 44 M texels
+    // (a 16k x 8k probe is 1.6 GB); the size was bounded by MAX_SIDE above.
+    let mut reader = hdr_reader(path)?;
+    let mut limits = image::Limits::default();
+    limits.max_alloc = Some(12 * w as u64 * h as u64 + (64 << 20));
+    reader.limits(limits);
+    let img = reader
+        .decode()
         .with_context(|| {
             format!(
                 "--env {}: not a readable Radiance .hdr file",

@@ -169,6 +169,13 @@ pub fn build(opts: &LightingOptions, center: [f64; 3], radius: f64) -> Result<Sc
     let mut w_env = 0.0;
     if let Some(map) = map {
         let (data, integral) = map.data(opts.env_scale);
+        ensure!(
+            integral.is_finite() && data.iter().all(|v| v.is_finite()),
+            "--env-scale {}: the scaled light probe's radiance overflows f32 (brightest texel \
+             {:.3e}); use a smaller --env-scale",
+            opts.env_scale,
+            map.texels.iter().flatten().fold(0.0f32, |a, v| a.max(*v))
+        );
         let rot = (opts.env_rotate_deg as f64).to_radians();
         lighting.env = EnvDesc {
             width: map.width,
@@ -190,6 +197,13 @@ pub fn build(opts: &LightingOptions, center: [f64; 3], radius: f64) -> Result<Sc
             "--sun: the angular radius must be in [0, 45] degrees"
         );
         lighting.sun = make_sun(dir, e, spec.radius_deg as f64);
+        let r = lighting.sun.radiance;
+        ensure!(
+            [r.r, r.g, r.b].iter().all(|v| v.is_finite()),
+            "--sun: intensity {e:.3e} over a disk of {} degrees is a radiance beyond f32; lower \
+             the intensity or widen the disk",
+            spec.radius_deg
+        );
         w_sun = e;
     }
     let w_points: f64 = opts

@@ -79,14 +79,28 @@ impl EnvDesc {
         pv * pu
     }
 
+    /// Local (x, z) of a world direction: R(-rotation) about +y.
+    #[inline]
+    fn local_xz(&self, d: V3) -> (f32, f32) {
+        (
+            self.cos_rotation * d.x + self.sin_rotation * d.z,
+            self.cos_rotation * d.z - self.sin_rotation * d.x,
+        )
+    }
+
+    /// sin(theta) of a world direction, as [`EnvDesc::uv`] returns it.
+    #[inline]
+    fn local_sin_theta(&self, d: V3) -> f32 {
+        let (x, z) = self.local_xz(d);
+        sqrt(x * x + z * z)
+    }
+
     /// The map's (u, v) in [0, 1)^2 of a world direction, and sin(theta).
     #[inline]
     pub fn uv(&self, d: V3) -> (f32, f32, f32) {
-        // Local = R(-rotation) world, about +y.
-        let x = self.cos_rotation * d.x + self.sin_rotation * d.z;
-        let z = self.cos_rotation * d.z - self.sin_rotation * d.x;
+        let (x, z) = self.local_xz(d);
         let phi = atan2(z, x);
-        let sin_theta = sqrt(x * x + z * z);
+        let sin_theta = self.local_sin_theta(d);
         let theta = atan2(sin_theta, d.y);
         let u = phi * (0.5 / PI);
         let u = if u < 0.0 { u + 1.0 } else { u };
@@ -141,14 +155,15 @@ impl EnvDesc {
         let (sin_theta, cos_theta) = sin_cos(PI * v);
         let (sin_phi, cos_phi) = sin_cos(2.0 * PI * u);
         let (x, z) = (sin_theta * cos_phi, sin_theta * sin_phi);
-        // The density at the generated direction, with its sin(theta) as [`EnvDesc::pdf`] takes it.
-        let sin_theta = sqrt(x * x + z * z);
         // World = R(rotation) local.
         let dir = V3::new(
             self.cos_rotation * x - self.sin_rotation * z,
             cos_theta,
             self.sin_rotation * x + self.cos_rotation * z,
         );
+        // The density at the generated direction, with sin(theta) computed from `dir` exactly as
+        // [`EnvDesc::pdf`] computes it (rotated back: the rounding of the rotation changes it).
+        let sin_theta = self.local_sin_theta(dir);
         EnvSample {
             dir,
             radiance: self.texel(data, i, j),
