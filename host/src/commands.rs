@@ -1044,16 +1044,14 @@ fn run_eval_integrators(
 fn run_eval_direct(args: &EvalOptions, integrator: Integrator) -> Result<()> {
     let label = crate::integrators::integrator_name(integrator);
     // Direct holds three estimates per camera ray; path one per bounce.
-    let too_large = |e| integrator == Integrator::Direct && crate::eval_direct::too_large_for_direct(e);
+    let too_large =
+        |e| integrator == Integrator::Direct && crate::eval_direct::too_large_for_direct(e);
     let all = args.estimators == "all";
     let estimators: Vec<_> = crate::eval::parse_list(&args.estimators)?
         .into_iter()
         .filter(|e| !(all && too_large(e.estimator)))
         .collect();
-    if let Some(e) = estimators
-        .iter()
-        .find(|e| too_large(e.estimator))
-    {
+    if let Some(e) = estimators.iter().find(|e| too_large(e.estimator)) {
         bail!(
             "--estimators {}: its three estimates per camera ray of the direct integrator exceed \
              a GPU invocation's loop budget; leave it out",

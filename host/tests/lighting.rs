@@ -747,7 +747,7 @@ fn host() -> Command {
     Command::new(env!("CARGO_BIN_EXE_host"))
 }
 
-/// A 16x16, 1 spp render with `--integrator direct` on the CPU backend, plus `extra`.
+/// A 16x16, 1 spp render on the CPU backend with the flags `extra`.
 fn render(out: &Path, extra: &[&str]) -> Output {
     host()
         .args([
@@ -925,6 +925,99 @@ fn light_flags_outside_direct_are_refused() {
     for (flags, words) in cases {
         let out = render(&exr, &flags);
         assert_refused(&out, &words);
+        assert!(!exr.exists(), "{flags:?}: an image was written");
+    }
+}
+
+/// `--integrator path` under the sky and under a probe with a sun and a point light writes a
+/// finite, non-black RGB image; `--max-depth 1` and `--rr-depth 0` are accepted.
+#[test]
+fn path_render_writes_a_finite_rgb_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let probe = dir.path().join("probe.hdr");
+    write_hdr(&probe, 8, 4, &[rgbe([128, 100, 60], 129); 32]);
+    for (name, extra) in [
+        ("sky", vec!["--env", "sky", "--hg-g", "0.6"]),
+        (
+            "probe",
+            vec![
+                "--env",
+                s(&probe),
+                "--sun",
+                "0,1,1,3,2",
+                "--light",
+                "0,0,0,2",
+                "--albedo",
+                "0.9,0.5,0.2",
+                "--max-depth",
+                "1",
+                "--rr-depth",
+                "0",
+                "--estimator",
+                "ratio",
+            ],
+        ),
+    ] {
+        let exr = dir.path().join(format!("{name}.exr"));
+        let mut args = vec!["--integrator", "path"];
+        args.extend(extra);
+        let out = render(&exr, &args);
+        assert!(
+            out.status.success(),
+            "{name}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let img = exr::prelude::read_first_rgba_layer_from_file(
+            &exr,
+            |r, _| vec![[0.0f32; 3]; r.width() * r.height()],
+            |px: &mut Vec<[f32; 3]>, p, (r, g, b, _a): (f32, f32, f32, f32)| {
+                px[p.y() * 16 + p.x()] = [r, g, b];
+            },
+        )
+        .unwrap();
+        let px = img.layer_data.channel_data.pixels;
+        assert!(
+            px.iter().flatten().all(|v| v.is_finite() && *v >= 0.0),
+            "{name}"
+        );
+        assert!(px.iter().flatten().any(|v| *v > 0.0), "{name}: black image");
+    }
+}
+
+/// The path-only flags are refused elsewhere, and their ranges are checked.
+#[test]
+fn path_flags_are_refused_outside_path_and_out_of_range() {
+    let dir = tempfile::tempdir().unwrap();
+    let exr = dir.path().join("r.exr");
+    let cases: Vec<(Vec<&str>, Vec<&str>)> = vec![
+        (
+            vec!["--integrator", "direct", "--rr-depth", "3"],
+            vec!["--rr-depth", "only applies to --integrator path"],
+        ),
+        (
+            vec!["--max-depth", "8"],
+            vec!["--max-depth", "only applies to --integrator path"],
+        ),
+        (
+            vec!["--integrator", "path", "--max-depth", "0"],
+            vec!["--max-depth", "0"],
+        ),
+        (
+            vec!["--integrator", "path", "--t-hat", "ratio"],
+            vec!["--t-hat", "no effect"],
+        ),
+    ];
+    for (flags, words) in cases {
+        let out = render(&exr, &flags);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{flags:?} was accepted");
+        assert!(!stderr.contains("panicked"), "{stderr}");
+        for w in &words {
+            assert!(
+                stderr.contains(w),
+                "{flags:?}: stderr lacks {w:?}: {stderr}"
+            );
+        }
         assert!(!exr.exists(), "{flags:?}: an image was written");
     }
 }
