@@ -69,6 +69,8 @@ pub struct SceneOptions {
     pub look_at: Option<[f32; 3]>,
     /// Vertical field of view in degrees.
     pub fov: f32,
+    /// The volume's up axis (rotated to the renderer's +y).
+    pub up: crate::render::UpAxis,
 }
 
 impl Default for SceneOptions {
@@ -83,6 +85,7 @@ impl Default for SceneOptions {
             camera: None,
             look_at: None,
             fov: defaults::FOV,
+            up: crate::render::UpAxis::Y,
         }
     }
 }
@@ -347,6 +350,11 @@ pub struct RenderSummary {
     /// The grid read from a volume file (absent for embedded volumes).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub grid: Option<String>,
+    /// The volume's up axis (`--up`), the world bounds of its occupied voxels in the renderer's
+    /// y-up world, and the camera (position, unit forward, vertical field of view).
+    pub up: crate::render::UpAxis,
+    pub world_bounds: [[f64; 3]; 2],
+    pub camera: CameraSummary,
     /// Mean radiance (integrator renders only).
     #[serde(rename = "mean_L", skip_serializing_if = "Option::is_none")]
     pub mean_l: Option<f64>,
@@ -358,6 +366,14 @@ pub struct RenderSummary {
     /// The host version and the command line, to reproduce the image.
     pub host_version: String,
     pub command_line: Vec<String>,
+}
+
+/// The camera of a render, as resolved.
+#[derive(serde::Serialize)]
+pub struct CameraSummary {
+    pub position: [f32; 3],
+    pub forward: [f32; 3],
+    pub fov_deg: f32,
 }
 
 /// The settings of an integrator render, as resolved (default lights included).
@@ -755,6 +771,21 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         ratio_roulette: args.ratio_roulette,
         flags,
         grid: scene.grid.clone(),
+        up: scene.up,
+        world_bounds: scene.world_bounds,
+        camera: CameraSummary {
+            position: [
+                scene.camera.origin.x,
+                scene.camera.origin.y,
+                scene.camera.origin.z,
+            ],
+            forward: [
+                scene.camera.forward.x,
+                scene.camera.forward.y,
+                scene.camera.forward.z,
+            ],
+            fov_deg: args.scene.fov,
+        },
         mean_l: radiance.then_some(mean),
         integrator: match args.integrator {
             Some(Integrator::Direct | Integrator::Path) => Some(direct_settings(
@@ -860,6 +891,9 @@ pub struct Scene {
     pub world_to_index: shared::geometry::Affine3x4,
     /// The grid read from a volume file (None for embedded volumes).
     pub grid: Option<String>,
+    /// World bounds of the occupied voxels (after `--up`), [lo, hi].
+    pub world_bounds: [[f64; 3]; 2],
+    pub up: crate::render::UpAxis,
 }
 
 /// Loads the volume of `--volume`, packs it and sets up the camera for a `w` x `h` image.
@@ -869,7 +903,8 @@ pub fn prepare_scene(args: &SceneOptions, lookup: Lookup, w: u32, h: u32) -> Res
         "--fov must be in (0, 180) degrees (got {})",
         args.fov
     );
-    let (volume, default_scale, grid) = load_volume(args)?;
+    let (mut volume, default_scale, grid) = load_volume(args)?;
+    volume.index_to_world = args.up.apply(&volume.index_to_world);
     let density_scale = args.density_scale.unwrap_or(default_scale);
     let packed = pack(&volume, density_scale, args.brick_size, lookup)?;
     report_underflow(&volume, &packed.underflow, density_scale)?;
@@ -878,7 +913,8 @@ pub fn prepare_scene(args: &SceneOptions, lookup: Lookup, w: u32, h: u32) -> Res
         look_at: args.look_at,
         fov_deg: args.fov,
     };
-    let camera = make_camera(&spec, occupied_world_bounds(&volume), w, h)?;
+    let bounds = occupied_world_bounds(&volume);
+    let camera = make_camera(&spec, bounds, w, h)?;
     let world_to_index = world_to_index(&volume.index_to_world)?;
     Ok(Scene {
         volume,
@@ -887,6 +923,8 @@ pub fn prepare_scene(args: &SceneOptions, lookup: Lookup, w: u32, h: u32) -> Res
         camera,
         world_to_index,
         grid,
+        world_bounds: [bounds.0, bounds.1],
+        up: args.up,
     })
 }
 

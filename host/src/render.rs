@@ -134,6 +134,43 @@ fn v3(a: [f64; 3]) -> V3 {
     V3::new(a[0] as f32, a[1] as f32, a[2] as f32)
 }
 
+/// Which axis of a volume file points up. The renderer's world is y-up (camera framing, the
+/// sky, the ground); `--up z` (Blender, Houdini caches) and `--up x` rotate the volume so that
+/// its up axis becomes +y, right-handed and exactly (a signed permutation).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum UpAxis {
+    X,
+    #[default]
+    Y,
+    Z,
+}
+
+impl UpAxis {
+    /// The rotation taking this axis to +y, as rows: z-up (x, y, z) -> (x, z, -y); x-up
+    /// (x, y, z) -> (-y, x, z).
+    pub fn rotation(self) -> [[f32; 3]; 3] {
+        match self {
+            UpAxis::Y => [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            UpAxis::Z => [[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]],
+            UpAxis::X => [[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]],
+        }
+    }
+
+    /// `m` (index -> world of the file) followed by [`UpAxis::rotation`]; exact.
+    pub fn apply(self, m: &crate::volume::Affine) -> crate::volume::Affine {
+        let r = self.rotation();
+        let mut out = [[0.0f32; 4]; 3];
+        for (i, row) in out.iter_mut().enumerate() {
+            for (j, v) in row.iter_mut().enumerate() {
+                // One nonzero term per sum (a signed permutation): no rounding.
+                *v = (0..3).map(|k| r[i][k] * m.0[k][j]).sum();
+            }
+        }
+        crate::volume::Affine(out)
+    }
+}
+
 /// A pinhole camera for a `w` x `h` image; by default it frames the whole volume (y is up).
 pub fn make_camera(
     spec: &CameraSpec,
@@ -416,4 +453,42 @@ pub fn render_resident_lit(
         .into_iter()
         .map(|s| finish_pixel(s, params.spp))
         .collect())
+}
+
+#[cfg(test)]
+mod up_tests {
+    use super::UpAxis;
+    use crate::volume::Affine;
+
+    /// Each rotation is orthonormal with determinant 1 and takes its axis to +y.
+    #[test]
+    fn up_rotations_are_proper_and_take_their_axis_up() {
+        for (up, axis) in [(UpAxis::X, 0), (UpAxis::Y, 1), (UpAxis::Z, 2)] {
+            let r = up.rotation();
+            let det = r[0][0] * (r[1][1] * r[2][2] - r[1][2] * r[2][1])
+                - r[0][1] * (r[1][0] * r[2][2] - r[1][2] * r[2][0])
+                + r[0][2] * (r[1][0] * r[2][1] - r[1][1] * r[2][0]);
+            assert_eq!(det, 1.0, "{up:?}");
+            for i in 0..3 {
+                for j in 0..3 {
+                    let dot: f32 = (0..3).map(|k| r[i][k] * r[j][k]).sum();
+                    assert_eq!(dot, if i == j { 1.0 } else { 0.0 }, "{up:?}");
+                }
+            }
+            let image: Vec<f32> = (0..3).map(|i| r[i][axis]).collect();
+            assert_eq!(image, [0.0, 1.0, 0.0], "{up:?} takes its axis to {image:?}");
+        }
+    }
+
+    /// A z-up volume's voxel (0, 0, 5) of size 2 at translation (1, 2, 3) lands at world
+    /// (1, 13, -2): its height becomes y, exactly.
+    #[test]
+    fn z_up_moves_a_voxel_exactly() {
+        let m = UpAxis::Z.apply(&Affine::scale_translate([2.0; 3], [1.0, 2.0, 3.0]));
+        let p = [0.0f32, 0.0, 5.0];
+        let w: Vec<f32> = (0..3)
+            .map(|i| (0..3).map(|k| m.0[i][k] * p[k]).sum::<f32>() + m.0[i][3])
+            .collect();
+        assert_eq!(w, [1.0, 13.0, -2.0]);
+    }
 }

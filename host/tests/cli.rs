@@ -183,6 +183,37 @@ fn render_writes_exr_png_and_a_complete_json_summary() {
     assert!(dir.path().join("r.exr").metadata().unwrap().len() > 0);
     let png = image::open(dir.path().join("r.png")).unwrap();
     assert_eq!((png.width(), png.height()), (40, 32));
+    assert_eq!(json["up"], "y");
+    let bounds = &json["world_bounds"];
+    assert!(
+        bounds[0][1].as_f64().unwrap() < bounds[1][1].as_f64().unwrap(),
+        "{bounds}"
+    );
+    assert_eq!(json["camera"]["fov_deg"], 40.0);
+}
+
+/// `--up z` turns the volume's +z into the world's +y: the occupied bounds' y extent becomes
+/// the z extent of `--up y`, and the summary says so.
+#[test]
+fn up_z_rotates_the_volume_and_is_recorded() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, y_up) = small_render(dir.path(), &["--backend", "cpu", "--volume", "explosion"]);
+    let (out, z_up) = small_render(
+        dir.path(),
+        &["--backend", "cpu", "--volume", "explosion", "--up", "z"],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(z_up["up"], "z");
+    let extent = |j: &serde_json::Value, a: usize| {
+        j["world_bounds"][1][a].as_f64().unwrap() - j["world_bounds"][0][a].as_f64().unwrap()
+    };
+    assert_eq!(extent(&z_up, 1), extent(&y_up, 2));
+    assert_eq!(extent(&z_up, 2), extent(&y_up, 1));
+    assert_eq!(extent(&z_up, 0), extent(&y_up, 0));
 }
 
 #[test]

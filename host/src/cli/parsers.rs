@@ -3,6 +3,7 @@
 
 use crate::backend::BackendChoice;
 use crate::bench::BenchBackend;
+use crate::render::UpAxis;
 use crate::study::distributions::Distribution;
 use crate::study::profile::Sampling;
 use shared::params::TransmittanceHat;
@@ -46,6 +47,18 @@ value_enum! {
         Nearest,
         /// Stochastic texture filtering: jitter by up to half a voxel, then nearest (Sec. 4.3).
         Stochastic,
+    }
+}
+
+value_enum! {
+    /// The up axis of a volume.
+    UpArg => UpAxis {
+        /// x points up.
+        X,
+        /// y points up (the renderer's world).
+        Y,
+        /// z points up (Blender, Houdini).
+        Z,
     }
 }
 

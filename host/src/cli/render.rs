@@ -2,7 +2,7 @@
 
 use super::parsers::{
     f32_in, f32_open, parse_albedo, parse_density_scale, parse_env, parse_f_delta, parse_positive,
-    parse_sun, parse_vec3, BackendArg, LookupArg, THatArg,
+    parse_sun, parse_vec3, BackendArg, LookupArg, THatArg, UpArg,
 };
 use crate::commands::{defaults, RenderOptions, SceneOptions};
 use clap::Args;
@@ -36,6 +36,11 @@ pub struct SceneArgs {
     /// Point the camera looks at, x,y,z (default: the volume's center).
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub look_at: Option<[f32; 3]>,
+    /// The volume's up axis: y (default), z (Blender, Houdini caches) or x; the volume is rotated
+    /// so that it points up in the renderer's y-up world (camera, sky, --camera, --look-at,
+    /// --light and --sun are in that world).
+    #[arg(long, value_enum, default_value_t = UpArg::Y)]
+    pub up: UpArg,
     /// Vertical field of view in degrees, in (0, 180).
     #[arg(long, default_value_t = defaults::FOV, allow_hyphen_values = true, value_parser = f32_open(0.0, 180.0))]
     pub fov: f32,
@@ -54,6 +59,7 @@ impl SceneArgs {
             camera: self.camera,
             look_at: self.look_at,
             fov: self.fov,
+            up: self.up.into(),
         }
     }
 }
