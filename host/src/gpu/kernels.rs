@@ -207,26 +207,6 @@ impl<'a> RenderBuffers<'a> {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::Kernel;
-
-    #[test]
-    fn every_kernel_has_a_distinct_nul_free_name_and_a_launch_header() {
-        let mut names: Vec<&str> = Kernel::ALL.iter().map(|k| k.name()).collect();
-        names.sort_unstable();
-        names.dedup();
-        assert_eq!(names.len(), Kernel::ALL.len());
-        for k in Kernel::ALL {
-            assert_eq!(k.c_name().to_str(), Ok(k.name()));
-            assert!(
-                k.push_size() as usize >= std::mem::size_of::<shared::kernels::launch::Launch>()
-            );
-            assert!(!k.strides().is_empty(), "{k:?} binds no storage buffer");
-        }
-    }
-}
-
 /// The buffers of `path_cs`: those of `direct_cs`, then the paths' states.
 pub struct PathBuffers<'a> {
     pub direct: DirectBuffers<'a>,
@@ -248,5 +228,25 @@ impl<'a> PathBuffers<'a> {
         s[path::ENV] = d[direct::ENV];
         s[path::STATES] = self.states;
         s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Kernel;
+
+    #[test]
+    fn every_kernel_has_a_distinct_nul_free_name_and_a_launch_header() {
+        let mut names: Vec<&str> = Kernel::ALL.iter().map(|k| k.name()).collect();
+        names.sort_unstable();
+        names.dedup();
+        assert_eq!(names.len(), Kernel::ALL.len());
+        for k in Kernel::ALL {
+            assert_eq!(k.c_name().to_str(), Ok(k.name()));
+            assert!(
+                k.push_size() as usize >= std::mem::size_of::<shared::kernels::launch::Launch>()
+            );
+            assert!(!k.strides().is_empty(), "{k:?} binds no storage buffer");
+        }
     }
 }
