@@ -78,16 +78,20 @@ pub fn parse_integrator_list(list: &str) -> Result<Vec<(&'static str, Integrator
         .collect()
 }
 
-/// Parses "x,y,z,intensity" into a point light.
-pub fn parse_light(s: &str) -> Result<PointLight, String> {
-    let v: Vec<f32> = s
-        .split(',')
+/// The comma-separated numbers of a flag value such as "x,y,z,intensity".
+pub fn parse_f32_list(s: &str) -> Result<Vec<f32>, String> {
+    s.split(',')
         .map(|p| {
             p.trim()
                 .parse::<f32>()
                 .map_err(|_| format!("{p:?} is not a number in {s:?}"))
         })
-        .collect::<Result<_, _>>()?;
+        .collect()
+}
+
+/// Parses "x,y,z,intensity" into a point light.
+pub fn parse_light(s: &str) -> Result<PointLight, String> {
+    let v = parse_f32_list(s)?;
     if v.len() != 4 || v.iter().any(|x| !x.is_finite()) || v[3] < 0.0 {
         return Err(format!(
             "expected x,y,z,intensity (finite, intensity >= 0), got {s:?}"

@@ -6,19 +6,30 @@ use std::path::{Component, Path, PathBuf};
 /// Writes a single-channel linear image as an RGB EXR (all channels equal), f32, ZIP-compressed
 /// scan lines in increasing order, written on one thread so equal images give equal bytes.
 pub fn write_exr(path: &Path, w: u32, h: u32, values: &[f32]) -> Result<()> {
+    write_exr_layer(path, w, h, "transmittance", |k| {
+        let v = values[k];
+        (v, v, v)
+    })
+}
+
+/// Writes one ZIP-compressed RGB scanline layer named `name`; `pixel(k)` gives row-major pixel k.
+fn write_exr_layer(
+    path: &Path,
+    w: u32,
+    h: u32,
+    name: &str,
+    pixel: impl Fn(usize) -> (f32, f32, f32) + Sync,
+) -> Result<()> {
     use exr::prelude::*;
     let encoding = Encoding {
         compression: Compression::ZIP16,
         blocks: Blocks::ScanLines,
         line_order: LineOrder::Increasing,
     };
-    let channels = SpecificChannels::rgb(|pos: Vec2<usize>| {
-        let v = values[pos.y() * w as usize + pos.x()];
-        (v, v, v)
-    });
+    let channels = SpecificChannels::rgb(|pos: Vec2<usize>| pixel(pos.y() * w as usize + pos.x()));
     let layer = Layer::new(
         (w as usize, h as usize),
-        LayerAttributes::named("transmittance"),
+        LayerAttributes::named(name),
         encoding,
         channels,
     );
@@ -270,27 +281,10 @@ pub fn progress(len: u64, what: &str, quiet: bool) -> indicatif::ProgressBar {
 
 /// Writes a linear RGB OpenEXR image (row-major texels).
 pub fn write_exr_rgb(path: &Path, w: u32, h: u32, rgb: &[[f32; 3]]) -> Result<()> {
-    use exr::prelude::*;
-    let encoding = Encoding {
-        compression: Compression::ZIP16,
-        blocks: Blocks::ScanLines,
-        line_order: LineOrder::Increasing,
-    };
-    let channels = SpecificChannels::rgb(|pos: Vec2<usize>| {
-        let v = rgb[pos.y() * w as usize + pos.x()];
+    write_exr_layer(path, w, h, "radiance", |k| {
+        let v = rgb[k];
         (v[0], v[1], v[2])
-    });
-    let layer = Layer::new(
-        (w as usize, h as usize),
-        LayerAttributes::named("radiance"),
-        encoding,
-        channels,
-    );
-    Image::from_layer(layer)
-        .write()
-        .non_parallel()
-        .to_file(path)
-        .with_context(|| format!("writing {}", path.display()))
+    })
 }
 
 /// Writes an sRGB PNG preview of linear RGB radiance: exposure x radiance, clamped to [0, 1],

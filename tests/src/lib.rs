@@ -125,3 +125,18 @@ pub fn camera_params(vol: &DenseVolume, w: u32, h: u32) -> RenderParams {
         ..Default::default()
     }
 }
+
+/// A lumpy n^3 volume in [-1, 1]^3: blobs of `cell`^3 voxels, two in three occupied (hashed),
+/// each with density 0.5 to 2.5 (deterministic).
+pub fn lumpy_blobs(n: u32, cell: u32) -> DenseVolume {
+    use shared::rng::{pcg_hash, unit_f32};
+    volume("lumpy", [n; 3], unit_cube(n), |x, y, z| {
+        let c = pcg_hash(x / cell + 101 * (y / cell) + 10007 * (z / cell));
+        let fine = unit_f32(pcg_hash(x + n * (y + n * z)));
+        if c.is_multiple_of(3) {
+            0.0
+        } else {
+            0.5 + 2.0 * fine * unit_f32(c)
+        }
+    })
+}

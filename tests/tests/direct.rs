@@ -8,50 +8,14 @@ use host::lighting::{build, EnvSource, LightingOptions, SceneLights, SunSpec};
 use host::render::{make_camera, render_lit, world_bounds, world_to_index, CameraSpec};
 use host::volume::{Affine, DenseVolume};
 use host::Backend;
-use integration_tests::{assert_bytes_equal, gpu};
+use integration_tests::{assert_bytes_equal, camera_params, gpu, lumpy_blobs};
 use shared::params::{Estimator, Integrator, RenderParams};
-use shared::rng::{pcg_hash, unit_f32};
 use shared::sampling::lights::PointLight;
 use shared::volume::grid::Lookup;
 
-/// A lumpy 24^3 test volume in [-1, 1]^3: hashed blobs with empty regions (deterministic).
-fn lumpy(n: u32) -> DenseVolume {
-    let mut v = Vec::with_capacity((n * n * n) as usize);
-    for z in 0..n {
-        for y in 0..n {
-            for x in 0..n {
-                let cell = pcg_hash(x / 6 + 101 * (y / 6) + 10007 * (z / 6));
-                let inside = !cell.is_multiple_of(3);
-                let fine = unit_f32(pcg_hash(x + n * (y + n * z)));
-                v.push(if inside {
-                    0.5 + 2.0 * fine * unit_f32(cell)
-                } else {
-                    0.0
-                });
-            }
-        }
-    }
-    DenseVolume::new(
-        "lumpy",
-        [n; 3],
-        v,
-        Affine::scale_translate([2.0 / n as f32; 3], [-1.0; 3]),
-    )
-    .unwrap()
-}
-
-/// Direct-integrator parameters for a w x h image of `vol`.
+/// `direct` parameters for a w x h image of `vol`.
 fn params(vol: &DenseVolume, w: u32, h: u32, spp: u32, estimator: Estimator) -> RenderParams {
-    let spec = CameraSpec {
-        position: None,
-        look_at: None,
-        fov_deg: 40.0,
-    };
     RenderParams {
-        camera: make_camera(&spec, world_bounds(vol), w, h).unwrap(),
-        world_to_index: world_to_index(&vol.index_to_world).unwrap(),
-        width: w,
-        height: h,
         spp,
         seed: 3,
         n: 10,
@@ -61,7 +25,7 @@ fn params(vol: &DenseVolume, w: u32, h: u32, spp: u32, estimator: Estimator) -> 
         pixel_jitter: 1,
         integrator: Integrator::Direct as u32,
         hg_g: 0.3,
-        ..Default::default()
+        ..camera_params(vol, w, h)
     }
 }
 
@@ -176,7 +140,7 @@ fn packed(vol: &DenseVolume) -> PackedVolume {
 
 #[test]
 fn direct_is_bit_identical_on_gpu_and_cpu_for_every_light_and_estimator() {
-    let vol = lumpy(24);
+    let vol = lumpy_blobs(24, 6);
     let packed = packed(&vol);
     let gpu = Backend::Gpu(Box::new(gpu()));
     let mut only_phase = map_scene();
@@ -222,7 +186,7 @@ fn direct_is_bit_identical_on_gpu_and_cpu_for_every_light_and_estimator() {
 
 #[test]
 fn direct_refuses_shadow_rays_that_exceed_the_loop_budget_on_both_backends() {
-    let vol = lumpy(24);
+    let vol = lumpy_blobs(24, 6);
     let packed = packed(&vol);
     let mut p = params(&vol, 4, 4, 1, Estimator::UnbiasedRayMarching);
     let p0 = p;
@@ -239,7 +203,7 @@ fn direct_refuses_shadow_rays_that_exceed_the_loop_budget_on_both_backends() {
 
 #[test]
 fn direct_with_tracking_shadow_rays_lowers_the_collision_cap_to_fit() {
-    let vol = lumpy(24);
+    let vol = lumpy_blobs(24, 6);
     let packed = packed(&vol);
     for e in [Estimator::RatioTracking, Estimator::TrackLength] {
         let p = params(&vol, 4, 4, 1, e);

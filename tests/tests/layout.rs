@@ -1,13 +1,18 @@
 //! Pins the byte layout of every struct shared between host, kernels and CPU backend.
 
+use shared::integrators::path::PathState;
 use shared::kernels::launch::Launch;
 use shared::kernels::probe::{
     DepthPair, EquiangularIn, EquiangularOut, MathValues, RngDraws, TransmittancePair,
 };
-use shared::kernels::render::{PixelOut, PixelSums, RenderPass};
+use shared::kernels::render::{PathPass, PixelOut, PixelSums, RenderPass};
 use shared::params::RenderParams;
+use shared::rgb::Rgb;
 use shared::rng::Pcg32;
+use shared::sampling::env::EnvDesc;
+use shared::sampling::lighting::Lighting;
 use shared::sampling::lights::PointLight;
+use shared::sampling::sun::Sun;
 use shared::volume::grid::{Brick, GridDesc};
 use shared::Complex;
 use std::mem::{align_of, size_of};
@@ -24,14 +29,21 @@ fn shared_struct_layouts() {
     assert_eq!(size_of::<Complex>(), 8);
     assert_eq!(size_of::<GridDesc>(), 48);
     assert_eq!(size_of::<Brick>(), 16);
-    assert_eq!(size_of::<RenderParams>(), 184);
+    assert_eq!(size_of::<RenderParams>(), 200);
     assert_eq!(size_of::<RenderPass>(), 32);
     assert_eq!(size_of::<PixelSums>(), 32);
     assert_eq!(size_of::<PixelOut>(), 32);
     assert_eq!(size_of::<PointLight>(), 16);
     assert_eq!(size_of::<EquiangularIn>(), 48);
     assert_eq!(size_of::<EquiangularOut>(), 32);
-    // The render kernel reads the pass range right after the Launch header in push constants.
+    assert_eq!(size_of::<PathPass>(), 32);
+    assert_eq!(size_of::<PathState>(), 80);
+    assert_eq!(size_of::<Lighting>(), 80);
+    assert_eq!(size_of::<Sun>(), 32);
+    assert_eq!(size_of::<EnvDesc>(), 16);
+    assert_eq!(size_of::<Rgb>(), 12);
+    // The render and path kernels read their pass fields right after the Launch header.
+    assert_eq!(std::mem::offset_of!(PathPass, sample), size_of::<Launch>());
     assert_eq!(
         std::mem::offset_of!(RenderPass, s_begin),
         size_of::<Launch>()

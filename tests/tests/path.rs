@@ -4,55 +4,18 @@
 use host::bricks::pack;
 use host::lighting::env::EnvMap;
 use host::lighting::{build, EnvSource, LightingOptions, SceneLights, SunSpec};
-use host::render::{
-    fit_collision_cap, make_camera, render_lit, world_bounds, world_to_index, CameraSpec,
-};
-use host::volume::{Affine, DenseVolume};
+use host::render::{fit_collision_cap, render_lit};
+use host::volume::DenseVolume;
 use host::Backend;
-use integration_tests::{assert_bytes_equal, gpu};
+use integration_tests::{assert_bytes_equal, camera_params, gpu, lumpy_blobs};
 use shared::params::{Estimator, Integrator, RenderParams};
-use shared::rng::{pcg_hash, unit_f32};
 use shared::sampling::env::EnvDesc;
 use shared::sampling::lights::PointLight;
 use shared::volume::grid::Lookup;
 
-/// A lumpy n^3 volume in [-1, 1]^3: hashed blobs with empty regions (deterministic).
-fn lumpy(n: u32) -> DenseVolume {
-    let mut v = Vec::with_capacity((n * n * n) as usize);
-    for z in 0..n {
-        for y in 0..n {
-            for x in 0..n {
-                let cell = pcg_hash(x / 5 + 101 * (y / 5) + 10007 * (z / 5));
-                let fine = unit_f32(pcg_hash(x + n * (y + n * z)));
-                v.push(if cell.is_multiple_of(3) {
-                    0.0
-                } else {
-                    0.5 + 2.0 * fine * unit_f32(cell)
-                });
-            }
-        }
-    }
-    DenseVolume::new(
-        "lumpy",
-        [n; 3],
-        v,
-        Affine::scale_translate([2.0 / n as f32; 3], [-1.0; 3]),
-    )
-    .unwrap()
-}
-
 /// `path` parameters for a w x h image of `vol`.
 fn params(vol: &DenseVolume, w: u32, h: u32, spp: u32, estimator: Estimator) -> RenderParams {
-    let spec = CameraSpec {
-        position: None,
-        look_at: None,
-        fov_deg: 40.0,
-    };
     RenderParams {
-        camera: make_camera(&spec, world_bounds(vol), w, h).unwrap(),
-        world_to_index: world_to_index(&vol.index_to_world).unwrap(),
-        width: w,
-        height: h,
         spp,
         seed: 9,
         n: 10,
@@ -64,7 +27,7 @@ fn params(vol: &DenseVolume, w: u32, h: u32, spp: u32, estimator: Estimator) -> 
         hg_g: 0.4,
         rr_depth: 2,
         max_depth: 12,
-        ..Default::default()
+        ..camera_params(vol, w, h)
     }
 }
 
@@ -87,7 +50,7 @@ fn no_lights() -> LightingOptions {
 
 #[test]
 fn path_is_bit_identical_on_gpu_and_cpu_for_its_lights_and_estimators() {
-    let vol = lumpy(20);
+    let vol = lumpy_blobs(20, 5);
     let packed = pack(&vol, 1.5, 8, Lookup::Stochastic).unwrap();
     let gpu = Backend::Gpu(Box::new(gpu()));
     let sky = lights(&LightingOptions {
@@ -139,7 +102,7 @@ fn path_is_bit_identical_on_gpu_and_cpu_for_its_lights_and_estimators() {
 /// checked by `capped`) within z < 4 of 1, seed 9, on the CPU.
 #[test]
 fn path_passes_the_white_furnace() {
-    let vol = lumpy(20);
+    let vol = lumpy_blobs(20, 5);
     let packed = pack(&vol, 4.0, 8, Lookup::Nearest).unwrap();
     let mut l = lights(&LightingOptions {
         albedo: [1.0; 3],

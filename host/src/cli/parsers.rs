@@ -234,14 +234,7 @@ pub fn parse_g_coefficient(s: &str) -> Result<f32, String> {
 
 /// `--albedo`: one value in [0, 1] or "r,g,b", each in [0, 1].
 pub fn parse_albedo(s: &str) -> Result<[f32; 3], String> {
-    let v: Vec<f32> = s
-        .split(',')
-        .map(|p| {
-            p.trim()
-                .parse::<f32>()
-                .map_err(|_| format!("{p:?} is not a number in {s:?}"))
-        })
-        .collect::<Result<_, _>>()?;
+    let v = crate::integrators::parse_f32_list(s)?;
     let ok = |x: &f32| x.is_finite() && (0.0..=1.0).contains(x);
     match v.as_slice() {
         [a] if ok(a) => Ok([*a; 3]),
@@ -266,14 +259,7 @@ pub fn parse_env(s: &str) -> Result<crate::lighting::EnvSource, String> {
 /// `--sun x,y,z[,intensity[,angular_radius_deg]]`: the direction toward the sun (non-zero), its
 /// irradiance (finite, >= 0) and its angular radius in [0, 45] degrees.
 pub fn parse_sun(s: &str) -> Result<crate::lighting::SunSpec, String> {
-    let v: Vec<f32> = s
-        .split(',')
-        .map(|p| {
-            p.trim()
-                .parse::<f32>()
-                .map_err(|_| format!("{p:?} is not a number in {s:?}"))
-        })
-        .collect::<Result<_, _>>()?;
+    let v = crate::integrators::parse_f32_list(s)?;
     let usage = || {
         format!(
             "expected x,y,z[,intensity[,angular_radius_deg]] with a finite non-zero direction, \

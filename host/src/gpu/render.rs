@@ -99,7 +99,7 @@ fn render_tiles(
         .map_err(|_| anyhow::anyhow!("internal: poisoned tile cache"))?;
     // Tiles of whole workgroups, each small enough for one storage buffer.
     let sums_size = std::mem::size_of::<PixelSums>() as u64;
-    // With paths, the states (64 B per pixel) must fit one buffer too.
+    // With paths, the states (80 B per pixel) must fit one buffer too.
     let per_pixel = if path {
         sums_size.max(std::mem::size_of::<PathState>() as u64)
     } else {

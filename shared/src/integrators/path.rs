@@ -29,7 +29,7 @@ const FLIGHT_SALT: u32 = 0x2f6b_3c1d;
 /// Smallest survival probability of Russian roulette.
 const MIN_SURVIVAL: f32 = 0.05;
 
-/// One path between bounces (64 bytes).
+/// One path between bounces (80 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct PathState {
