@@ -951,10 +951,31 @@ fn report_underflow(vol: &DenseVolume, u: &crate::bricks::Underflow, scale: f32)
 
 /// `host eval`: the reference and each estimator on pixel-center rays; JSON + images.
 pub fn run_eval(args: &EvalOptions) -> Result<()> {
-    match args.integrators.as_deref().map(str::trim) {
-        Some("direct") => return run_eval_direct(args, Integrator::Direct),
-        Some("path") => return run_eval_direct(args, Integrator::Path),
-        _ => {}
+    if let Some(list) = args.integrators.as_deref() {
+        let names: Vec<&str> = list.split(',').map(str::trim).collect();
+        let lit: Vec<Integrator> = names
+            .iter()
+            .filter_map(|n| match *n {
+                "direct" => Some(Integrator::Direct),
+                "path" => Some(Integrator::Path),
+                _ => None,
+            })
+            .collect();
+        if !lit.is_empty() {
+            anyhow::ensure!(
+                lit.len() == names.len(),
+                "--integrators {list}: direct and path are evaluated together or alone (their \
+                 entries are shadow-ray estimators under the same lights); evaluate the \
+                 single-scattering integrators in a separate run"
+            );
+            let mut unique: Vec<Integrator> = Vec::new();
+            for i in lit {
+                if !unique.contains(&i) {
+                    unique.push(i);
+                }
+            }
+            return run_eval_direct(args, &unique);
+        }
     }
     let given_direct = args.env.is_some() || args.sun.is_some();
     anyhow::ensure!(
@@ -1079,11 +1100,14 @@ fn run_eval_integrators(
 
 /// `host eval --integrators direct`: each shadow-ray estimator of `--estimators` in the `direct`
 /// integrator against ratio-tracking shadow rays at `--reference-spp` (default 16 x `--spp`).
-fn run_eval_direct(args: &EvalOptions, integrator: Integrator) -> Result<()> {
-    let label = crate::integrators::integrator_name(integrator);
+fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()> {
+    let labels: Vec<&str> = integrators
+        .iter()
+        .map(|&i| crate::integrators::integrator_name(i))
+        .collect();
     // Direct holds three estimates per camera ray; path one per bounce.
-    let too_large =
-        |e| integrator == Integrator::Direct && crate::eval_direct::too_large_for_direct(e);
+    let has_direct = integrators.contains(&Integrator::Direct);
+    let too_large = |e| has_direct && crate::eval_direct::too_large_for_direct(e);
     let all = args.estimators == "all";
     let estimators: Vec<_> = crate::eval::parse_list(&args.estimators)?
         .into_iter()
@@ -1096,8 +1120,8 @@ fn run_eval_direct(args: &EvalOptions, integrator: Integrator) -> Result<()> {
             e.name
         );
     }
-    let images =
-        crate::eval_direct::direct_files(&args.out_dir, label, estimators.iter().map(|e| e.name));
+    let names: Vec<&str> = estimators.iter().map(|e| e.name).collect();
+    let images = crate::eval_direct::direct_files(&args.out_dir, &labels, &names);
     let json = plan_eval_outputs(args, &images)?;
     let scene = prepare_scene(&args.scene, args.lookup, args.width, args.height)?;
     let (vol, packed) = (&scene.volume, &scene.packed);
@@ -1112,7 +1136,7 @@ fn run_eval_direct(args: &EvalOptions, integrator: Integrator) -> Result<()> {
         n: args.n,
         f_delta: args.f_delta,
         ratio_roulette: args.ratio_roulette,
-        integrator: Some(integrator),
+        integrator: Some(integrators[0]),
         lights: args.lights.clone(),
         albedo: [args.albedo; 3],
         env: args.env.clone(),
@@ -1163,7 +1187,7 @@ fn run_eval_direct(args: &EvalOptions, integrator: Integrator) -> Result<()> {
     };
     let report = crate::eval_direct::evaluate_direct(
         &setup,
-        integrator,
+        integrators,
         &lights,
         &estimators,
         args.exposure,

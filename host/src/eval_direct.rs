@@ -43,15 +43,26 @@ pub struct DirectEntry {
     pub png: String,
 }
 
-/// The `direct` evaluation, as written to `--json`.
+/// The reference image of one integrator.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct ReferenceImage {
+    pub integrator: String,
+    /// What it is (`direct/ratio at 1024 spp`).
+    pub reference: String,
+    pub spp: u32,
+    pub exr: String,
+    pub png: String,
+    /// Crops of the reference and every entry of the integrator, side by side (in entry
+    /// order, each 2x enlarged).
+    pub insets: String,
+}
+
+/// The `direct` / `path` evaluation, as written to `--json`.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct DirectEvalReport {
     #[serde(flatten)]
     pub header: EvalHeader,
-    pub reference: String,
-    pub reference_spp: u32,
-    pub reference_exr: String,
-    pub reference_png: String,
+    pub references: Vec<ReferenceImage>,
     /// Probability of sampling the sun, the map and the point lights.
     pub light_pmf: [f32; 3],
     pub entries: Vec<DirectEntry>,
@@ -62,18 +73,48 @@ fn stem(integrator: &str, name: &str) -> String {
     format!("{integrator}-{name}")
 }
 
-/// Every image [`evaluate_direct`] writes in `out_dir` for these estimators.
-pub fn direct_files<'a>(
-    out_dir: &Path,
-    integrator: &str,
-    names: impl Iterator<Item = &'a str>,
-) -> Vec<PathBuf> {
-    let mut files = vec![out_dir.join("reference.exr"), out_dir.join("reference.png")];
-    for name in names {
-        files.push(out_dir.join(format!("{}.exr", stem(integrator, name))));
-        files.push(out_dir.join(format!("{}.png", stem(integrator, name))));
+/// Every image [`evaluate_direct`] writes in `out_dir` for these integrators and estimators.
+pub fn direct_files(out_dir: &Path, integrators: &[&str], names: &[&str]) -> Vec<PathBuf> {
+    let mut files = Vec::new();
+    for integrator in integrators {
+        for name in std::iter::once("reference").chain(names.iter().copied()) {
+            files.push(out_dir.join(format!("{}.exr", stem(integrator, name))));
+            files.push(out_dir.join(format!("{}.png", stem(integrator, name))));
+        }
+        files.push(out_dir.join(format!("{}.png", stem(integrator, "insets"))));
     }
     files
+}
+
+/// Crops the centre third of each PNG, enlarges it 2x (nearest) and writes them side by side
+/// with 4-pixel white gaps: the paper's insets.
+fn write_insets(pngs: &[String], out: &Path) -> Result<()> {
+    let images: Vec<image::RgbImage> = pngs
+        .iter()
+        .map(|p| image::open(p).map(|i| i.to_rgb8()))
+        .collect::<Result<_, _>>()
+        .context("reading the images for the insets")?;
+    let Some(first) = images.first() else {
+        return Ok(());
+    };
+    let side = (first.width().min(first.height()) / 3).max(1);
+    let (x0, y0) = ((first.width() - side) / 2, (first.height() - side) / 2);
+    let (cell, gap) = (2 * side, 4);
+    let n = images.len() as u32;
+    let mut out_img =
+        image::RgbImage::from_pixel(n * cell + (n - 1) * gap, cell, image::Rgb([255; 3]));
+    for (k, img) in images.iter().enumerate() {
+        let left = k as u32 * (cell + gap);
+        for y in 0..cell {
+            for x in 0..cell {
+                let p = *img.get_pixel(x0 + x / 2, y0 + y / 2);
+                out_img.put_pixel(left + x, y, p);
+            }
+        }
+    }
+    out_img
+        .save(out)
+        .with_context(|| format!("writing {}", out.display()))
 }
 
 /// Per-pixel luminance mean and variance of one sample.
@@ -119,93 +160,139 @@ fn render_one(
     ))
 }
 
-/// Renders the reference (ratio-tracking shadow rays) and each estimator's image with
-/// `integrator` (`direct` or `path`; `setup.params` carries its depths).
+/// Renders, for each of `integrators` (`direct`, `path`; `setup.params` carries the depths), the
+/// reference (ratio-tracking shadow rays) and each estimator's image, and the insets.
 pub fn evaluate_direct(
     setup: &EvalSetup,
-    integrator: Integrator,
+    integrators: &[Integrator],
     lights: &SceneLights,
     estimators: &[&'static crate::estimators::EstimatorSpec],
     exposure: f32,
 ) -> Result<DirectEvalReport> {
     std::fs::create_dir_all(setup.out_dir)
         .with_context(|| format!("creating {}", setup.out_dir.display()))?;
-    let mut base = setup.params;
-    base.integrator = integrator as u32;
-    let label = crate::integrators::integrator_name(integrator);
-    base.light_count = lights.points.len() as u32;
-    let reference = crate::estimators::by_name("ratio").expect("registered");
-    let mut ref_params = base;
-    reference.apply(&mut ref_params);
-    ref_params.roulette = 0;
-    ref_params.spp = setup.reference_spp;
-    ref_params.seed = base.seed ^ 0x5eed_0001;
-    let ref_params = crate::render::fit_collision_cap(&ref_params, &setup.volume.desc);
-    crate::eval::step(setup, 0, estimators.len(), "the reference", ref_params.spp);
-    let (ref_px, _, reference_exr, reference_png) =
-        render_one(setup, &ref_params, lights, "reference", exposure)?;
-    let ref_m = moments(&ref_px);
-    let n = ref_m.len() as f64;
+    let mut references = Vec::new();
     let mut entries = Vec::new();
-    for (k, spec) in estimators.iter().enumerate() {
-        let name = format!("{label}/{}", spec.name);
-        let mut params = base;
-        spec.apply(&mut params);
-        let params = crate::render::fit_collision_cap(&params, &setup.volume.desc);
-        crate::eval::step(setup, k + 1, estimators.len(), &name, params.spp);
-        let (px, elapsed_ms, exr, png) =
-            render_one(setup, &params, lights, &stem(label, spec.name), exposure)?;
-        let m = moments(&px);
-        let pairs = m.iter().zip(&ref_m);
-        let smape = pairs
-            .clone()
-            .map(|((a, _), (b, _))| (a - b).abs() / (0.5 * (a.abs() + b.abs()) + SMAPE_EPS))
-            .sum::<f64>()
-            / n;
-        let mean_bias = pairs.clone().map(|((a, _), (b, _))| a - b).sum::<f64>() / n;
-        let var_sum: f64 = pairs
-            .clone()
-            .map(|((_, va), (_, vb))| va / params.spp as f64 + vb / ref_params.spp as f64)
-            .sum();
-        let entry = DirectEntry {
-            name: name.clone(),
-            smape,
-            mean_bias,
-            mean_bias_se: var_sum.sqrt() / n,
-            mean_std: m.iter().map(|(_, v)| v.sqrt()).sum::<f64>() / n,
-            mean_radiance: m.iter().map(|(a, _)| a).sum::<f64>() / n,
-            elapsed_ms,
-            lookups_per_ray: px.iter().map(|p| p.samples as f64).sum::<f64>()
-                / (n * params.spp as f64),
-            flags: crate::diagnostics::RayFlags::of(&px, params.spp),
-            collision_cap: crate::render::collision_cap(&params),
+    let total = integrators.len() * (estimators.len() + 1);
+    let mut done = 0;
+    for &integrator in integrators {
+        let mut base = setup.params;
+        base.integrator = integrator as u32;
+        base.light_count = lights.points.len() as u32;
+        let label = crate::integrators::integrator_name(integrator);
+        let reference = crate::estimators::by_name("ratio").expect("registered");
+        let mut ref_params = base;
+        reference.apply(&mut ref_params);
+        ref_params.roulette = 0;
+        ref_params.spp = setup.reference_spp;
+        ref_params.seed = base.seed ^ 0x5eed_0001;
+        let ref_params = crate::render::fit_collision_cap(&ref_params, &setup.volume.desc);
+        let what = format!("the {label} reference");
+        crate::eval::step(setup, done, total, &what, ref_params.spp);
+        done += 1;
+        let (ref_px, _, exr, png) = render_one(
+            setup,
+            &ref_params,
+            lights,
+            &stem(label, "reference"),
+            exposure,
+        )?;
+        let ref_m = moments(&ref_px);
+        let mut pngs = vec![png.clone()];
+        for spec in estimators {
+            let mut params = base;
+            spec.apply(&mut params);
+            let params = crate::render::fit_collision_cap(&params, &setup.volume.desc);
+            let name = format!("{label}/{}", spec.name);
+            crate::eval::step(setup, done, total, &name, params.spp);
+            done += 1;
+            let entry = measure(
+                setup,
+                &params,
+                lights,
+                &ref_m,
+                &ref_params,
+                label,
+                spec.name,
+                exposure,
+            )?;
+            pngs.push(entry.png.clone());
+            entries.push(entry);
+        }
+        let insets = setup.out_dir.join(format!("{}.png", stem(label, "insets")));
+        write_insets(&pngs, &insets)?;
+        references.push(ReferenceImage {
+            integrator: label.into(),
+            reference: format!("{label}/ratio at {} spp", ref_params.spp),
+            spp: ref_params.spp,
             exr,
             png,
-        };
-        println!(
-            "{:<24} SMAPE {:.4}  bias {:+.5} +- {:.5}  std {:.5}  mean L {:.5}  lookups/ray {:6.2}  {:8.1} ms",
-            entry.name,
-            entry.smape,
-            entry.mean_bias,
-            entry.mean_bias_se,
-            entry.mean_std,
-            entry.mean_radiance,
-            entry.lookups_per_ray,
-            entry.elapsed_ms
-        );
-        entry.flags.warn(&params);
-        entries.push(entry);
+            insets: insets.display().to_string(),
+        });
     }
     let l = &lights.lighting;
     Ok(DirectEvalReport {
         header: setup.header(),
-        reference: format!("{label}/ratio at {} spp", ref_params.spp),
-        reference_spp: ref_params.spp,
-        reference_exr,
-        reference_png,
+        references,
         light_pmf: [l.p_sun, l.p_env, l.p_points],
         entries,
     })
+}
+
+/// Renders one entry and measures it against the reference's per-pixel moments.
+#[allow(clippy::too_many_arguments)]
+fn measure(
+    setup: &EvalSetup,
+    params: &shared::params::RenderParams,
+    lights: &SceneLights,
+    ref_m: &[(f64, f64)],
+    ref_params: &shared::params::RenderParams,
+    label: &str,
+    estimator: &str,
+    exposure: f32,
+) -> Result<DirectEntry> {
+    let name = format!("{label}/{estimator}");
+    let (px, elapsed_ms, exr, png) =
+        render_one(setup, params, lights, &stem(label, estimator), exposure)?;
+    let m = moments(&px);
+    let n = m.len() as f64;
+    let pairs = m.iter().zip(ref_m);
+    let smape = pairs
+        .clone()
+        .map(|((a, _), (b, _))| (a - b).abs() / (0.5 * (a.abs() + b.abs()) + SMAPE_EPS))
+        .sum::<f64>()
+        / n;
+    let mean_bias = pairs.clone().map(|((a, _), (b, _))| a - b).sum::<f64>() / n;
+    let var_sum: f64 = pairs
+        .map(|((_, va), (_, vb))| va / params.spp as f64 + vb / ref_params.spp as f64)
+        .sum();
+    let entry = DirectEntry {
+        name,
+        smape,
+        mean_bias,
+        mean_bias_se: var_sum.sqrt() / n,
+        mean_std: m.iter().map(|(_, v)| v.sqrt()).sum::<f64>() / n,
+        mean_radiance: m.iter().map(|(a, _)| a).sum::<f64>() / n,
+        elapsed_ms,
+        lookups_per_ray: px.iter().map(|p| p.samples as f64).sum::<f64>() / (n * params.spp as f64),
+        flags: crate::diagnostics::RayFlags::of(&px, params.spp),
+        collision_cap: crate::render::collision_cap(params),
+        exr,
+        png,
+    };
+    println!(
+        "{:<24} SMAPE {:.4}  bias {:+.5} +- {:.5}  std {:.5}  mean L {:.5}  lookups/ray {:6.2}  {:8.1} ms",
+        entry.name,
+        entry.smape,
+        entry.mean_bias,
+        entry.mean_bias_se,
+        entry.mean_std,
+        entry.mean_radiance,
+        entry.lookups_per_ray,
+        entry.elapsed_ms
+    );
+    entry.flags.warn(params);
+    Ok(entry)
 }
 
 /// Estimators whose three estimates per camera ray exceed one GPU invocation's loop budget.

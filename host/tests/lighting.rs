@@ -1011,3 +1011,85 @@ fn path_flags_are_refused_outside_path_and_out_of_range() {
     ];
     refuse_all(&exr, &[], cases);
 }
+
+/// `host eval --integrators direct,path` writes one entry per integrator and estimator, a
+/// reference and an insets strip per integrator; mixing them with a single-scattering
+/// integrator, or unbiased-rm shadow rays with direct, is refused.
+#[test]
+fn eval_of_direct_and_path_writes_entries_references_and_insets() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_dir = dir.path().join("eval");
+    let json = dir.path().join("eval.json");
+    let eval = |integrators: &str, estimators: &str| {
+        host()
+            .args([
+                "eval",
+                "--integrators",
+                integrators,
+                "--estimators",
+                estimators,
+                "--resolution",
+                "16",
+                "--width",
+                "12",
+                "--height",
+                "9",
+                "--spp",
+                "2",
+                "--reference-spp",
+                "4",
+                "--backend",
+                "cpu",
+                "--quiet",
+                "--out-dir",
+                s(&out_dir),
+                "--json",
+                s(&json),
+            ])
+            .output()
+            .unwrap()
+    };
+    let out = eval("direct,path", "jackknife,ratio");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let names: Vec<&str> = report["entries"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        names,
+        [
+            "direct/jackknife",
+            "direct/ratio",
+            "path/jackknife",
+            "path/ratio"
+        ]
+    );
+    for e in report["entries"].as_array().unwrap() {
+        for field in [
+            "smape",
+            "mean_bias",
+            "mean_bias_se",
+            "mean_std",
+            "mean_radiance",
+        ] {
+            assert!(e[field].as_f64().unwrap().is_finite(), "{field}: {e}");
+        }
+    }
+    for r in report["references"].as_array().unwrap() {
+        let insets = image::open(r["insets"].as_str().unwrap()).unwrap();
+        // Reference + 2 entries, each 2 x (9 / 3) = 6 pixels wide, 4-pixel gaps.
+        assert_eq!((insets.width(), insets.height()), (3 * 6 + 2 * 4, 6));
+    }
+    let mixed = eval("direct,free-flight", "jackknife");
+    assert_refused(&mixed, &["--integrators", "evaluated together or alone"]);
+    let urm = eval("direct", "unbiased-rm");
+    assert_refused(&urm, &["unbiased-rm", "loop budget"]);
+}
