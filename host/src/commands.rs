@@ -396,8 +396,8 @@ pub struct IntegratorSettings {
     /// `direct`: probability of sampling the sun, the map and the point lights.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub light_pmf: Option<[f32; 3]>,
-    /// `direct`: the collision cap of every tracking loop (lowered from 10000 where four
-    /// tracking loops per camera ray would exceed a GPU invocation's loop budget).
+    /// `direct`, `path`: the collision cap of every tracking loop (10000 unless one invocation
+    /// would exceed a GPU invocation's loop budget).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub collision_cap: Option<u32>,
     /// `path`: vertices before Russian roulette, and the most vertices of a path.
@@ -708,7 +708,7 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         params.max_depth = args.max_depth;
     }
     if direct {
-        // Several tracking loops per invocation: lower their collision cap to fit one.
+        // A safeguard: lower the tracking loops' collision cap if one invocation would not fit.
         params = crate::render::fit_collision_cap(&params, &packed.desc);
     }
     let start = Instant::now();
@@ -1105,21 +1105,7 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
         .iter()
         .map(|&i| crate::integrators::integrator_name(i))
         .collect();
-    // Direct holds three estimates per camera ray; path one per bounce.
-    let has_direct = integrators.contains(&Integrator::Direct);
-    let too_large = |e| has_direct && crate::eval_direct::too_large_for_direct(e);
-    let all = args.estimators == "all";
-    let estimators: Vec<_> = crate::eval::parse_list(&args.estimators)?
-        .into_iter()
-        .filter(|e| !(all && too_large(e.estimator)))
-        .collect();
-    if let Some(e) = estimators.iter().find(|e| too_large(e.estimator)) {
-        bail!(
-            "--estimators {}: its three estimates per camera ray of the direct integrator exceed \
-             a GPU invocation's loop budget; leave it out",
-            e.name
-        );
-    }
+    let estimators = crate::eval::parse_list(&args.estimators)?;
     let names: Vec<&str> = estimators.iter().map(|e| e.name).collect();
     let images = crate::eval_direct::direct_files(&args.out_dir, &labels, &names);
     let json = plan_eval_outputs(args, &images)?;

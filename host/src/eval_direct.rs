@@ -12,7 +12,7 @@ use crate::lighting::SceneLights;
 use crate::output::{write_exr_rgb, write_png_rgb_exposed};
 use anyhow::{Context, Result};
 use shared::kernels::render::PixelOut;
-use shared::params::{Estimator, Integrator};
+use shared::params::Integrator;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -293,9 +293,4 @@ fn measure(
     );
     entry.flags.warn(params);
     Ok(entry)
-}
-
-/// Estimators whose three estimates per camera ray exceed one GPU invocation's loop budget.
-pub fn too_large_for_direct(e: Estimator) -> bool {
-    e == Estimator::UnbiasedRayMarching
 }

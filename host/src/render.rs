@@ -245,11 +245,11 @@ pub fn loop_iterations_per_ray(
         return fixed + tracking + loop_iterations_per_ray(&estimate, desc) + 32;
     }
     if params.integrator == shared::params::Integrator::Direct as u32 {
-        // The camera ray's free flight; the background's, the light sample's and the phase
-        // sample's transmittance estimates (the chosen estimator); three CDF searches.
+        // A wavefront (`direct_cs`): one invocation runs either the camera ray's free flight and
+        // two CDF searches, or one transmittance estimate by the chosen estimator.
         let mut estimate = *params;
         estimate.integrator = 0;
-        return fixed + tracking + 3 * loop_iterations_per_ray(&estimate, desc) + 3 * 32;
+        return fixed + tracking.max(loop_iterations_per_ray(&estimate, desc)) + 2 * 32;
     }
     if params.integrator != 0 {
         // Free-flight sampling and one ratio tracking (Miller, --t-hat ratio), up to four pairs
@@ -294,9 +294,10 @@ pub fn collision_cap(params: &RenderParams) -> u32 {
 /// Smallest collision cap [`fit_collision_cap`] lowers to before refusing the render.
 pub const MIN_COLLISION_CAP: u32 = 1000;
 
-/// `params` with the tracking loops' collision cap lowered, where one ray holds so many tracking
-/// loops (`direct` with track-length or ratio shadow rays: four) that the full cap would exceed
-/// a GPU invocation's loop budget. Both backends use the returned cap, so images stay identical;
+/// `params` with the tracking loops' collision cap lowered, where one invocation holds so many
+/// tracking loops that the full cap would exceed a GPU invocation's loop budget (none of the
+/// integrators does today: `direct` and `path` run one loop per dispatch; a safeguard for
+/// volumes whose traversals alone approach the budget). Both backends use the returned cap, so images stay identical;
 /// rays that reach it are counted as capped.
 pub fn fit_collision_cap(
     params: &RenderParams,
@@ -325,16 +326,6 @@ pub fn fit_collision_cap(
 /// Samples per pixel per pass so that one invocation stays within the loop budget.
 pub fn spp_per_pass(params: &RenderParams, desc: &shared::volume::grid::GridDesc) -> Result<u32> {
     let per_ray = loop_iterations_per_ray(params, desc);
-    if params.integrator == shared::params::Integrator::Direct as u32 {
-        anyhow::ensure!(
-            per_ray <= LOOP_BUDGET,
-            "one camera ray of --integrator direct holds a free flight and three transmittance \
-             estimates by --estimator, which may need {per_ray} loop iterations, more than the \
-             {LOOP_BUDGET} a GPU invocation may run (lavapipe's limit; the CPU backend keeps the \
-             same bound so both give the same image); use another --estimator (unbiased-rm's \
-             estimates are the largest) or a smaller volume"
-        );
-    }
     anyhow::ensure!(
         per_ray <= LOOP_BUDGET,
         "one ray of this estimator may need {per_ray} loop iterations, more than the {LOOP_BUDGET} a GPU invocation may run; lower --n or use a smaller volume"

@@ -1014,7 +1014,7 @@ fn path_flags_are_refused_outside_path_and_out_of_range() {
 
 /// `host eval --integrators direct,path` writes one entry per integrator and estimator, a
 /// reference and an insets strip per integrator; mixing them with a single-scattering
-/// integrator, or unbiased-rm shadow rays with direct, is refused.
+/// integrator is refused.
 #[test]
 fn eval_of_direct_and_path_writes_entries_references_and_insets() {
     let dir = tempfile::tempdir().unwrap();
@@ -1088,8 +1088,17 @@ fn eval_of_direct_and_path_writes_entries_references_and_insets() {
         // Reference + 2 entries, each 2 x (9 / 3) = 6 pixels wide, 4-pixel gaps.
         assert_eq!((insets.width(), insets.height()), (3 * 6 + 2 * 4, 6));
     }
+    // The report viewer imports it: one tab per integrator, with the equal-time column.
+    let report_dir = dir.path().join("report");
+    let out = host()
+        .args(["report", "--from-eval", s(&json), "--out", s(&report_dir), "--quiet"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let html = std::fs::read_to_string(report_dir.join("index.html")).unwrap();
+    for needle in ["direct/jackknife", "path/ratio", "var_time", "std^2 x ms"] {
+        assert!(html.contains(needle), "index.html lacks {needle}");
+    }
     let mixed = eval("direct,free-flight", "jackknife");
     assert_refused(&mixed, &["--integrators", "evaluated together or alone"]);
-    let urm = eval("direct", "unbiased-rm");
-    assert_refused(&urm, &["unbiased-rm", "loop budget"]);
 }

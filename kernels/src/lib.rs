@@ -6,6 +6,7 @@
 //! push constants are one `shared` struct per kernel (`Launch`, or `RenderPass` for `render_cs`).
 #![cfg_attr(target_arch = "spirv", no_std)]
 
+use shared::integrators::direct::DirectState;
 use shared::integrators::path::PathState;
 use shared::kernels::launch::Launch;
 use shared::kernels::probe::{self, DepthPair, MathValues, RngDraws, TransmittancePair};
@@ -98,13 +99,13 @@ pub fn render_cs(
     }
 }
 
-/// One pass of a `direct` image (RGB direct illumination): adds samples s_begin..s_end of each
-/// pixel.
+/// One stage of a `direct` image (RGB direct illumination, wavefront): start each pixel's sample
+/// at the camera, or estimate one of its three transmittance queries.
 #[allow(clippy::too_many_arguments)] // one argument per binding
 #[spirv(compute(threads(64)))]
 pub fn direct_cs(
     #[spirv(global_invocation_id)] gid: UVec3,
-    #[spirv(push_constant)] pass: &RenderPass,
+    #[spirv(push_constant)] pass: &PathPass,
     // bindings::direct::PARAMS
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &[RenderParams],
     // bindings::direct::DESC
@@ -121,6 +122,8 @@ pub fn direct_cs(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] lighting: &[Lighting],
     // bindings::direct::ENV
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] env: &[f32],
+    // bindings::direct::STATES
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] states: &mut [DirectState],
 ) {
     if let Some(i) = pass.launch.id(gid.x) {
         let vol = VolumeView {
@@ -129,11 +132,6 @@ pub fn direct_cs(
             bricks,
         };
         let slot = i - pass.sums_base as usize;
-        let prev = if pass.s_begin == 0 {
-            PixelSums::default()
-        } else {
-            sums[slot]
-        };
         let p = &params[0];
         let scene = Scene {
             lighting: &lighting[0],
@@ -141,8 +139,18 @@ pub fn direct_cs(
             point_count: p.light_count,
             env,
         };
-        sums[slot] =
-            render::direct_pixel_pass(&vol, p, &scene, i as u32, pass.s_begin, pass.s_end, prev);
+        let (st, s) = render::direct_step(
+            &vol,
+            p,
+            &scene,
+            i as u32,
+            pass.sample,
+            pass.mode,
+            states[slot],
+            sums[slot],
+        );
+        states[slot] = st;
+        sums[slot] = s;
     }
 }
 

@@ -22,7 +22,8 @@ pub struct ReportArgs {
     #[arg(long)]
     pub integrators: Option<String>,
     /// Reuse an existing `host eval` output: a directory holding eval.json, or the JSON file
-    /// (repeatable; transmittance or --integrators evaluations).
+    /// (repeatable; transmittance, --integrators, or --integrators direct,path evaluations: one
+    /// tab per integrator with an equal-time column, std^2 x ms).
     #[arg(long = "from-eval", value_name = "DIR")]
     pub from_eval: Vec<PathBuf>,
     /// Voxels per axis of an embedded volume, 8 to 1024.

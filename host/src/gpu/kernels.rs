@@ -4,6 +4,7 @@
 
 use super::Buffer;
 use bytemuck::Pod;
+use shared::integrators::direct::DirectState;
 use shared::integrators::path::PathState;
 use shared::kernels::launch::bindings::{direct, map, path, render, rng_draws};
 use shared::kernels::launch::Launch;
@@ -113,7 +114,7 @@ pub const RENDER: KernelDef<RenderPass, { render::COUNT }> =
         s
     });
 /// `direct_cs`.
-pub const DIRECT: KernelDef<RenderPass, { direct::COUNT }> =
+pub const DIRECT: KernelDef<PathPass, { direct::COUNT }> =
     KernelDef::checked(Kernel::DirectCs, {
         let mut s = [0; direct::COUNT];
         s[direct::PARAMS] = size_of::<RenderParams>();
@@ -124,9 +125,9 @@ pub const DIRECT: KernelDef<RenderPass, { direct::COUNT }> =
         s[direct::SUMS] = size_of::<PixelSums>();
         s[direct::LIGHTING] = size_of::<Lighting>();
         s[direct::ENV] = size_of::<f32>();
+        s[direct::STATES] = size_of::<DirectState>();
         s
     });
-
 /// `path_cs`.
 pub const PATH: KernelDef<PathPass, { path::COUNT }> = KernelDef::checked(Kernel::PathCs, {
     let mut s = [0; path::COUNT];
@@ -169,29 +170,6 @@ pub struct RenderBuffers<'a> {
     pub sums: &'a Buffer,
 }
 
-/// The buffers of `direct_cs`: those of `render_cs`, then the lights'.
-pub struct DirectBuffers<'a> {
-    pub render: RenderBuffers<'a>,
-    pub lighting: &'a Buffer,
-    pub env: &'a Buffer,
-}
-
-impl<'a> DirectBuffers<'a> {
-    /// The buffers in binding order.
-    pub fn slots(&self) -> [&'a Buffer; direct::COUNT] {
-        let r = &self.render;
-        let mut s = [r.params; direct::COUNT];
-        s[direct::PARAMS] = r.params;
-        s[direct::DESC] = r.desc;
-        s[direct::VOXELS] = r.voxels;
-        s[direct::BRICKS] = r.bricks;
-        s[direct::LIGHTS] = r.lights;
-        s[direct::SUMS] = r.sums;
-        s[direct::LIGHTING] = self.lighting;
-        s[direct::ENV] = self.env;
-        s
-    }
-}
 
 impl<'a> RenderBuffers<'a> {
     /// The buffers in binding order.
@@ -207,29 +185,42 @@ impl<'a> RenderBuffers<'a> {
     }
 }
 
-/// The buffers of `path_cs`: those of `direct_cs`, then the paths' states.
-pub struct PathBuffers<'a> {
-    pub direct: DirectBuffers<'a>,
+/// The buffers of `direct_cs` and `path_cs` (the same layout, `bindings::direct` ==
+/// `bindings::path`): those of `render_cs`, the lights', then the samples' states.
+pub struct LitBuffers<'a> {
+    pub render: RenderBuffers<'a>,
+    pub lighting: &'a Buffer,
+    pub env: &'a Buffer,
     pub states: &'a Buffer,
 }
 
-impl<'a> PathBuffers<'a> {
+impl<'a> LitBuffers<'a> {
     /// The buffers in binding order.
     pub fn slots(&self) -> [&'a Buffer; path::COUNT] {
-        let d = self.direct.slots();
-        let mut s = [d[0]; path::COUNT];
-        s[path::PARAMS] = d[direct::PARAMS];
-        s[path::DESC] = d[direct::DESC];
-        s[path::VOXELS] = d[direct::VOXELS];
-        s[path::BRICKS] = d[direct::BRICKS];
-        s[path::LIGHTS] = d[direct::LIGHTS];
-        s[path::SUMS] = d[direct::SUMS];
-        s[path::LIGHTING] = d[direct::LIGHTING];
-        s[path::ENV] = d[direct::ENV];
+        let r = &self.render;
+        let mut s = [r.params; path::COUNT];
+        s[path::PARAMS] = r.params;
+        s[path::DESC] = r.desc;
+        s[path::VOXELS] = r.voxels;
+        s[path::BRICKS] = r.bricks;
+        s[path::LIGHTS] = r.lights;
+        s[path::SUMS] = r.sums;
+        s[path::LIGHTING] = self.lighting;
+        s[path::ENV] = self.env;
         s[path::STATES] = self.states;
         s
     }
 }
+
+// `LitBuffers` serves both kernels: their layouts must agree.
+const _: () = {
+    assert!(direct::COUNT == path::COUNT);
+    assert!(direct::PARAMS == path::PARAMS && direct::DESC == path::DESC);
+    assert!(direct::VOXELS == path::VOXELS && direct::BRICKS == path::BRICKS);
+    assert!(direct::LIGHTS == path::LIGHTS && direct::SUMS == path::SUMS);
+    assert!(direct::LIGHTING == path::LIGHTING && direct::ENV == path::ENV);
+    assert!(direct::STATES == path::STATES);
+};
 
 #[cfg(test)]
 mod tests {

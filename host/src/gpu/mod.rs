@@ -15,7 +15,7 @@ mod resources;
 pub use device::{pick_memory_type, DeviceOwner, MemoryChoice, MemoryRole};
 pub use error::GpuError;
 pub use kernels::{
-    DirectBuffers, Kernel, KernelDef, MapBuffers, PathBuffers, PushConstants, RenderBuffers,
+    Kernel, KernelDef, LitBuffers, MapBuffers, PushConstants, RenderBuffers,
     DIRECT, EQUIANGULAR, MATH_VALUES, PATH, RENDER, RNG_DRAWS, TRANSMITTANCE_PAIR,
 };
 pub use plan::{plan, Command, Step};

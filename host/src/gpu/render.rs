@@ -1,14 +1,14 @@
 //! The GPU backend's render loop: a resident volume, image tiles, passes as submissions.
 
-use super::{
-    Buffer, DirectBuffers, Gpu, PathBuffers, RenderBuffers, Step, Work, DIRECT, PATH, RENDER,
-};
+use super::{Buffer, Gpu, LitBuffers, RenderBuffers, Step, Work, DIRECT, PATH, RENDER};
 use crate::bricks::PackedVolume;
 use crate::lighting::SceneLights;
 use crate::schedule::{RenderBackend, Schedule};
 use anyhow::{Context, Result};
 use indicatif::ProgressBar;
+use shared::integrators::direct::DirectState;
 use shared::integrators::path::PathState;
+use shared::kernels::launch::bindings::path;
 use shared::kernels::launch::Launch;
 use shared::kernels::render::{PathPass, PixelSums, RenderPass};
 use shared::params::{Integrator, RenderParams};
@@ -79,9 +79,14 @@ fn render_tiles(
         &lights.points
     };
     let l = gpu.buffer(std::mem::size_of_val(points) as u64)?;
-    let path = params.integrator == Integrator::Path as u32;
-    let direct = path || params.integrator == Integrator::Direct as u32;
-    // `direct_cs` also reads the lights' block and the map (empty for the other kernels).
+    // `direct_cs` and `path_cs` (wavefronts) also read the lights' block, the map and the
+    // samples' states; `render_cs` none of them.
+    let wave = match Integrator::from_u32(params.integrator) {
+        Integrator::Direct => Some(Wave::Direct),
+        Integrator::Path => Some(Wave::Path),
+        _ => None,
+    };
+    let direct = wave.is_some();
     let env_data: &[f32] = if direct { &lights.env } else { &[0.0] };
     let lighting = gpu.buffer(std::mem::size_of::<Lighting>() as u64)?;
     let env = gpu.buffer(std::mem::size_of_val(env_data) as u64)?;
@@ -99,12 +104,9 @@ fn render_tiles(
         .map_err(|_| anyhow::anyhow!("internal: poisoned tile cache"))?;
     // Tiles of whole workgroups, each small enough for one storage buffer.
     let sums_size = std::mem::size_of::<PixelSums>() as u64;
-    // With paths, the states (80 B per pixel) must fit one buffer too.
-    let per_pixel = if path {
-        sums_size.max(std::mem::size_of::<PathState>() as u64)
-    } else {
-        sums_size
-    };
+    // With a wavefront, the states (80 or 160 B per pixel) must fit one buffer too.
+    let state_size = wave.map_or(0, Wave::state_size);
+    let per_pixel = sums_size.max(state_size);
     let tile = (gpu.max_buffer_bytes() / per_pixel / 64 * 64)
         .max(64)
         .min(u64::from(count)) as u32;
@@ -116,15 +118,10 @@ fn render_tiles(
             tiles.push(gpu.buffer(tile_bytes).context("allocating the image")?);
         }
     }
-    // The paths' states: one per pixel of a tile (`path` only; one unused element otherwise).
-    let state_size = std::mem::size_of::<PathState>() as u64;
+    // The samples' states: one per pixel of a tile (wavefronts only).
     let states = gpu
-        .buffer(if path {
-            u64::from(tile) * state_size
-        } else {
-            state_size
-        })
-        .context("allocating the path states")?;
+        .buffer((u64::from(tile) * state_size).max(16))
+        .context("allocating the wavefront states")?;
     let mut sums = vec![PixelSums::default(); count as usize];
     for (k, tile_start) in (0..count).step_by(tile as usize).enumerate() {
         let ids = tile_start..tile_start.saturating_add(tile).min(count);
@@ -136,18 +133,16 @@ fn render_tiles(
             lights: &l,
             sums: &tiles[k],
         };
-        if path {
+        if let Some(wave) = wave {
             let slice = &mut sums[ids.start as usize..ids.end as usize];
-            let buffers = PathBuffers {
-                direct: DirectBuffers {
-                    render: buffers,
-                    lighting: &lighting,
-                    env: &env,
-                },
+            let buffers = LitBuffers {
+                render: buffers,
+                lighting: &lighting,
+                env: &env,
                 states: &states,
             };
             let uploads_now = std::mem::take(&mut uploads);
-            render_paths(gpu, params, ids, chunk, &buffers, uploads_now, slice, bar)?;
+            render_wave(gpu, wave, params, ids, chunk, &buffers, uploads_now, slice, bar)?;
             continue;
         }
         let submissions = tile_submissions(params.seed, passes, ids.clone(), chunk, bar.is_none());
@@ -163,31 +158,14 @@ fn render_tiles(
             } else {
                 vec![]
             };
-            let uploads = std::mem::take(&mut uploads);
-            if direct {
-                let buffers = DirectBuffers {
-                    render: buffers,
-                    lighting: &lighting,
-                    env: &env,
-                };
-                gpu.submit(Work {
-                    kernel: &DIRECT,
-                    buffers: buffers.slots(),
-                    uploads,
-                    steps,
-                    readbacks,
-                })
-                .with_context(|| format!("GPU kernel {}", DIRECT.kernel.name()))?;
-            } else {
-                gpu.submit(Work {
-                    kernel: &RENDER,
-                    buffers: buffers.slots(),
-                    uploads,
-                    steps,
-                    readbacks,
-                })
-                .with_context(|| format!("GPU kernel {}", RENDER.kernel.name()))?;
-            }
+            gpu.submit(Work {
+                kernel: &RENDER,
+                buffers: buffers.slots(),
+                uploads: std::mem::take(&mut uploads),
+                steps,
+                readbacks,
+            })
+            .with_context(|| format!("GPU kernel {}", RENDER.kernel.name()))?;
             if let Some(bar) = bar {
                 bar.inc(work);
             }
@@ -196,40 +174,80 @@ fn render_tiles(
     Ok(sums)
 }
 
-/// The `path` render of one tile: per sample, a start step, then `max_depth + 1` bounce steps with a
-/// barrier after each (one submission per sample, so the progress bar moves per sample); the
-/// sums are read back after the last sample.
+/// The wavefront integrators: which kernel, how many stages per sample, how large a state.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Wave {
+    /// `direct_cs`: a start and three estimates.
+    Direct,
+    /// `path_cs`: a start and `max_depth + 1` bounces.
+    Path,
+}
+
+impl Wave {
+    /// Bytes of one sample's state.
+    fn state_size(self) -> u64 {
+        match self {
+            Wave::Direct => std::mem::size_of::<DirectState>() as u64,
+            Wave::Path => std::mem::size_of::<PathState>() as u64,
+        }
+    }
+
+    /// The push `mode` of each step of one sample, in order.
+    fn modes(self, params: &RenderParams) -> Vec<u32> {
+        match self {
+            Wave::Direct => vec![0, 1, 2, 3],
+            Wave::Path => std::iter::once(0)
+                .chain(std::iter::repeat_n(1, params.max_depth as usize + 1))
+                .collect(),
+        }
+    }
+
+    /// Its kernel (both take `LitBuffers`' layout).
+    fn kernel(self) -> &'static super::KernelDef<PathPass, { path::COUNT }> {
+        match self {
+            Wave::Direct => &DIRECT,
+            Wave::Path => &PATH,
+        }
+    }
+}
+
+/// A wavefront render of one tile: per sample, the stages of `wave` with a barrier after each
+/// (one submission per sample, so the progress bar moves per sample); the sums are read back
+/// after the last sample.
 #[allow(clippy::too_many_arguments)]
-fn render_paths(
+fn render_wave(
     gpu: &Gpu,
+    wave: Wave,
     params: &RenderParams,
     ids: std::ops::Range<u32>,
     chunk: u32,
-    buffers: &PathBuffers,
+    buffers: &LitBuffers,
     uploads: Vec<(&Buffer, &[u8])>,
     slice: &mut [PixelSums],
     bar: Option<&ProgressBar>,
 ) -> Result<()> {
+    let kernel = wave.kernel();
+    let modes = wave.modes(params);
     let mut uploads = Some(uploads);
     let mut readback = Some(bytemuck::cast_slice_mut::<PixelSums, u8>(slice));
     for s in 0..params.spp {
-        let steps = path_steps(params, s, ids.clone(), chunk);
+        let steps = wave_steps(params.seed, &modes, s, ids.clone(), chunk);
         let readbacks = if s + 1 == params.spp {
             vec![(
-                buffers.direct.render.sums,
+                buffers.render.sums,
                 readback.take().expect("one readback per tile"),
             )]
         } else {
             vec![]
         };
         gpu.submit(Work {
-            kernel: &PATH,
+            kernel,
             buffers: buffers.slots(),
             uploads: uploads.take().unwrap_or_default(),
             steps,
             readbacks,
         })
-        .with_context(|| format!("GPU kernel {}", PATH.kernel.name()))?;
+        .with_context(|| format!("GPU kernel {}", kernel.kernel.name()))?;
         if let Some(bar) = bar {
             bar.inc(u64::from(ids.end - ids.start));
         }
@@ -237,19 +255,20 @@ fn render_paths(
     Ok(())
 }
 
-/// The steps of sample `s` of a tile's paths: start, then `max_depth + 1` bounces, each over all
-/// ids in dispatches of at most `chunk` ids, a barrier after each step.
-fn path_steps(
-    params: &RenderParams,
+/// The steps of sample `s` of a tile: one step per mode, each over all ids in dispatches of at
+/// most `chunk` ids, a barrier after each step.
+fn wave_steps(
+    seed: u32,
+    modes: &[u32],
     s: u32,
     ids: std::ops::Range<u32>,
     chunk: u32,
 ) -> Vec<Step<PathPass>> {
     let mut steps = Vec::new();
-    for mode in std::iter::once(0).chain(std::iter::repeat_n(1, params.max_depth as usize + 1)) {
+    for &mode in modes {
         let push = PathPass {
             launch: Launch {
-                seed: params.seed,
+                seed,
                 ..Launch::default()
             },
             sample: s,

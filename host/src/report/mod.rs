@@ -10,6 +10,7 @@
 use crate::backend::BackendChoice;
 use crate::commands::{EvalOptions, SceneOptions};
 use crate::eval::{ColourMap, EvalHeader, EvalReport, IntegratorEvalReport};
+use crate::eval_direct::DirectEvalReport;
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
 use shared::volume::grid::Lookup;
@@ -193,7 +194,7 @@ pub fn run(args: &ReportOptions) -> Result<()> {
     }
     let mut sets = Vec::new();
     for (id, json) in &sources {
-        sets.push(import(json, out, id)?);
+        sets.extend(import(json, out, id)?);
     }
     let data = ViewerData {
         title: "Jackknife transmittance: comparison viewer".into(),
@@ -315,6 +316,8 @@ fn unique_id(base: &str, used: &mut Vec<String>) -> String {
 enum Loaded {
     Estimators(EvalReport),
     Integrators(IntegratorEvalReport),
+    /// `host eval --integrators direct,path`: shadow-ray estimators per integrator.
+    Lit(DirectEvalReport),
 }
 
 /// Reads and parses an eval JSON; errors name the file.
@@ -324,7 +327,14 @@ fn load(json: &Path) -> Result<Loaded> {
     let value: serde_json::Value = serde_json::from_str(&text)
         .with_context(|| format!("{}: not valid JSON", json.display()))?;
     let stale = "(written by an older `host eval`? run it again)";
-    if value.get("integrators").is_some() {
+    if value.get("references").is_some() {
+        serde_json::from_value(value).map(Loaded::Lit).with_context(|| {
+            format!(
+                "{}: not a `host eval --integrators direct,path` report {stale}",
+                json.display()
+            )
+        })
+    } else if value.get("integrators").is_some() {
         serde_json::from_value(value)
             .map(Loaded::Integrators)
             .with_context(|| {
@@ -346,8 +356,8 @@ fn load(json: &Path) -> Result<Loaded> {
 }
 
 /// Copies the files of one evaluation into `out/id/` (unless they are there already) and
-/// makes its [`Set`].
-fn import(json: &Path, out: &Path, id: &str) -> Result<Set> {
+/// makes its [`Set`]s (one; a `direct,path` evaluation one per integrator).
+fn import(json: &Path, out: &Path, id: &str) -> Result<Vec<Set>> {
     let loaded = load(json)?;
     let src_dir = json
         .parent()
@@ -364,8 +374,9 @@ fn import(json: &Path, out: &Path, id: &str) -> Result<Set> {
     };
     let json_link = files.copy_named(json, "eval.json")?;
     Ok(match loaded {
-        Loaded::Estimators(r) => estimator_set(&r, &mut files, id, json_link)?,
-        Loaded::Integrators(r) => integrator_set(&r, &mut files, id, json_link)?,
+        Loaded::Estimators(r) => vec![estimator_set(&r, &mut files, id, json_link)?],
+        Loaded::Integrators(r) => vec![integrator_set(&r, &mut files, id, json_link)?],
+        Loaded::Lit(r) => lit_sets(&r, &mut files, id, &json_link)?,
     })
 }
 
@@ -706,6 +717,131 @@ fn integrator_set(
         entries,
         columns: INTEGRATOR_COLUMNS.to_vec(),
     })
+}
+
+/// The columns of a `direct` / `path` set (shadow-ray estimators under the same lights).
+const LIT_COLUMNS: &[Column] = &[
+    column(
+        "smape",
+        "SMAPE",
+        "mean over pixels of |Y - Y_ref| / ((Y + Y_ref) / 2 + 0.01), luminance",
+        4,
+        false,
+        "min",
+    ),
+    column(
+        "mean_bias",
+        "bias",
+        "mean over pixels of (Y - Y_ref)",
+        5,
+        true,
+        "absmin",
+    ),
+    column(
+        "mean_bias_se",
+        "bias s.e.",
+        "standard error of the bias, from the per-pixel variances of both images",
+        5,
+        false,
+        "",
+    ),
+    column(
+        "mean_std",
+        "std",
+        "mean over pixels of the standard deviation of one sample's luminance",
+        4,
+        false,
+        "min",
+    ),
+    column(
+        "lookups_per_ray",
+        "lookups/ray",
+        "high-resolution lookups per camera sample (free flights and shadow rays)",
+        2,
+        false,
+        "min",
+    ),
+    column(
+        "ms_per_spp",
+        "ms/spp",
+        "render time per sample per pixel (one frame)",
+        1,
+        false,
+        "min",
+    ),
+    column(
+        "var_time",
+        "std^2 x ms",
+        "equal-time comparison: variance of one sample times the time of one frame; at equal \
+         time the noise variance of each image is proportional to it (lower is better)",
+        3,
+        false,
+        "min",
+    ),
+];
+
+/// One set per integrator of a `host eval --integrators direct,path` report: its reference,
+/// then its shadow-ray estimators.
+fn lit_sets(r: &DirectEvalReport, files: &mut Files, id: &str, json: &str) -> Result<Vec<Set>> {
+    let mut sets = Vec::new();
+    for reference in &r.references {
+        let mut facts = common_facts(&r.header);
+        facts.extend([
+            ["integrator".into(), reference.integrator.clone()],
+            ["seed".into(), r.header.seed.to_string()],
+            ["reference".into(), reference.reference.clone()],
+            [
+                "light pmf".into(),
+                format!(
+                    "sun {:.3}, map {:.3}, points {:.3}",
+                    r.light_pmf[0], r.light_pmf[1], r.light_pmf[2]
+                ),
+            ],
+        ]);
+        let image = files.image(&reference.png, &reference.exr)?;
+        let mut entries = vec![reference_entry(&reference.reference, image)];
+        let prefix = format!("{}/", reference.integrator);
+        for e in r.entries.iter().filter(|e| e.name.starts_with(&prefix)) {
+            let ms_per_spp = e.elapsed_ms / r.header.spp as f64;
+            entries.push(Entry {
+                name: e.name.clone(),
+                about: format!("{} with {} shadow rays", reference.integrator, &e.name[prefix.len()..]),
+                reference: false,
+                unbiased: None,
+                images: BTreeMap::from([("render", files.image(&e.png, &e.exr)?)]),
+                values: BTreeMap::from([
+                    ("smape", e.smape),
+                    ("mean_bias", e.mean_bias),
+                    ("mean_bias_se", e.mean_bias_se),
+                    ("mean_std", e.mean_std),
+                    ("lookups_per_ray", e.lookups_per_ray),
+                    ("ms_per_spp", ms_per_spp),
+                    ("var_time", e.mean_std * e.mean_std * ms_per_spp),
+                ]),
+            });
+        }
+        sets.push(Set {
+            id: format!("{id}-{}", reference.integrator),
+            label: format!("{id} ({})", reference.integrator),
+            kind: "integrators",
+            json: json.into(),
+            facts,
+            width: r.header.width,
+            height: r.header.height,
+            modes: vec![Mode {
+                id: "render",
+                label: "render",
+                caption: format!(
+                    "RGB radiance, {} spp, exposure x radiance clamped, sRGB-encoded",
+                    r.header.spp
+                ),
+                colour_map: None,
+            }],
+            entries,
+            columns: LIT_COLUMNS.to_vec(),
+        });
+    }
+    Ok(sets)
 }
 
 /// The page: the template with the data as a JSON literal that cannot end its `<script>`.

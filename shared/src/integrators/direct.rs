@@ -10,8 +10,9 @@
 //! light sample plus one phase sample, each weighted by p / (p_light + p_phase) (T is common to
 //! both strategies and cancels from the weights).
 //!
-//! The three transmittance estimates (background, light sample, phase sample) are made in one
-//! loop with one call of [`estimate::transmittance`], so the kernel holds the estimators once.
+//! The three transmittance estimates (background, light sample, phase sample) go through one
+//! call site of [`estimate::transmittance`] ([`direct_estimate`]), so the kernel holds the
+//! estimators once; on the GPU each runs in its own dispatch ([`DirectState`]).
 
 use crate::estimators::estimate;
 use crate::estimators::tracking::delta_tracking_capped;
@@ -25,23 +26,61 @@ use crate::sampling::phase::{phase_hg, sample_hg};
 use crate::tally::Tally;
 use crate::volume::dda::clip_to_box;
 use crate::volume::grid::VolumeView;
+use bytemuck::{Pod, Zeroable};
 
 /// Salt of the stochastic-lookup jitter key of the camera ray's free flight.
 const FLIGHT_SALT: u32 = 0x6c8e_9cf5;
 
 /// A transmittance still to be estimated: the world ray from `o` along unit `w` up to `dist`,
 /// and what its transmittance multiplies.
-#[derive(Clone, Copy)]
-pub(super) struct ShadowQuery {
-    pub(super) o: V3,
-    pub(super) w: V3,
-    pub(super) dist: f32,
-    pub(super) weight: Rgb,
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct ShadowQuery {
+    pub o: V3,
+    pub w: V3,
+    pub dist: f32,
+    pub weight: Rgb,
+}
+
+/// One camera sample of `direct` between its stages (160 bytes): the three transmittance
+/// queries (background, light sample, phase sample), the radiance so far, the generator and the
+/// tally. The GPU runs [`direct_start`] and each [`direct_estimate`] as its own dispatch, so one
+/// invocation holds at most one tracking loop or one estimate.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct DirectState {
+    pub queries: [ShadowQuery; 3],
+    pub total: Rgb,
+    pub rng: u32,
+    pub lookups: u32,
+    pub capped: u32,
+    pub outside: u32,
+    pub _pad: [u32; 3],
+}
+
+impl DirectState {
+    /// The tally so far.
+    #[inline]
+    pub fn tally(&self) -> Tally {
+        Tally {
+            lookups: self.lookups,
+            capped: self.capped,
+            outside: self.outside,
+        }
+    }
+
+    /// Stores a tally.
+    #[inline]
+    fn set_tally(&mut self, t: Tally) {
+        self.lookups = t.lookups;
+        self.capped = t.capped;
+        self.outside = t.outside;
+    }
 }
 
 impl ShadowQuery {
     /// A query that contributes nothing (no ray is traced for it).
-    pub(super) const NONE: ShadowQuery = ShadowQuery {
+    pub const NONE: ShadowQuery = ShadowQuery {
         o: V3::new(0.0, 0.0, 0.0),
         w: V3::new(0.0, 0.0, 1.0),
         dist: 0.0,
@@ -49,7 +88,8 @@ impl ShadowQuery {
     };
 }
 
-/// Radiance along one world-space camera ray (RGB), its tally and the generator.
+/// Radiance along one world-space camera ray (RGB), its tally and the generator: the start and
+/// the three estimates of [`DirectState`] in one call (the CPU backend).
 pub fn direct_radiance(
     vol: &VolumeView,
     cfg: &Config,
@@ -58,11 +98,35 @@ pub fn direct_radiance(
     world: &Ray,
     rng: HashRng,
 ) -> (Rgb, Tally, HashRng) {
+    let mut st = direct_start(vol, cfg, params, scene, world, rng);
+    let mut k = 0;
+    while k < 3 {
+        st = direct_estimate(vol, cfg, params, st, k);
+        k += 1;
+    }
+    (st.total, st.tally(), HashRng { state: st.rng })
+}
+
+/// Stage 1 of a camera sample: the free flight, the light and phase samples at its vertex, and
+/// the three queries (the background's weight is the radiance behind the volume).
+pub fn direct_start(
+    vol: &VolumeView,
+    cfg: &Config,
+    params: &RenderParams,
+    scene: &Scene,
+    world: &Ray,
+    rng: HashRng,
+) -> DirectState {
     let background = scene.directional_radiance(world.d);
     let ray = to_index_space(world, &params.world_to_index);
     let (ta, tb) = clip_to_box(&ray, grid_hi(vol), 0.0, f32::INFINITY);
+    let mut st = DirectState {
+        rng: rng.state,
+        ..Default::default()
+    };
     if !(ta < tb) {
-        return (background, Tally::default(), rng);
+        st.total = background;
+        return st;
     }
     let (ff, rng) = delta_tracking_capped(
         vol,
@@ -74,17 +138,13 @@ pub fn direct_radiance(
         cfg.max_collisions,
         rng,
     );
-    let mut tally = ff.tally;
-    let mut queries = [
-        ShadowQuery {
-            o: world.o,
-            w: world.d,
-            dist: f32::INFINITY,
-            weight: background,
-        },
-        ShadowQuery::NONE,
-        ShadowQuery::NONE,
-    ];
+    st.set_tally(ff.tally);
+    st.queries[0] = ShadowQuery {
+        o: world.o,
+        w: world.d,
+        dist: f32::INFINITY,
+        weight: background,
+    };
     let mut rng = rng;
     if ff.found {
         let x = world.at(ff.t);
@@ -93,28 +153,38 @@ pub fn direct_radiance(
         let (light, r) = light_sample(scene, params.hg_g, x, wo, rng);
         let (phase, r) = phase_sample(scene, params.hg_g, x, wo, r);
         rng = r;
-        queries[1] = ShadowQuery {
+        st.queries[1] = ShadowQuery {
             weight: light.weight.mul_rgb(albedo),
             ..light
         };
-        queries[2] = ShadowQuery {
+        st.queries[2] = ShadowQuery {
             weight: phase.weight.mul_rgb(albedo),
             ..phase
         };
     }
-    let mut total = Rgb::ZERO;
-    let mut k = 0;
-    while k < queries.len() {
-        let q = queries[k];
-        if !q.weight.is_black() {
-            let (tr, t, r) = shadow(vol, cfg, params, &q, rng);
-            rng = r;
-            tally = tally.merge(t);
-            total = total + q.weight * tr;
-        }
-        k += 1;
+    st.rng = rng.state;
+    st
+}
+
+/// Stage 2 + k of a camera sample: the transmittance of query k (if it carries weight), added
+/// to the radiance.
+pub fn direct_estimate(
+    vol: &VolumeView,
+    cfg: &Config,
+    params: &RenderParams,
+    st: DirectState,
+    k: u32,
+) -> DirectState {
+    let q = st.queries[k as usize];
+    if q.weight.is_black() {
+        return st;
     }
-    (total, tally, rng)
+    let mut st = st;
+    let (tr, t, rng) = shadow(vol, cfg, params, &q, HashRng { state: st.rng });
+    st.rng = rng.state;
+    st.set_tally(st.tally().merge(t));
+    st.total = st.total + q.weight * tr;
+    st
 }
 
 /// The box [0, dims] of the grid as a vector.

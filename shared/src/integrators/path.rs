@@ -67,12 +67,13 @@ impl PathState {
         }
     }
 
-    /// Adds a tally to the path's.
+    /// Merges a tally into the path's ([`Tally::merge`]: lookups add, flags per path).
     #[inline]
     fn count(&mut self, t: Tally) {
-        self.lookups += t.lookups;
-        self.capped += t.capped;
-        self.outside += t.outside;
+        let m = self.tally().merge(t);
+        self.lookups = m.lookups;
+        self.capped = m.capped;
+        self.outside = m.outside;
     }
 }
 

@@ -77,7 +77,8 @@ pub mod bindings {
         pub const COUNT: usize = 6;
     }
 
-    /// `direct_cs`: one pass of a `direct` image: the bindings of `render_cs`, then the lights'.
+    /// `direct_cs`: one stage of a `direct` image: the bindings of `render_cs`, the lights', then
+    /// the samples' states.
     pub mod direct {
         /// One `RenderParams` (as `render_cs`).
         pub const PARAMS: usize = 0;
@@ -95,8 +96,10 @@ pub mod bindings {
         pub const LIGHTING: usize = 6;
         /// The environment map's texels and CDFs (`f32`; one unused value without a map).
         pub const ENV: usize = 7;
+        /// One `DirectState` per pixel of the tile, read and written.
+        pub const STATES: usize = 8;
         /// Number of bindings.
-        pub const COUNT: usize = 8;
+        pub const COUNT: usize = 9;
     }
 
     /// `path_cs`: one step of a `path` image: the bindings of `direct_cs`, then the paths.

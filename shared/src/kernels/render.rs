@@ -3,7 +3,7 @@
 
 use crate::estimators::estimate;
 use crate::geometry::{to_index_space, Ray, V3};
-use crate::integrators::direct::direct_radiance;
+use crate::integrators::direct::{direct_estimate, direct_radiance, direct_start, DirectState};
 use crate::integrators::path::{path_bounce, path_radiance, path_start, PathState};
 use crate::params::{Config, RenderParams};
 use crate::rgb::Rgb;
@@ -158,8 +158,8 @@ pub fn render_pixel_pass(
     acc
 }
 
-/// [`render_pixel_pass`] of the `direct` integrator (`direct_cs`, its own entry point so that
-/// the transmittance kernel stays small): RGB radiance, its luminance's moments.
+/// [`render_pixel_pass`] of the `direct` integrator on the CPU (the GPU runs the same stages as
+/// dispatches, [`direct_step`]): RGB radiance, its luminance's moments.
 pub fn direct_pixel_pass(
     vol: &VolumeView,
     params: &RenderParams,
@@ -181,8 +181,9 @@ pub fn direct_pixel_pass(
     acc
 }
 
-/// Push constants of the path kernel: the launch header, the sample, and the step (0: start
-/// the sample's paths at the camera, 1: one bounce of every live path).
+/// Push constants of the path and direct kernels: the launch header, the sample, and the step
+/// (path: 0 starts the sample's paths at the camera, 1 is one bounce of every live path;
+/// direct: 0 starts, 1 to 3 estimate one query each).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct PathPass {
@@ -228,6 +229,38 @@ pub fn path_step(
         return (next, sums);
     }
     let l = next.radiance;
+    (next, sums.add(l, l.luminance(), next.tally()))
+}
+
+/// One stage of the wavefront `direct` render of pixel `id` (`direct_cs`): stage 0 starts
+/// sample `sample` at the camera ([`direct_start`]), stages 1 to 3 estimate one query each; after
+/// stage 3 the radiance is added to the pixel's sums. Returns the new state and sums.
+#[allow(clippy::too_many_arguments)]
+pub fn direct_step(
+    vol: &VolumeView,
+    params: &RenderParams,
+    scene: &Scene,
+    id: u32,
+    sample: u32,
+    stage: u32,
+    st: DirectState,
+    sums: PixelSums,
+) -> (DirectState, PixelSums) {
+    let cfg = Config::decode(params, vol.desc);
+    if stage == 0 {
+        let (world, rng) = camera_ray(params, id, sample);
+        let sums = if sample == 0 {
+            PixelSums::default()
+        } else {
+            sums
+        };
+        return (direct_start(vol, &cfg, params, scene, &world, rng), sums);
+    }
+    let next = direct_estimate(vol, &cfg, params, st, stage - 1);
+    if stage < 3 {
+        return (next, sums);
+    }
+    let l = next.total;
     (next, sums.add(l, l.luminance(), next.tally()))
 }
 
