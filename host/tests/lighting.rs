@@ -1091,10 +1091,21 @@ fn eval_of_direct_and_path_writes_entries_references_and_insets() {
     // The report viewer imports it: one tab per integrator, with the equal-time column.
     let report_dir = dir.path().join("report");
     let out = host()
-        .args(["report", "--from-eval", s(&json), "--out", s(&report_dir), "--quiet"])
+        .args([
+            "report",
+            "--from-eval",
+            s(&json),
+            "--out",
+            s(&report_dir),
+            "--quiet",
+        ])
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let html = std::fs::read_to_string(report_dir.join("index.html")).unwrap();
     for needle in ["direct/jackknife", "path/ratio", "var_time", "std^2 x ms"] {
         assert!(html.contains(needle), "index.html lacks {needle}");

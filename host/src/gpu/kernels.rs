@@ -114,20 +114,19 @@ pub const RENDER: KernelDef<RenderPass, { render::COUNT }> =
         s
     });
 /// `direct_cs`.
-pub const DIRECT: KernelDef<PathPass, { direct::COUNT }> =
-    KernelDef::checked(Kernel::DirectCs, {
-        let mut s = [0; direct::COUNT];
-        s[direct::PARAMS] = size_of::<RenderParams>();
-        s[direct::DESC] = size_of::<GridDesc>();
-        s[direct::VOXELS] = size_of::<u32>();
-        s[direct::BRICKS] = size_of::<Brick>();
-        s[direct::LIGHTS] = size_of::<PointLight>();
-        s[direct::SUMS] = size_of::<PixelSums>();
-        s[direct::LIGHTING] = size_of::<Lighting>();
-        s[direct::ENV] = size_of::<f32>();
-        s[direct::STATES] = size_of::<DirectState>();
-        s
-    });
+pub const DIRECT: KernelDef<PathPass, { direct::COUNT }> = KernelDef::checked(Kernel::DirectCs, {
+    let mut s = [0; direct::COUNT];
+    s[direct::PARAMS] = size_of::<RenderParams>();
+    s[direct::DESC] = size_of::<GridDesc>();
+    s[direct::VOXELS] = size_of::<u32>();
+    s[direct::BRICKS] = size_of::<Brick>();
+    s[direct::LIGHTS] = size_of::<PointLight>();
+    s[direct::SUMS] = size_of::<PixelSums>();
+    s[direct::LIGHTING] = size_of::<Lighting>();
+    s[direct::ENV] = size_of::<f32>();
+    s[direct::STATES] = size_of::<DirectState>();
+    s
+});
 /// `path_cs`.
 pub const PATH: KernelDef<PathPass, { path::COUNT }> = KernelDef::checked(Kernel::PathCs, {
     let mut s = [0; path::COUNT];
@@ -169,7 +168,6 @@ pub struct RenderBuffers<'a> {
     pub lights: &'a Buffer,
     pub sums: &'a Buffer,
 }
-
 
 impl<'a> RenderBuffers<'a> {
     /// The buffers in binding order.

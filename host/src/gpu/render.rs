@@ -142,7 +142,17 @@ fn render_tiles(
                 states: &states,
             };
             let uploads_now = std::mem::take(&mut uploads);
-            render_wave(gpu, wave, params, ids, chunk, &buffers, uploads_now, slice, bar)?;
+            render_wave(
+                gpu,
+                wave,
+                params,
+                ids,
+                chunk,
+                &buffers,
+                uploads_now,
+                slice,
+                bar,
+            )?;
             continue;
         }
         let submissions = tile_submissions(params.seed, passes, ids.clone(), chunk, bar.is_none());

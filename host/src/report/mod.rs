@@ -328,12 +328,14 @@ fn load(json: &Path) -> Result<Loaded> {
         .with_context(|| format!("{}: not valid JSON", json.display()))?;
     let stale = "(written by an older `host eval`? run it again)";
     if value.get("references").is_some() {
-        serde_json::from_value(value).map(Loaded::Lit).with_context(|| {
-            format!(
-                "{}: not a `host eval --integrators direct,path` report {stale}",
-                json.display()
-            )
-        })
+        serde_json::from_value(value)
+            .map(Loaded::Lit)
+            .with_context(|| {
+                format!(
+                    "{}: not a `host eval --integrators direct,path` report {stale}",
+                    json.display()
+                )
+            })
     } else if value.get("integrators").is_some() {
         serde_json::from_value(value)
             .map(Loaded::Integrators)
@@ -805,7 +807,11 @@ fn lit_sets(r: &DirectEvalReport, files: &mut Files, id: &str, json: &str) -> Re
             let ms_per_spp = e.elapsed_ms / r.header.spp as f64;
             entries.push(Entry {
                 name: e.name.clone(),
-                about: format!("{} with {} shadow rays", reference.integrator, &e.name[prefix.len()..]),
+                about: format!(
+                    "{} with {} shadow rays",
+                    reference.integrator,
+                    &e.name[prefix.len()..]
+                ),
                 reference: false,
                 unbiased: None,
                 images: BTreeMap::from([("render", files.image(&e.png, &e.exr)?)]),
