@@ -99,115 +99,82 @@ pub fn render_cs(
     }
 }
 
-/// One stage of a `direct` image (RGB direct illumination, wavefront): start each pixel's sample
-/// at the camera, or estimate one of its three transmittance queries.
-#[allow(clippy::too_many_arguments)] // one argument per binding
-#[spirv(compute(threads(64)))]
-pub fn direct_cs(
-    #[spirv(global_invocation_id)] gid: UVec3,
-    #[spirv(push_constant)] pass: &PathPass,
-    // bindings::direct::PARAMS
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &[RenderParams],
-    // bindings::direct::DESC
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] desc: &[GridDesc],
-    // bindings::direct::VOXELS
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] voxels: &[u32],
-    // bindings::direct::BRICKS
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] bricks: &[Brick],
-    // bindings::direct::LIGHTS
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] lights: &[PointLight],
-    // bindings::direct::SUMS
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] sums: &mut [PixelSums],
-    // bindings::direct::LIGHTING
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] lighting: &[Lighting],
-    // bindings::direct::ENV
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] env: &[f32],
-    // bindings::direct::STATES
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] states: &mut [DirectState],
-) {
-    if let Some(i) = pass.launch.id(gid.x) {
-        let vol = VolumeView {
-            desc: &desc[0],
-            voxels,
-            bricks,
-        };
-        let slot = i - pass.sums_base as usize;
-        let p = &params[0];
-        let scene = Scene {
-            lighting: &lighting[0],
-            points: lights,
-            point_count: p.light_count,
-            env,
-        };
-        let (st, s) = render::direct_step(
-            &vol,
-            p,
-            &scene,
-            i as u32,
-            pass.sample,
-            pass.mode,
-            states[slot],
-            sums[slot],
-        );
-        states[slot] = st;
-        sums[slot] = s;
-    }
+/// A wavefront kernel (`direct_cs`, `path_cs`): the bindings of `bindings::direct` ==
+/// `bindings::path` with `$state` per pixel, and one call of `$step` per invocation: the stage
+/// `pass.mode` of sample `pass.sample`.
+macro_rules! wave_kernel {
+    ($(#[$doc:meta])* $name:ident, $state:ty, $step:path) => {
+        $(#[$doc])*
+        #[allow(clippy::too_many_arguments)] // one argument per binding
+        #[spirv(compute(threads(64)))]
+        pub fn $name(
+            #[spirv(global_invocation_id)] gid: UVec3,
+            #[spirv(push_constant)] pass: &PathPass,
+            // bindings::path::PARAMS
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &[RenderParams],
+            // bindings::path::DESC
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] desc: &[GridDesc],
+            // bindings::path::VOXELS
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] voxels: &[u32],
+            // bindings::path::BRICKS
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] bricks: &[Brick],
+            // bindings::path::LIGHTS
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] lights: &[PointLight],
+            // bindings::path::SUMS
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] sums: &mut [PixelSums],
+            // bindings::path::LIGHTING
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] lighting: &[Lighting],
+            // bindings::path::ENV
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] env: &[f32],
+            // bindings::path::STATES
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] states: &mut [$state],
+        ) {
+            if let Some(i) = pass.launch.id(gid.x) {
+                let vol = VolumeView {
+                    desc: &desc[0],
+                    voxels,
+                    bricks,
+                };
+                let slot = i - pass.sums_base as usize;
+                let p = &params[0];
+                let scene = Scene {
+                    lighting: &lighting[0],
+                    points: lights,
+                    point_count: p.light_count,
+                    env,
+                };
+                let (st, s) = $step(
+                    &vol,
+                    p,
+                    &scene,
+                    i as u32,
+                    pass.sample,
+                    pass.mode,
+                    states[slot],
+                    sums[slot],
+                );
+                states[slot] = st;
+                sums[slot] = s;
+            }
+        }
+    };
 }
 
-/// One step of a `path` image (multiple scattering, wavefront): start each pixel's path of one
-/// sample, or advance every live path by one vertex.
-#[allow(clippy::too_many_arguments)] // one argument per binding
-#[spirv(compute(threads(64)))]
-pub fn path_cs(
-    #[spirv(global_invocation_id)] gid: UVec3,
-    #[spirv(push_constant)] pass: &PathPass,
-    // bindings::path::PARAMS
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &[RenderParams],
-    // bindings::path::DESC
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] desc: &[GridDesc],
-    // bindings::path::VOXELS
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] voxels: &[u32],
-    // bindings::path::BRICKS
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] bricks: &[Brick],
-    // bindings::path::LIGHTS
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] lights: &[PointLight],
-    // bindings::path::SUMS
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] sums: &mut [PixelSums],
-    // bindings::path::LIGHTING
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] lighting: &[Lighting],
-    // bindings::path::ENV
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] env: &[f32],
-    // bindings::path::STATES
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] states: &mut [PathState],
-) {
-    if let Some(i) = pass.launch.id(gid.x) {
-        let vol = VolumeView {
-            desc: &desc[0],
-            voxels,
-            bricks,
-        };
-        let slot = i - pass.sums_base as usize;
-        let p = &params[0];
-        let scene = Scene {
-            lighting: &lighting[0],
-            points: lights,
-            point_count: p.light_count,
-            env,
-        };
-        let (st, s) = render::path_step(
-            &vol,
-            p,
-            &scene,
-            i as u32,
-            pass.sample,
-            pass.mode == 0,
-            states[slot],
-            sums[slot],
-        );
-        states[slot] = st;
-        sums[slot] = s;
-    }
-}
+wave_kernel!(
+    /// One stage of a `direct` image (RGB direct illumination, wavefront): start each pixel's
+    /// sample at the camera (mode 0), or estimate one of its three transmittance queries.
+    direct_cs,
+    DirectState,
+    render::direct_step
+);
+
+wave_kernel!(
+    /// One step of a `path` image (multiple scattering, wavefront): start each pixel's path of
+    /// one sample (mode 0), or advance every live path by one vertex.
+    path_cs,
+    PathState,
+    render::path_wave_step
+);
 
 /// Equiangular sampling setup, sample and pdf per configuration (diagnostics).
 #[spirv(compute(threads(64)))]

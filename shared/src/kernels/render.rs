@@ -264,6 +264,23 @@ pub fn direct_step(
     (next, sums.add(l, l.luminance(), next.tally()))
 }
 
+/// [`path_step`] with the wavefront's stage number (0: start, else bounce), the signature the
+/// wavefront kernels share with [`direct_step`].
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn path_wave_step(
+    vol: &VolumeView,
+    params: &RenderParams,
+    scene: &Scene,
+    id: u32,
+    sample: u32,
+    stage: u32,
+    st: PathState,
+    sums: PixelSums,
+) -> (PathState, PixelSums) {
+    path_step(vol, params, scene, id, sample, stage == 0, st, sums)
+}
+
 /// [`render_pixel_pass`] of the `path` integrator on the CPU: each sample's whole path, the same
 /// bounces as the GPU's steps.
 pub fn path_pixel_pass(
