@@ -1,0 +1,217 @@
+//! Moment shadow maps for translucent occluders (Peters, Münstermann, Wetzstein, Klein 2017):
+//! the four power moments b = E_Z[(1, z, z^2, z^3, z^4)] of the absorption depth distribution Z
+//! along a light ray, and the reconstruction of the shadow intensity Z(z < z_f) at a fragment
+//! depth z_f by Algorithm 1 (the sharpest lower bound over all depth distributions with these
+//! moments; the upper bound adds the weight of the atom at z_f).
+//!
+//! Depths are signed, in [-1, 1] from the light's near to its far plane (Sec. "Signed Depth").
+//! For a volume, Z holds the fraction of light absorbed at each depth, and the light left at the
+//! far plane is an atom at z = 1, so b_0 = 1 (as the paper's opaque far surface); the shadow map's
+//! transmittance at depth z_f is T = 1 - Z(z < z_f). Everything is f32, + - * / and our sqrt.
+
+use crate::math::sqrt;
+
+/// Moments of a depth distribution: b_0 .. b_4.
+pub type Moments4 = [f32; 5];
+
+/// Moment bias alpha_b for moments stored as f32 (Sec. "Biasing for the Worst Case").
+pub const ALPHA_F32: f32 = 3.0e-7;
+/// Moment bias alpha_b after the 16-bit quantization transform.
+pub const ALPHA_U16: f32 = 6.0e-5;
+/// The worst-case-optimal biasing target b* without the quantization transform.
+pub const TARGET_F32: Moments4 = [1.0, 0.0, 0.375, 0.0, 0.375];
+/// The biasing target b* with the quantization transform.
+pub const TARGET_U16: Moments4 = [1.0, 0.0, 0.628, 0.0, 0.628];
+
+/// b + w b(z): adds an atom of weight w at depth z (one absorption event of a light ray).
+#[inline]
+pub fn add_atom(b: Moments4, z: f32, w: f32) -> Moments4 {
+    let z2 = z * z;
+    [
+        b[0] + w,
+        b[1] + w * z,
+        b[2] + w * z2,
+        b[3] + w * (z2 * z),
+        b[4] + w * (z2 * z2),
+    ]
+}
+
+/// b' = (1 - alpha) b + alpha b* (Sec. "Biasing for the Worst Case").
+#[inline]
+pub fn bias(b: Moments4, alpha: f32, target: Moments4) -> Moments4 {
+    let k = 1.0 - alpha;
+    [
+        k * b[0] + alpha * target[0],
+        k * b[1] + alpha * target[1],
+        k * b[2] + alpha * target[2],
+        k * b[3] + alpha * target[3],
+        k * b[4] + alpha * target[4],
+    ]
+}
+
+/// Lower and upper bound of Z(z < z_f) from biased moments b (b_0 = 1), Algorithm 1 for m = 4:
+/// solve B(b) q = (1, z_f, z_f^2) (B the 3x3 Hankel matrix, by LDL^T), take the roots z_1, z_2
+/// of q_0 + q_1 z + q_2 z^2, the weights w of the atoms (z_f, z_1, z_2) from their Vandermonde
+/// system, and sum the weights of the roots below z_f; the upper bound adds w_0. Both are
+/// clamped to [0, 1]. Where the 3x3 matrix is numerically singular (moments on the boundary of
+/// the moment space, which the bias keeps rare), it tries once more with [`RETRY_ALPHA`], then
+/// uses the bounds of the first two moments ([`shadow_bounds2`], weaker but valid).
+pub fn shadow_bounds(b: Moments4, zf: f32) -> (f32, f32) {
+    match hamburger4(b, zf) {
+        Some(bounds) => bounds,
+        // Numerically singular: once more with a stronger bias, then the two-moment bounds.
+        None => match hamburger4(bias(b, RETRY_ALPHA, TARGET_F32), zf) {
+            Some(bounds) => bounds,
+            None => shadow_bounds2(b, zf),
+        },
+    }
+}
+
+/// The bias of [`shadow_bounds`]'s second attempt when f32 rounding left the moments on the
+/// boundary of the moment space (two-atom distributions biased by [`ALPHA_F32`] only).
+pub const RETRY_ALPHA: f32 = 1.0e-5;
+
+/// Algorithm 1 for m = 4 (see [`shadow_bounds`]); None where B(b) is not numerically positive
+/// definite.
+fn hamburger4(b: Moments4, zf: f32) -> Option<(f32, f32)> {
+    // LDL^T of B = [[b0, b1, b2], [b1, b2, b3], [b2, b3, b4]].
+    let d0 = b[0];
+    if !(d0 > 0.0) {
+        return None;
+    }
+    let l10 = b[1] / d0;
+    let l20 = b[2] / d0;
+    let d1 = b[2] - l10 * b[1];
+    if !(d1 > 0.0) {
+        return None;
+    }
+    let l21 = (b[3] - l20 * b[1]) / d1;
+    let d2 = b[4] - l20 * b[2] - l21 * l21 * d1;
+    if !(d2 > 0.0) {
+        return None;
+    }
+    // Forward substitution L y = c, then D, then back substitution L^T q = D^-1 y.
+    let c0 = 1.0;
+    let c1 = zf - l10 * c0;
+    let c2 = zf * zf - l20 * c0 - l21 * c1;
+    let q2 = c2 / d2;
+    let q1 = c1 / d1 - l21 * q2;
+    let q0 = c0 / d0 - l10 * q1 - l20 * q2;
+    // Roots of q2 z^2 + q1 z + q0 (q2 > 0: c2 > 0 for zf off the support's moment curve).
+    if !(q2 != 0.0) {
+        return None;
+    }
+    let p = q1 / q2;
+    let q = q0 / q2;
+    let disc = 0.25 * p * p - q;
+    let r = sqrt(if disc > 0.0 { disc } else { 0.0 });
+    let z1 = -0.5 * p - r;
+    let z2 = -0.5 * p + r;
+    let w0 = atom_weight(&b, zf, z1, z2);
+    let w1 = atom_weight(&b, z1, zf, z2);
+    let w2 = atom_weight(&b, z2, zf, z1);
+    let mut lower = 0.0f32;
+    if z1 < zf {
+        lower += w1;
+    }
+    if z2 < zf {
+        lower += w2;
+    }
+    let upper = lower + w0;
+    Some((clamp01(lower), clamp01(upper)))
+}
+
+/// Lower and upper bound of Z(z < z_f) from b_0, b_1, b_2 alone (Algorithm 1 for m = 2): the
+/// two-atom distribution (z_f, z_1) with these moments, z_1 = (b_2 - z_f b_1) / (b_1 - z_f b_0).
+pub fn shadow_bounds2(b: Moments4, zf: f32) -> (f32, f32) {
+    let den = b[1] - zf * b[0];
+    if !(b[0] > 0.0) || den == 0.0 {
+        return (0.0, 1.0);
+    }
+    let z1 = (b[2] - zf * b[1]) / den;
+    // w_1 (z_1 - z_f) = b_1 - z_f b_0.
+    let gap = z1 - zf;
+    if gap == 0.0 {
+        return (0.0, 1.0);
+    }
+    let w1 = den / gap;
+    let w0 = b[0] - w1;
+    let lower = if z1 < zf { w1 } else { 0.0 };
+    (clamp01(lower), clamp01(lower + w0))
+}
+
+/// An estimate of Z(z < z_f) between the bounds: lower + beta (upper - lower) (the paper's
+/// weighted combination for single scattering; beta = 1/2 minimizes the worst-case error).
+#[inline]
+pub fn shadow_estimate(b: Moments4, zf: f32, beta: f32) -> f32 {
+    let (lower, upper) = shadow_bounds(b, zf);
+    lower + beta * (upper - lower)
+}
+
+/// The weight of atom z_l of the three-atom distribution (z_l, z_a, z_b) with the moments b_0,
+/// b_1, b_2: E[(z - z_a)(z - z_b)] / ((z_l - z_a)(z_l - z_b)) (its Vandermonde system solved by
+/// Lagrange); 0 where atoms coincide.
+#[inline]
+fn atom_weight(b: &Moments4, zl: f32, za: f32, zb: f32) -> f32 {
+    let den = (zl - za) * (zl - zb);
+    let num = b[2] - (za + zb) * b[1] + za * zb * b[0];
+    if den != 0.0 {
+        num / den
+    } else {
+        0.0
+    }
+}
+
+/// Clamps to [0, 1] (NaN to 0).
+#[inline]
+#[allow(clippy::manual_clamp)]
+fn clamp01(v: f32) -> f32 {
+    if !(v > 0.0) {
+        0.0
+    } else if v > 1.0 {
+        1.0
+    } else {
+        v
+    }
+}
+
+/// sqrt(3) in f32.
+const SQRT3: f32 = 1.732_050_8;
+
+/// The sparse quantization transform Theta_4^* (Eq. 3): moments b_1..b_4 of depths in [-1, 1] to
+/// four values in about [0, 1] for 16-bit storage.
+#[inline]
+pub fn quantize_transform(b: Moments4) -> [f32; 4] {
+    [
+        1.5 * b[1] - 2.0 * b[3] + 0.5,
+        4.0 * b[2] - 4.0 * b[4],
+        (0.5 * SQRT3) * b[1] - (2.0 * SQRT3 / 9.0) * b[3] + 0.5,
+        0.5 * b[2] + 0.5 * b[4],
+    ]
+}
+
+/// The inverse of [`quantize_transform`] (b_0 = 1).
+#[inline]
+pub fn dequantize_transform(u: [f32; 4]) -> Moments4 {
+    let (a, c) = (u[0] - 0.5, u[2] - 0.5);
+    // [1.5, -2; sqrt3/2, -2 sqrt3/9] [b1; b3] = [a; c], determinant 2 sqrt3 / 3.
+    let det = 2.0 * SQRT3 / 3.0;
+    let b1 = (a * (-2.0 * SQRT3 / 9.0) + 2.0 * c) / det;
+    let b3 = (1.5 * c - (0.5 * SQRT3) * a) / det;
+    let b2 = u[3] + 0.125 * u[1];
+    let b4 = u[3] - 0.125 * u[1];
+    [1.0, b1, b2, b3, b4]
+}
+
+/// x in [0, 1] as a 16-bit unsigned normalized integer (rounded to nearest, clamped).
+#[inline]
+pub fn to_unorm16(x: f32) -> u32 {
+    let v = clamp01(x) * 65535.0 + 0.5;
+    v as u32
+}
+
+/// A 16-bit unsigned normalized integer as f32.
+#[inline]
+pub fn from_unorm16(v: u32) -> f32 {
+    v as f32 * (1.0 / 65535.0)
+}
