@@ -4,9 +4,9 @@
 
 use shared::rng::{pcg_hash, unit_f32};
 use shared::shadows::msm::{
-    add_atom, bias, dequantize_transform, from_unorm16, quantize_transform, shadow_bounds,
-    shadow_bounds2, shadow_estimate, to_unorm16, Moments4, ALPHA_F32, ALPHA_U16, TARGET_F32,
-    TARGET_U16,
+    add_atom, add_atom6, bias, bias6, dequantize_transform, from_unorm16, quantize_transform,
+    shadow_bounds, shadow_bounds2, shadow_bounds6, shadow_estimate, to_unorm16, Moments4, Moments6,
+    ALPHA6_F32, ALPHA_F32, ALPHA_U16, TARGET6, TARGET_F32, TARGET_U16,
 };
 
 /// Moments of the atoms (depth, weight).
@@ -172,7 +172,9 @@ fn homogeneous_slab_error_is_reported() {
         }
         atoms.push((1.0, t_prev));
         let b = bias(moments(&atoms), ALPHA_F32, TARGET_F32);
+        let b6 = bias6(moments6(&atoms), ALPHA6_F32, TARGET6);
         let mut worst = 0.0f32;
+        let mut worst6 = 0.0f32;
         for j in 1..40 {
             let zf = -1.0 + j as f32 * 0.05;
             let (lo, hi) = shadow_bounds(b, zf);
@@ -185,7 +187,104 @@ fn homogeneous_slab_error_is_reported() {
             let err = (mid - exact).abs();
             assert!(err <= 0.5 * (hi - lo) + 1e-4, "tau {tau}, zf {zf}");
             worst = worst.max(err);
+            let (lo6, hi6) = shadow_bounds6(b6, zf);
+            assert!(
+                lo6 <= exact + 1e-3 && exact <= hi6 + 1e-3,
+                "tau {tau}, zf {zf}, six"
+            );
+            worst6 = worst6.max((0.5 * (lo6 + hi6) - exact).abs());
         }
-        println!("homogeneous slab, tau {tau}: worst |T_msm - T| = {worst:.4}");
+        println!(
+            "homogeneous slab, tau {tau}: worst |T_msm - T| = {worst:.4} (4 moments), {worst6:.4} (6)"
+        );
     }
+}
+
+/// Moments of the atoms, six.
+fn moments6(atoms: &[(f32, f32)]) -> Moments6 {
+    atoms.iter().fold([0.0; 7], |b, &(z, w)| add_atom6(b, z, w))
+}
+
+/// Six moments reproduce three atoms (2000 random triples in [-1, 1], fragment depths at least
+/// 0.2 from every atom, tolerance 2e-3).
+#[test]
+fn six_moments_reconstruct_three_atoms() {
+    let mut worst = 0.0f32;
+    let mut checked = 0;
+    for k in 0..2000u32 {
+        let mut zs = [
+            uniform(9 * k, -1.0, 1.0),
+            uniform(9 * k + 1, -1.0, 1.0),
+            uniform(9 * k + 2, -1.0, 1.0),
+        ];
+        zs.sort_by(f32::total_cmp);
+        if zs[1] - zs[0] < 0.4 || zs[2] - zs[1] < 0.4 {
+            continue;
+        }
+        let w0 = uniform(9 * k + 3, 0.1, 0.5);
+        let w1 = uniform(9 * k + 4, 0.1, 0.4);
+        let atoms = [(zs[0], w0), (zs[1], w1), (zs[2], 1.0 - w0 - w1)];
+        let b = bias6(moments6(&atoms), ALPHA6_F32, TARGET6);
+        for zf in [
+            zs[0] - 0.2,
+            0.5 * (zs[0] + zs[1]),
+            0.5 * (zs[1] + zs[2]),
+            zs[2] + 0.2,
+        ] {
+            if !(-1.0..=1.0).contains(&zf) || zs.iter().any(|z| (z - zf).abs() < 0.2) {
+                continue;
+            }
+            let (lo, hi) = shadow_bounds6(b, zf);
+            let exact = below(&atoms, zf);
+            worst = worst.max((lo - exact).abs()).max((hi - exact).abs());
+            checked += 1;
+        }
+    }
+    assert!(checked > 500, "only {checked} cases");
+    assert!(
+        worst < 2e-3,
+        "three atoms, six moments: worst error {worst}"
+    );
+}
+
+/// Six-moment bounds hold on both sides (within 1e-3) for 500 random distributions of 4 to 12
+/// atoms (plus the far-plane atom) at 41 depths, and are tighter than the four-moment ones: the
+/// summed width over all cases is smaller.
+#[test]
+fn six_moment_bounds_hold_and_are_tighter() {
+    let (mut width4, mut width6) = (0.0f64, 0.0f64);
+    for k in 0..500u32 {
+        let n = 4 + pcg_hash(k + 7) % 9;
+        let mut atoms: Vec<(f32, f32)> = (0..n)
+            .map(|i| {
+                (
+                    uniform(3000 * k + 2 * i, -1.0, 1.0),
+                    uniform(3000 * k + 2 * i + 1, 0.0, 1.0),
+                )
+            })
+            .collect();
+        let total: f32 = atoms.iter().map(|a| a.1).sum::<f32>() * 1.25;
+        for a in &mut atoms {
+            a.1 /= total;
+        }
+        atoms.push((1.0, 0.2));
+        let b6 = bias6(moments6(&atoms), ALPHA6_F32, TARGET6);
+        let b4 = bias(moments(&atoms), ALPHA_F32, TARGET_F32);
+        for j in 0..=40 {
+            let zf = -1.0 + j as f32 * 0.05;
+            let (lo, hi) = shadow_bounds6(b6, zf);
+            let exact = below(&atoms, zf);
+            assert!(
+                lo <= exact + 1e-3 && exact <= hi + 1e-3,
+                "distribution {k}, zf {zf}: {lo} <= {exact} <= {hi} fails (six moments)"
+            );
+            let (lo4, hi4) = shadow_bounds(b4, zf);
+            width4 += (hi4 - lo4) as f64;
+            width6 += (hi - lo) as f64;
+        }
+    }
+    assert!(
+        width6 < width4,
+        "six-moment bounds {width6} not tighter than four {width4}"
+    );
 }
