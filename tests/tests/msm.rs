@@ -288,3 +288,133 @@ fn six_moment_bounds_hold_and_are_tighter() {
         "six-moment bounds {width6} not tighter than four {width4}"
     );
 }
+
+/// The map of a homogeneous cube (extinction 1.5 in [-1, 1]^3) under a sun straight above: at
+/// points of every height, the true T = exp(-1.5 (1 - y)) lies within the map's bounds, and the
+/// midpoint estimate's worst error is reported (8 x 8 texels, all alike, so filtering is exact).
+#[test]
+fn map_of_a_homogeneous_cube_bounds_the_truth() {
+    use host::bricks::pack;
+    use host::render::world_to_index;
+    use shared::geometry::V3;
+    use shared::shadows::map::{build_texel, filtered_moments, transmittance4, MsmDesc};
+    let n = 16;
+    let vol = integration_tests::volume(
+        "cube",
+        [n; 3],
+        integration_tests::unit_cube(n),
+        |_, _, _| 1.5,
+    );
+    let packed = pack(&vol, 1.0, 8, shared::volume::grid::Lookup::Nearest).unwrap();
+    let w2i = world_to_index(&vol.index_to_world).unwrap();
+    let desc = MsmDesc {
+        origin: V3::new(-1.0, 1.5, -1.0),
+        width: 8,
+        axis_u: V3::new(2.0, 0.0, 0.0),
+        height: 8,
+        axis_v: V3::new(0.0, 0.0, 2.0),
+        depth_len: 3.0,
+        dir: V3::new(0.0, -1.0, 0.0),
+        _pad: 0,
+    };
+    let view = packed.view();
+    let mut map = Vec::new();
+    for j in 0..8 {
+        for i in 0..8 {
+            let b = build_texel(&view, &w2i, &desc, i, j);
+            assert!((b[0] - 1.0).abs() < 1e-5, "b0 {}", b[0]);
+            map.extend_from_slice(&b[1..]);
+        }
+    }
+    let mut worst = 0.0f32;
+    for k in 0..=20 {
+        let y = 0.95 - 0.095 * k as f32;
+        let x = V3::new(0.3, y, -0.2);
+        let exact = (-1.5 * (1.0 - y)).exp();
+        let (u, v, z) = desc.project(x);
+        let b = bias(filtered_moments(&desc, &map, u, v), ALPHA_F32, TARGET_F32);
+        let (lo, hi) = shadow_bounds(b, z);
+        assert!(
+            1.0 - hi <= exact + 2e-3 && exact <= 1.0 - lo + 2e-3,
+            "y {y}: {} <= {exact} <= {}",
+            1.0 - hi,
+            1.0 - lo
+        );
+        worst = worst.max((transmittance4(&desc, &map, x) - exact).abs());
+    }
+    println!(
+        "moment shadow map of a homogeneous cube (tau up to 3): worst |T_msm - T| = {worst:.4}"
+    );
+}
+
+/// Each texel's moments equal an f64 march of the same midpoint atoms through a lumpy volume
+/// (relative 1e-4), under an oblique sun.
+#[test]
+fn map_texels_match_an_f64_march() {
+    use host::bricks::pack;
+    use host::render::world_to_index;
+    use shared::geometry::V3;
+    use shared::shadows::map::{build_texel, MsmDesc};
+    use shared::volume::dda::{clip_to_box, GridDda};
+    let vol = integration_tests::lumpy_blobs(20, 5);
+    let packed = pack(&vol, 1.0, 8, shared::volume::grid::Lookup::Nearest).unwrap();
+    let w2i = world_to_index(&vol.index_to_world).unwrap();
+    let dir = {
+        let d = V3::new(0.3, -1.0, 0.2);
+        d * (1.0 / d.dot(d).sqrt())
+    };
+    // Axes orthogonal to dir.
+    let u_axis = shared::geometry::cross(dir, V3::new(0.0, 0.0, 1.0));
+    let u_axis = u_axis * (3.0 / u_axis.dot(u_axis).sqrt());
+    let v_axis = shared::geometry::cross(u_axis, dir);
+    let v_axis = v_axis * (3.0 / v_axis.dot(v_axis).sqrt());
+    let desc = MsmDesc {
+        origin: dir * -2.0 - u_axis * 0.5 - v_axis * 0.5,
+        width: 12,
+        axis_u: u_axis,
+        height: 12,
+        axis_v: v_axis,
+        depth_len: 4.0,
+        dir,
+        _pad: 0,
+    };
+    let view = packed.view();
+    let d = view.desc.dims;
+    let hi = V3::new(d[0] as f32, d[1] as f32, d[2] as f32);
+    for j in 0..12 {
+        for i in 0..12 {
+            let b = build_texel(&view, &w2i, &desc, i, j);
+            let ray = shared::geometry::to_index_space(&desc.texel_ray(i, j), &w2i);
+            let (t0, t1) = clip_to_box(&ray, hi, 0.0, desc.depth_len);
+            let mut reference = [0.0f64; 5];
+            let mut t = 1.0f64;
+            let mut tau = 0.0f64;
+            let mut add = |z: f64, w: f64| {
+                for (p, r) in reference.iter_mut().enumerate() {
+                    *r += w * z.powi(p as i32);
+                }
+            };
+            if t0 < t1 {
+                let mut dda = GridDda::voxels(view.desc, &ray, t0, t1);
+                while !dda.done {
+                    let seg = dda.step();
+                    tau += (seg.t1 - seg.t0) as f64
+                        * view.voxel(seg.cell[0], seg.cell[1], seg.cell[2]) as f64;
+                    let next = (-tau).exp();
+                    let z = 2.0 * 0.5 * (seg.t0 + seg.t1) as f64 / desc.depth_len as f64 - 1.0;
+                    add(z, t - next);
+                    t = next;
+                }
+            }
+            add(1.0, t);
+            for p in 0..5 {
+                assert!(
+                    (b[p] as f64 - reference[p]).abs() <= 1e-4 * reference[p].abs().max(1e-2),
+                    "texel ({i}, {j}) moment {p}: {} vs {}",
+                    b[p],
+                    reference[p]
+                );
+            }
+        }
+    }
+}
