@@ -80,6 +80,13 @@ pub fn capped_advice(params: &RenderParams) -> String {
          the medium is too dense for its per-brick majorants: lower --density-scale or use a \
          smaller --brick-size"
     );
+    if params.integrator == shared::params::Integrator::Path as u32 {
+        return format!(
+            "a path scattered more than --max-depth {} times and was cut off (its radiance is \
+             underestimated; raise --max-depth), or a free flight or tracking estimate {tracking}",
+            params.max_depth
+        );
+    }
     if params.integrator == shared::params::Integrator::Direct as u32 {
         return format!("free-flight sampling or a tracking estimate {tracking}");
     }

@@ -442,5 +442,12 @@ fn single_scattering_against_quadrature(integrator: Integrator, shadow: Estimato
         z.abs() < 4.0,
         "{integrator:?} with {shadow:?}: mean {mean:.6} +- {se:.6} vs quadrature {exact:.6}: z = {z:.2}"
     );
-    assert_eq!(px.capped, 0);
+    if integrator == Integrator::Direct {
+        // No loop bound changed the estimate.
+        assert_eq!(px.capped, 0);
+    } else {
+        // `--max-depth 1` cuts off every path that scatters twice (intended here: single
+        // scattering is the quantity compared) and counts it; no tracking cap is near.
+        assert!(px.capped > 0 && px.capped < spp, "capped {}", px.capped);
+    }
 }

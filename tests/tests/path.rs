@@ -138,3 +138,29 @@ fn path_passes_the_white_furnace() {
     );
     assert!(px.iter().all(|q| q.capped == 0));
 }
+
+/// A path cut off by `--max-depth` is counted as capped (the same on both backends); with a
+/// depth no path reaches, none is.
+#[test]
+fn paths_cut_off_by_max_depth_are_counted() {
+    let vol = lumpy_blobs(20, 5);
+    let packed = pack(&vol, 4.0, 8, Lookup::Nearest).unwrap();
+    let l = lights(&LightingOptions {
+        env: EnvSource::Sky,
+        albedo: [0.99; 3],
+        ..no_lights()
+    });
+    let gpu = Backend::Gpu(Box::new(gpu()));
+    let mut p = params(&vol, 8, 8, 4, Estimator::Jackknife);
+    p.max_depth = 1;
+    p.rr_depth = 1024;
+    let c = render_lit(&Backend::Cpu, &packed, &p, &l, false).unwrap();
+    let g = render_lit(&gpu, &packed, &p, &l, false).unwrap();
+    let capped: u32 = c.iter().map(|px| px.capped).sum();
+    assert!(capped > 0, "no path counted as cut off at depth 1");
+    assert_eq!(capped, g.iter().map(|px| px.capped).sum::<u32>());
+    p.max_depth = 1024;
+    p.rr_depth = 5;
+    let c = render_lit(&Backend::Cpu, &packed, &p, &l, false).unwrap();
+    assert_eq!(c.iter().map(|px| px.capped).sum::<u32>(), 0);
+}

@@ -156,6 +156,13 @@ pub fn build(opts: &LightingOptions, center: [f64; 3], radius: f64) -> Result<Sc
         ),
         EnvSource::Sky => {
             let dir = sun_dir.unwrap_or([0.0, 1.0, 0.0]);
+            if dir[1] < 1f64.to_radians().sin() {
+                tracing::warn!(
+                    "--sun is less than 1 degree above the horizon: the Preetham sky is defined \
+                     for a sun above it, so the sky is drawn for a sun 1 degree up (the sun \
+                     itself stays where --sun puts it)"
+                );
+            }
             let given = sun_spec.and_then(|s| s.irradiance).map(|e| e as f64);
             let (map, e) = sky::preetham(dir, given);
             (Some(map), Some(e))

@@ -139,7 +139,9 @@ pub fn path_bounce(
     }
     if st.depth >= params.max_depth {
         // A vertex beyond the last: the path ends (as pbrt-v4's volpath, the escape of the ray
-        // after the last vertex still counted above).
+        // after the last vertex still counted above). Its further scattering is cut off, so
+        // the path is counted as capped (reported as `capped_rays`, with a warning).
+        st.count(Tally::default().capped_if(true));
         st.alive = 0;
         st.rng = rng.state;
         return st;

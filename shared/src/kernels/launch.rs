@@ -102,27 +102,9 @@ pub mod bindings {
         pub const COUNT: usize = 9;
     }
 
-    /// `path_cs`: one step of a `path` image: the bindings of `direct_cs`, then the paths.
+    /// `path_cs`: one step of a `path` image: the same layout as `direct_cs`, with `PathState`s
+    /// as the states.
     pub mod path {
-        /// One `RenderParams`.
-        pub const PARAMS: usize = 0;
-        /// One `GridDesc`.
-        pub const DESC: usize = 1;
-        /// The packed voxels (`u32` words).
-        pub const VOXELS: usize = 2;
-        /// The bricks (`Brick`).
-        pub const BRICKS: usize = 3;
-        /// The point lights (`PointLight`).
-        pub const LIGHTS: usize = 4;
-        /// One `PixelSums` per pixel of the tile, read and written.
-        pub const SUMS: usize = 5;
-        /// One `Lighting`.
-        pub const LIGHTING: usize = 6;
-        /// The environment map's texels and CDFs (`f32`).
-        pub const ENV: usize = 7;
-        /// One `PathState` per pixel of the tile, read and written.
-        pub const STATES: usize = 8;
-        /// Number of bindings.
-        pub const COUNT: usize = 9;
+        pub use super::direct::*;
     }
 }
