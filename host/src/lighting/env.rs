@@ -87,7 +87,7 @@ impl EnvMap {
 
     /// The data buffer of `shared::sampling::env` with every texel times `scale`: texels, the
     /// marginal CDF over rows and one conditional CDF per row of luminance x sin(theta).
-    /// Returns (data, integral of the luminance over the sphere, in W sr^-1-ish units x sr).
+    /// Returns (data, the integral of the scaled luminance over the sphere, int Y d omega).
     pub fn data(&self, scale: f32) -> (Vec<f32>, f64) {
         let (w, h) = (self.width as usize, self.height as usize);
         let mut data = Vec::with_capacity(shared::sampling::env::EnvDesc::data_len(
