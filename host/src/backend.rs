@@ -127,6 +127,22 @@ impl Backend {
         }
     }
 
+    /// Henyey-Greenstein samples and phase values per configuration.
+    pub fn phase(&self, input: &[probe::PhaseIn]) -> Result<Vec<probe::PhaseOut>> {
+        match self {
+            Backend::Cpu => Ok(cpu::map(input, probe::phase)),
+            Backend::Gpu(g) => map_on_gpu(g, &gpu::PHASE, input),
+        }
+    }
+
+    /// Moment-shadow-map lookups of 2 x 2 maps.
+    pub fn msm_lookup(&self, input: &[probe::MsmLookupIn]) -> Result<Vec<probe::MsmLookupOut>> {
+        match self {
+            Backend::Cpu => Ok(cpu::map(input, probe::msm_lookup)),
+            Backend::Gpu(g) => map_on_gpu(g, &gpu::MSM_LOOKUP, input),
+        }
+    }
+
     /// Generator outputs for ids 0..count with a user seed.
     pub fn rng_draws(&self, count: u32, seed: u32) -> Result<Vec<RngDraws>> {
         match self {

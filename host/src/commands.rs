@@ -110,6 +110,8 @@ pub struct RenderOptions {
     /// Degrees about +y.
     pub env_rotate: f32,
     pub sun: Option<crate::lighting::SunSpec>,
+    /// `direct`, `path`: shadow rays toward the sun or its moment shadow map.
+    pub shadows: crate::lighting::shadow_map::ShadowOptions,
     /// `path`: vertices before Russian roulette.
     pub rr_depth: u32,
     /// `path`: most vertices of a path.
@@ -393,6 +395,9 @@ pub struct IntegratorSettings {
     /// `direct`: the sun as [x, y, z] (unit, toward it), irradiance, angular radius in degrees.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sun: Option<SunSettings>,
+    /// `direct`, `path`: shadow rays toward the sun (`rays`) or its moment shadow map.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shadows: Option<crate::lighting::shadow_map::ShadowSummary>,
     /// `direct`: probability of sampling the sun, the map and the point lights.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub light_pmf: Option<[f32; 3]>,
@@ -456,6 +461,17 @@ const DIRECT_ONLY: &[(&str, &str)] = &[
     ("env_scale", "--env-scale"),
     ("env_rotate", "--env-rotate"),
     ("sun", "--sun"),
+    ("shadows", "--shadows"),
+    ("msm_res", "--msm-res"),
+    ("msm_storage", "--msm-storage"),
+    ("msm_filter", "--msm-filter"),
+];
+
+/// Options that only a moment shadow map reads (`--shadows msm4|msm6`).
+const MSM_ONLY: &[(&str, &str)] = &[
+    ("msm_res", "--msm-res"),
+    ("msm_storage", "--msm-storage"),
+    ("msm_filter", "--msm-filter"),
 ];
 
 /// Options only `--integrator path` reads.
@@ -503,6 +519,12 @@ pub fn check_render_flags(args: &RenderOptions) -> Result<()> {
              --integrator mis-jackknife) or drop {flag}"
         );
     }
+    if args.shadows.kind == crate::lighting::shadow_map::ShadowKind::Rays {
+        if let Some((_, flag)) = MSM_ONLY.iter().find(|(id, _)| given(id)) {
+            bail!("{flag} only applies to --shadows msm4 or msm6; add one or drop {flag}");
+        }
+    }
+    args.shadows.check()?;
     let uses_ratio = match args.integrator {
         Some(Integrator::Direct | Integrator::Path) => {
             args.estimator.estimator == shared::params::Estimator::RatioTracking
@@ -561,6 +583,7 @@ fn integrator_settings(
         albedo: args.albedo.into(),
         env: None,
         sun: None,
+        shadows: None,
         light_pmf: None,
         collision_cap: None,
         rr_depth: None,
@@ -613,6 +636,7 @@ fn direct_settings(
     args: &RenderOptions,
     lights: &crate::lighting::SceneLights,
     collision_cap: u32,
+    shadows: crate::lighting::shadow_map::ShadowSummary,
 ) -> IntegratorSettings {
     let l = &lights.lighting;
     let env = match &args.env {
@@ -642,6 +666,7 @@ fn direct_settings(
         albedo: args.albedo.into(),
         env: Some(env),
         sun,
+        shadows: Some(shadows),
         light_pmf: Some([l.p_sun, l.p_env, l.p_points]),
         collision_cap: Some(collision_cap),
         rr_depth: (args.integrator == Some(Integrator::Path)).then_some(args.rr_depth),
@@ -711,8 +736,34 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         // A safeguard: lower the tracking loops' collision cap if one invocation would not fit.
         params = crate::render::fit_collision_cap(&params, &packed.desc);
     }
+    let resident = crate::render::Resident::new(&backend, packed)?;
+    let mut scene_lights = scene_lights;
+    let shadows = if direct {
+        let s = crate::lighting::shadow_map::build_into(
+            &resident,
+            &params,
+            &mut scene_lights,
+            occupied_world_bounds(vol),
+            &args.shadows,
+        )?;
+        if let (Some(m), false) = (&s.map, args.quiet) {
+            tracing::info!(
+                "moment shadow map of the sun ({}, {}x{} texels, {:?}, {} bytes) built in {:.1} ms",
+                crate::lighting::shadow_map::name(s.shadows),
+                m.resolution,
+                m.resolution,
+                m.storage,
+                m.bytes,
+                m.build_ms
+            );
+        }
+        Some(s)
+    } else {
+        None
+    };
     let start = Instant::now();
-    let pixels = crate::render::render_lit(&backend, packed, &params, &scene_lights, !args.quiet)?;
+    let pixels =
+        crate::render::render_resident_lit(&resident, &params, &scene_lights, !args.quiet)?;
     let elapsed_ms = start.elapsed().as_secs_f64() * 1e3;
 
     let flags = crate::diagnostics::RayFlags::of(&pixels, args.spp);
@@ -792,6 +843,7 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
                 args,
                 &scene_lights,
                 crate::render::collision_cap(&params),
+                shadows.clone().expect("built for direct and path"),
             )),
             Some(i) => Some(integrator_settings(args, i, &lights)),
             None => None,
@@ -1129,6 +1181,7 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
         env_scale: args.env_scale,
         env_rotate: args.env_rotate,
         sun: args.sun,
+        shadows: Default::default(),
         rr_depth: args.rr_depth,
         max_depth: args.max_depth,
         hg_g: 0.0,

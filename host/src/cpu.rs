@@ -9,8 +9,11 @@ use rayon::prelude::*;
 use shared::kernels::render::{
     direct_pixel_pass, path_pixel_pass, render_pixel_pass, tile_order_pixel, PixelSums,
 };
+use shared::kernels::shadow_map::{msm_raw_texel, msm_store_texel, MsmPass};
 use shared::params::Integrator;
 use shared::params::RenderParams;
+use shared::sampling::lighting::Lighting;
+use shared::shadows::map::Shadows;
 
 /// Applies `f` to every input on all cores, in id order.
 pub fn map<I, O, F>(inputs: &[I], f: F) -> Vec<O>
@@ -84,5 +87,24 @@ impl RenderBackend for CpuVolume<'_> {
             rows[tile_order_pixel(k as u32, params.width, params.height) as usize] = s;
         }
         Ok(rows)
+    }
+
+    /// Pass 1 over every texel on all cores, then pass 2.
+    fn build_shadow_map(
+        &self,
+        params: &RenderParams,
+        lighting: &Lighting,
+        pass: &MsmPass,
+    ) -> Result<Vec<u32>> {
+        let view = self.vol.view();
+        let m = &lighting.shadow_map;
+        let texels = m.width * m.height;
+        let raw: Vec<f32> = generate(texels, |k| msm_raw_texel(&view, params, lighting, k))
+            .into_iter()
+            .flatten()
+            .collect();
+        let n = Shadows::from_u32(lighting.shadows).words_per_texel() as usize;
+        let words = generate(texels, |k| msm_store_texel(lighting, &raw, pass, k));
+        Ok(words.into_iter().flat_map(|w| w[..n].to_vec()).collect())
     }
 }

@@ -21,6 +21,9 @@ pub struct RayFlags {
     pub capped_rays: u64,
     /// Rays with a jackknife estimate whose S exceeds `shared::estimators::transmittance::S_REGIME`.
     pub jackknife_outside_rays: u64,
+    /// Rays with a moment-shadow-map lookup whose reconstruction fell back to a stronger bias
+    /// or fewer moments (`--shadows msm4|msm6`).
+    pub msm_fallback_rays: u64,
 }
 
 impl RayFlags {
@@ -30,6 +33,7 @@ impl RayFlags {
             rays: pixels.len() as u64 * spp as u64,
             capped_rays: pixels.iter().map(|p| p.capped as u64).sum(),
             jackknife_outside_rays: pixels.iter().map(|p| p.outside as u64).sum(),
+            msm_fallback_rays: pixels.iter().map(|p| p.fallback as u64).sum(),
         }
     }
 
@@ -57,6 +61,14 @@ impl RayFlags {
                 self.rays,
                 100.0 * outside,
                 shared::estimators::transmittance::S_REGIME
+            ));
+        }
+        if self.msm_fallback_rays > 0 {
+            out.push(format!(
+                "{} of {} rays ({:.3}%) had a moment-shadow-map lookup whose reconstruction was                  numerically singular and fell back to a stronger bias or fewer moments (shadows                  there are smoother than the map's moments say); a smaller --msm-res or a                  --msm-filter makes the moments less extreme",
+                self.msm_fallback_rays,
+                self.rays,
+                pct(self.msm_fallback_rays)
             ));
         }
         out

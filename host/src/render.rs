@@ -390,6 +390,16 @@ impl<'a> Resident<'a> {
         };
         Ok(Resident { vol, backend })
     }
+
+    /// The stored words of the sun's moment shadow map of `lighting` on this backend.
+    pub fn build_shadow_map(
+        &self,
+        params: &RenderParams,
+        lighting: &shared::sampling::lighting::Lighting,
+        pass: &shared::kernels::shadow_map::MsmPass,
+    ) -> Result<Vec<u32>> {
+        self.backend.build_shadow_map(params, lighting, pass)
+    }
 }
 
 /// [`render_scene`] of a [`Resident`] volume.

@@ -5,7 +5,9 @@ use crate::lighting::SceneLights;
 use anyhow::Result;
 use indicatif::ProgressBar;
 use shared::kernels::render::PixelSums;
+use shared::kernels::shadow_map::MsmPass;
 use shared::params::RenderParams;
+use shared::sampling::lighting::Lighting;
 
 /// How one backend runs the passes of a render (the CPU loop in `cpu`, the GPU loop in `gpu`).
 pub trait RenderBackend: Sync {
@@ -18,6 +20,15 @@ pub trait RenderBackend: Sync {
         schedule: &Schedule,
         bar: Option<&ProgressBar>,
     ) -> Result<Vec<PixelSums>>;
+
+    /// The stored words of the sun's moment shadow map of `lighting` (its frame and mode), with
+    /// the prefilter of `pass` (both passes of `shared::kernels::shadow_map` over every texel).
+    fn build_shadow_map(
+        &self,
+        params: &RenderParams,
+        lighting: &Lighting,
+        pass: &MsmPass,
+    ) -> Result<Vec<u32>>;
 }
 
 /// How a render's work is cut: passes of samples, and chunks of work items within a pass.

@@ -11,9 +11,11 @@ use shared::integrators::path::PathState;
 use shared::kernels::launch::Launch;
 use shared::kernels::probe::{self, DepthPair, MathValues, RngDraws, TransmittancePair};
 use shared::kernels::render::{self, PathPass, PixelSums, RenderPass};
+use shared::kernels::shadow_map::{self, MsmPass};
 use shared::params::RenderParams;
 use shared::sampling::lighting::{Lighting, Scene};
 use shared::sampling::lights::PointLight;
+use shared::shadows::map::RAW_PER_TEXEL;
 use shared::volume::grid::{Brick, GridDesc, VolumeView};
 use spirv_std::glam::UVec3;
 use spirv_std::spirv;
@@ -128,6 +130,8 @@ macro_rules! wave_kernel {
             #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] env: &[f32],
             // bindings::path::STATES
             #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] states: &mut [$state],
+            // bindings::path::SHADOW_MAP
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] shadow_map: &[u32],
         ) {
             if let Some(i) = pass.launch.id(gid.x) {
                 let vol = VolumeView {
@@ -142,6 +146,7 @@ macro_rules! wave_kernel {
                     points: lights,
                     point_count: p.light_count,
                     env,
+                    shadow_map,
                 };
                 let (st, s) = $step(
                     &vol,
@@ -175,6 +180,94 @@ wave_kernel!(
     PathState,
     render::path_wave_step
 );
+
+/// Pass 1 of the sun's moment shadow map: the raw moments b_1 .. b_6 of each texel.
+#[allow(clippy::too_many_arguments)] // one argument per binding
+#[spirv(compute(threads(64)))]
+pub fn msm_build_cs(
+    #[spirv(global_invocation_id)] gid: UVec3,
+    #[spirv(push_constant)] pass: &MsmPass,
+    // bindings::msm_build::PARAMS
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &[RenderParams],
+    // bindings::msm_build::DESC
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] desc: &[GridDesc],
+    // bindings::msm_build::VOXELS
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] voxels: &[u32],
+    // bindings::msm_build::BRICKS
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] bricks: &[Brick],
+    // bindings::msm_build::LIGHTING
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] lighting: &[Lighting],
+    // bindings::msm_build::RAW
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] raw: &mut [f32],
+) {
+    if let Some(k) = pass.launch.id(gid.x) {
+        let vol = VolumeView {
+            desc: &desc[0],
+            voxels,
+            bricks,
+        };
+        let m = shadow_map::msm_raw_texel(&vol, &params[0], &lighting[0], k as u32);
+        let mut c = 0;
+        while c < RAW_PER_TEXEL {
+            raw[RAW_PER_TEXEL * k + c] = m[c];
+            c += 1;
+        }
+    }
+}
+
+/// Pass 2 of the sun's moment shadow map: each texel prefiltered and stored.
+#[spirv(compute(threads(64)))]
+pub fn msm_store_cs(
+    #[spirv(global_invocation_id)] gid: UVec3,
+    #[spirv(push_constant)] pass: &MsmPass,
+    // bindings::msm_store::LIGHTING
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] lighting: &[Lighting],
+    // bindings::msm_store::RAW
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] raw: &[f32],
+    // bindings::msm_store::MAP
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] map: &mut [u32],
+) {
+    if let Some(k) = pass.launch.id(gid.x) {
+        let l = &lighting[0];
+        let w = shadow_map::msm_store_texel(l, raw, pass, k as u32);
+        let n = shared::shadows::map::Shadows::from_u32(l.shadows).words_per_texel() as usize;
+        let mut c = 0;
+        while c < n {
+            map[n * k + c] = w[c];
+            c += 1;
+        }
+    }
+}
+
+/// Henyey-Greenstein sample and phase value per configuration (diagnostics).
+#[spirv(compute(threads(64)))]
+pub fn phase_cs(
+    #[spirv(global_invocation_id)] gid: UVec3,
+    #[spirv(push_constant)] launch: &Launch,
+    // bindings::map::INPUT
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] input: &[probe::PhaseIn],
+    // bindings::map::OUTPUT
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] output: &mut [probe::PhaseOut],
+) {
+    if let Some(i) = launch.id(gid.x) {
+        output[i] = probe::phase(input[i]);
+    }
+}
+
+/// A moment-shadow-map lookup per configuration (diagnostics).
+#[spirv(compute(threads(64)))]
+pub fn msm_lookup_cs(
+    #[spirv(global_invocation_id)] gid: UVec3,
+    #[spirv(push_constant)] launch: &Launch,
+    // bindings::map::INPUT
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] input: &[probe::MsmLookupIn],
+    // bindings::map::OUTPUT
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] output: &mut [probe::MsmLookupOut],
+) {
+    if let Some(i) = launch.id(gid.x) {
+        output[i] = probe::msm_lookup(input[i]);
+    }
+}
 
 /// Equiangular sampling setup, sample and pdf per configuration (diagnostics).
 #[spirv(compute(threads(64)))]

@@ -11,6 +11,9 @@ pub struct Tally {
     /// 1 if a jackknife estimate of the ray lies outside the regime where the paper's analysis
     /// holds ([`crate::estimators::transmittance::outside_regime`]).
     pub outside: u32,
+    /// 1 if a moment-shadow-map reconstruction of the ray fell back to a stronger bias or fewer
+    /// moments ([`crate::shadows::msm::shadow_bounds_flagged`]).
+    pub fallback: u32,
 }
 
 impl Tally {
@@ -21,6 +24,7 @@ impl Tally {
             lookups,
             capped: 0,
             outside: 0,
+            fallback: 0,
         }
     }
 
@@ -31,6 +35,7 @@ impl Tally {
             lookups: self.lookups + other.lookups,
             capped: self.capped | other.capped,
             outside: self.outside | other.outside,
+            fallback: self.fallback | other.fallback,
         }
     }
 
@@ -48,6 +53,15 @@ impl Tally {
     pub fn outside_if(self, outside: bool) -> Self {
         Tally {
             outside: self.outside | outside as u32,
+            ..self
+        }
+    }
+
+    /// This tally with the fallback flag set when `fell_back` is nonzero.
+    #[inline]
+    pub fn fallback_if(self, fell_back: u32) -> Self {
+        Tally {
+            fallback: self.fallback | (fell_back != 0) as u32,
             ..self
         }
     }

@@ -171,3 +171,100 @@ fn equiangular_sampling_is_bit_identical() {
     let c = Backend::Cpu.equiangular(&inputs).unwrap();
     assert_bytes_equal("equiangular_cs", &inputs, &g, &c);
 }
+
+/// Henyey-Greenstein sampling and evaluation over g in (-1, 1) (including the g values of
+/// every test and the README: 0.2, 0.3, 0.6, 0.85, -0.5), uniform numbers and directions.
+#[test]
+fn phase_sampling_is_bit_identical() {
+    let gpu = Backend::Gpu(Box::new(gpu()));
+    let mut rng = Pcg32::new(77, 5);
+    let gs = [0.2f32, 0.3, 0.6, 0.85, -0.5, 0.0, 0.999, -0.999, 5e-4];
+    let inputs: Vec<probe::PhaseIn> = (0..100_000)
+        .map(|k| {
+            let mut next = || {
+                let (v, r) = rng.next_f32();
+                rng = r;
+                v
+            };
+            let g = if k < gs.len() * 1000 {
+                gs[k % gs.len()]
+            } else {
+                1.998 * next() - 0.999
+            };
+            let d = shared::geometry::V3::new(next() - 0.5, next() - 0.5, next() - 0.5);
+            let len = d.dot(d).sqrt().max(1e-3);
+            probe::PhaseIn {
+                wo: d * (1.0 / len),
+                g,
+                u0: next(),
+                u1: next(),
+                cos_theta: 2.0 * next() - 1.0,
+                _pad: 0.0,
+            }
+        })
+        .collect();
+    let g = gpu.phase(&inputs).unwrap();
+    let c = Backend::Cpu.phase(&inputs).unwrap();
+    assert_bytes_equal("phase_cs", &inputs, &g, &c);
+}
+
+/// Moment-shadow-map lookups (bilinear filtering, dequantization, bias, 4- and 6-moment
+/// reconstruction) of random 2 x 2 maps built from random absorption events, at random points.
+#[test]
+fn shadow_map_lookups_are_bit_identical() {
+    use shared::shadows::map::{store_texel, MsmDesc, Shadows};
+    use shared::shadows::msm::add_atom6;
+    let gpu = Backend::Gpu(Box::new(gpu()));
+    let mut rng = Pcg32::new(91, 3);
+    let mut next = || {
+        let (v, r) = rng.next_f32();
+        rng = r;
+        v
+    };
+    let desc = MsmDesc {
+        origin: shared::geometry::V3::new(-1.0, 2.0, -1.0),
+        width: 2,
+        axis_u: shared::geometry::V3::new(2.0, 0.0, 0.0),
+        height: 2,
+        axis_v: shared::geometry::V3::new(0.0, 0.0, 2.0),
+        depth_len: 4.0,
+        dir: shared::geometry::V3::new(0.0, -1.0, 0.0),
+        _pad: 0,
+        dequant: shared::shadows::msm::U16_DEQUANT,
+    };
+    let modes = [Shadows::Msm4, Shadows::Msm4U16, Shadows::Msm6];
+    let inputs: Vec<probe::MsmLookupIn> = (0..60_000)
+        .map(|k| {
+            let mode = modes[k % 3];
+            let mut words = [0u32; 24];
+            let n = mode.words_per_texel() as usize;
+            for t in 0..4 {
+                // 1 to 4 absorption events and the rest at the far plane.
+                let mut b = [0.0f32; 7];
+                let mut left = 1.0f32;
+                for _ in 0..1 + (next() * 4.0) as usize {
+                    let w = left * next();
+                    b = add_atom6(b, 2.0 * next() - 1.0, w);
+                    left -= w;
+                }
+                b = add_atom6(b, 1.0, left);
+                let w = store_texel(mode, [b[1], b[2], b[3], b[4], b[5], b[6]]);
+                words[n * t..n * t + n].copy_from_slice(&w[..n]);
+            }
+            probe::MsmLookupIn {
+                desc,
+                x: shared::geometry::V3::new(
+                    2.4 * next() - 1.2,
+                    4.0 * next() - 2.0,
+                    2.4 * next() - 1.2,
+                ),
+                mode: mode as u32,
+                words,
+            }
+        })
+        .collect();
+    let g = gpu.msm_lookup(&inputs).unwrap();
+    let c = Backend::Cpu.msm_lookup(&inputs).unwrap();
+    assert!(c.iter().any(|o| o.t > 0.05 && o.t < 0.95));
+    assert_bytes_equal("msm_lookup_cs", &inputs, &g, &c);
+}

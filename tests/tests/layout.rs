@@ -3,9 +3,11 @@
 use shared::integrators::path::PathState;
 use shared::kernels::launch::Launch;
 use shared::kernels::probe::{
-    DepthPair, EquiangularIn, EquiangularOut, MathValues, RngDraws, TransmittancePair,
+    DepthPair, EquiangularIn, EquiangularOut, MathValues, MsmLookupIn, MsmLookupOut, PhaseIn,
+    PhaseOut, RngDraws, TransmittancePair,
 };
 use shared::kernels::render::{PathPass, PixelOut, PixelSums, RenderPass};
+use shared::kernels::shadow_map::MsmPass;
 use shared::params::RenderParams;
 use shared::rgb::Rgb;
 use shared::rng::Pcg32;
@@ -13,6 +15,7 @@ use shared::sampling::env::EnvDesc;
 use shared::sampling::lighting::Lighting;
 use shared::sampling::lights::PointLight;
 use shared::sampling::sun::Sun;
+use shared::shadows::map::MsmDesc;
 use shared::volume::grid::{Brick, GridDesc};
 use shared::Complex;
 use std::mem::{align_of, size_of};
@@ -31,14 +34,21 @@ fn shared_struct_layouts() {
     assert_eq!(size_of::<Brick>(), 16);
     assert_eq!(size_of::<RenderParams>(), 200);
     assert_eq!(size_of::<RenderPass>(), 32);
-    assert_eq!(size_of::<PixelSums>(), 32);
-    assert_eq!(size_of::<PixelOut>(), 32);
+    assert_eq!(size_of::<PixelSums>(), 36);
+    assert_eq!(size_of::<PixelOut>(), 36);
     assert_eq!(size_of::<PointLight>(), 16);
     assert_eq!(size_of::<EquiangularIn>(), 48);
     assert_eq!(size_of::<EquiangularOut>(), 32);
     assert_eq!(size_of::<PathPass>(), 32);
     assert_eq!(size_of::<PathState>(), 80);
-    assert_eq!(size_of::<Lighting>(), 80);
+    assert_eq!(size_of::<Lighting>(), 192);
+    assert_eq!(size_of::<MsmDesc>(), 112);
+    assert_eq!(size_of::<MsmPass>(), 32);
+    assert_eq!(size_of::<PhaseIn>(), 32);
+    assert_eq!(size_of::<PhaseOut>(), 32);
+    assert_eq!(size_of::<MsmLookupIn>(), 224);
+    assert_eq!(size_of::<MsmLookupOut>(), 16);
+    assert_eq!(size_of::<shared::integrators::direct::DirectState>(), 160);
     assert_eq!(size_of::<Sun>(), 32);
     assert_eq!(size_of::<EnvDesc>(), 16);
     assert_eq!(size_of::<Rgb>(), 12);

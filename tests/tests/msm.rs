@@ -316,6 +316,7 @@ fn map_of_a_homogeneous_cube_bounds_the_truth() {
         depth_len: 3.0,
         dir: V3::new(0.0, -1.0, 0.0),
         _pad: 0,
+        dequant: shared::shadows::msm::U16_DEQUANT,
     };
     let view = packed.view();
     let mut map = Vec::new();
@@ -377,6 +378,7 @@ fn map_texels_match_an_f64_march() {
         depth_len: 4.0,
         dir,
         _pad: 0,
+        dequant: shared::shadows::msm::U16_DEQUANT,
     };
     let view = packed.view();
     let d = view.desc.dims;

@@ -3,10 +3,12 @@
 
 use crate::backend::BackendChoice;
 use crate::bench::BenchBackend;
+use crate::lighting::shadow_map::{MsmStorage, ShadowKind};
 use crate::render::UpAxis;
 use crate::study::distributions::Distribution;
 use crate::study::profile::Sampling;
 use shared::params::TransmittanceHat;
+use shared::shadows::map::{MsmFilter, MAX_FILTER_RADIUS};
 use shared::volume::grid::Lookup;
 
 /// A clap value enum mirroring a library enum variant by variant, with `From` into it.
@@ -70,6 +72,52 @@ value_enum! {
         /// Ratio tracking (unbiased).
         Ratio,
     }
+}
+
+value_enum! {
+    /// Shadow transmittance toward the sun.
+    ShadowsArg => ShadowKind {
+        /// Shadow rays through --estimator.
+        Rays,
+        /// The sun's four-moment shadow map (Peters et al. 2017, Algorithm 1).
+        Msm4,
+        /// The sun's six-moment shadow map.
+        Msm6,
+    }
+}
+
+value_enum! {
+    /// Storage of the moment shadow map.
+    MsmStorageArg => MsmStorage {
+        /// 16-bit unorm after the quantization transform (64 bits a texel; four moments only).
+        U16,
+        /// 32-bit floats.
+        F32,
+    }
+}
+
+/// `--msm-filter none|box:R|gauss:R`: the prefilter of the moment shadow map and its radius in
+/// texels (1 to 64; the Gaussian's standard deviation is R/3).
+pub fn parse_msm_filter(s: &str) -> Result<(MsmFilter, u32), String> {
+    let usage = || {
+        format!(
+            "expected none, box:R or gauss:R with a radius R of 1 to {MAX_FILTER_RADIUS} texels,              got {s:?}"
+        )
+    };
+    if s == "none" {
+        return Ok((MsmFilter::None, 0));
+    }
+    let (kind, r) = s.split_once(':').ok_or_else(usage)?;
+    let filter = match kind {
+        "box" => MsmFilter::Box,
+        "gauss" => MsmFilter::Gauss,
+        _ => return Err(usage()),
+    };
+    let r: u32 = r.parse().map_err(|_| usage())?;
+    if !(1..=MAX_FILTER_RADIUS).contains(&r) {
+        return Err(usage());
+    }
+    Ok((filter, r))
 }
 
 value_enum! {

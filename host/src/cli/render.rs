@@ -1,8 +1,9 @@
 //! Flags of `host render` and the scene flags it shares with `host eval` and `host bench`.
 
 use super::parsers::{
-    f32_in, f32_open, parse_albedo, parse_density_scale, parse_env, parse_f_delta, parse_positive,
-    parse_sun, parse_vec3, BackendArg, LookupArg, THatArg, UpArg,
+    f32_in, f32_open, parse_albedo, parse_density_scale, parse_env, parse_f_delta,
+    parse_msm_filter, parse_positive, parse_sun, parse_vec3, BackendArg, LookupArg, MsmStorageArg,
+    ShadowsArg, THatArg, UpArg,
 };
 use crate::commands::{defaults, RenderOptions, SceneOptions};
 use clap::Args;
@@ -118,6 +119,21 @@ pub struct RenderArgs {
     /// sky, else 1) and its angular radius (default 0.2666; 0: a delta light).
     #[arg(long, value_parser = parse_sun, allow_hyphen_values = true)]
     pub sun: Option<crate::lighting::SunSpec>,
+    /// `direct`, `path`: transmittance of light samples toward the sun: shadow rays through
+    /// --estimator, or the sun's moment shadow map with four or six moments (Peters et al. 2017;
+    /// deterministic, biased, no voxel lookups per shadow ray; needs a sun).
+    #[arg(long, value_enum, default_value_t = ShadowsArg::Rays)]
+    pub shadows: ShadowsArg,
+    /// Texels per side of the moment shadow map, 8 to 2048.
+    #[arg(long, allow_hyphen_values = true, default_value_t = crate::lighting::shadow_map::DEFAULT_RESOLUTION, value_parser = clap::value_parser!(u32).range(8..=2048))]
+    pub msm_res: u32,
+    /// Storage of the moment shadow map [default: u16 for msm4, f32 for msm6].
+    #[arg(long, value_enum)]
+    pub msm_storage: Option<MsmStorageArg>,
+    /// Prefilter of the moment shadow map (soft shadows): none, box:R or gauss:R, R the radius
+    /// in texels (1 to 64).
+    #[arg(long, default_value = "none", value_parser = parse_msm_filter)]
+    pub msm_filter: (shared::shadows::map::MsmFilter, u32),
     /// `path`: vertices before Russian roulette starts (survival = the throughput's largest
     /// channel, at least 0.05), 0 to 1024.
     #[arg(long, default_value_t = defaults::RR_DEPTH, allow_hyphen_values = true, value_parser = clap::value_parser!(u32).range(0..=1024))]
@@ -182,6 +198,13 @@ impl RenderArgs {
             env_scale: self.env_scale,
             env_rotate: self.env_rotate,
             sun: self.sun,
+            shadows: crate::lighting::shadow_map::ShadowOptions {
+                kind: self.shadows.into(),
+                storage: self.msm_storage.map(Into::into),
+                resolution: self.msm_res,
+                filter: self.msm_filter.0,
+                radius: self.msm_filter.1,
+            },
             rr_depth: self.rr_depth,
             max_depth: self.max_depth,
             hg_g: self.hg_g,

@@ -6,11 +6,17 @@ use super::Buffer;
 use bytemuck::Pod;
 use shared::integrators::direct::DirectState;
 use shared::integrators::path::PathState;
-use shared::kernels::launch::bindings::{direct, map, path, render, rng_draws};
+use shared::kernels::launch::bindings::{
+    direct, map, msm_build, msm_store, path, render, rng_draws,
+};
 use shared::kernels::launch::Launch;
 use shared::kernels::probe::TransmittancePair;
-use shared::kernels::probe::{DepthPair, EquiangularIn, EquiangularOut, MathValues, RngDraws};
+use shared::kernels::probe::{
+    DepthPair, EquiangularIn, EquiangularOut, MathValues, MsmLookupIn, MsmLookupOut, PhaseIn,
+    PhaseOut, RngDraws,
+};
 use shared::kernels::render::{PathPass, PixelSums, RenderPass};
+use shared::kernels::shadow_map::MsmPass;
 use shared::params::RenderParams;
 use shared::sampling::lighting::Lighting;
 use shared::sampling::lights::PointLight;
@@ -39,6 +45,12 @@ impl PushConstants for RenderPass {
 }
 
 impl PushConstants for PathPass {
+    fn launch_mut(&mut self) -> &mut Launch {
+        &mut self.launch
+    }
+}
+
+impl PushConstants for MsmPass {
     fn launch_mut(&mut self) -> &mut Launch {
         &mut self.launch
     }
@@ -94,6 +106,14 @@ pub const EQUIANGULAR: KernelDef<Launch, { map::COUNT }> = KernelDef::checked(
     Kernel::EquiangularCs,
     map_sizes::<EquiangularIn, EquiangularOut>(),
 );
+/// `phase_cs`.
+pub const PHASE: KernelDef<Launch, { map::COUNT }> =
+    KernelDef::checked(Kernel::PhaseCs, map_sizes::<PhaseIn, PhaseOut>());
+/// `msm_lookup_cs`.
+pub const MSM_LOOKUP: KernelDef<Launch, { map::COUNT }> = KernelDef::checked(
+    Kernel::MsmLookupCs,
+    map_sizes::<MsmLookupIn, MsmLookupOut>(),
+);
 /// `rng_draws_cs`.
 pub const RNG_DRAWS: KernelDef<Launch, { rng_draws::COUNT }> =
     KernelDef::checked(Kernel::RngDrawsCs, {
@@ -125,6 +145,7 @@ pub const DIRECT: KernelDef<PathPass, { direct::COUNT }> = KernelDef::checked(Ke
     s[direct::LIGHTING] = size_of::<Lighting>();
     s[direct::ENV] = size_of::<f32>();
     s[direct::STATES] = size_of::<DirectState>();
+    s[direct::SHADOW_MAP] = size_of::<u32>();
     s
 });
 /// `path_cs`.
@@ -139,8 +160,30 @@ pub const PATH: KernelDef<PathPass, { path::COUNT }> = KernelDef::checked(Kernel
     s[path::LIGHTING] = size_of::<Lighting>();
     s[path::ENV] = size_of::<f32>();
     s[path::STATES] = size_of::<PathState>();
+    s[path::SHADOW_MAP] = size_of::<u32>();
     s
 });
+/// `msm_build_cs`.
+pub const MSM_BUILD: KernelDef<MsmPass, { msm_build::COUNT }> =
+    KernelDef::checked(Kernel::MsmBuildCs, {
+        let mut s = [0; msm_build::COUNT];
+        s[msm_build::PARAMS] = size_of::<RenderParams>();
+        s[msm_build::DESC] = size_of::<GridDesc>();
+        s[msm_build::VOXELS] = size_of::<u32>();
+        s[msm_build::BRICKS] = size_of::<Brick>();
+        s[msm_build::LIGHTING] = size_of::<Lighting>();
+        s[msm_build::RAW] = size_of::<f32>();
+        s
+    });
+/// `msm_store_cs`.
+pub const MSM_STORE: KernelDef<MsmPass, { msm_store::COUNT }> =
+    KernelDef::checked(Kernel::MsmStoreCs, {
+        let mut s = [0; msm_store::COUNT];
+        s[msm_store::LIGHTING] = size_of::<Lighting>();
+        s[msm_store::RAW] = size_of::<f32>();
+        s[msm_store::MAP] = size_of::<u32>();
+        s
+    });
 
 /// The buffers of a map kernel, by name.
 pub struct MapBuffers<'a> {
@@ -190,6 +233,7 @@ pub struct LitBuffers<'a> {
     pub lighting: &'a Buffer,
     pub env: &'a Buffer,
     pub states: &'a Buffer,
+    pub shadow_map: &'a Buffer,
 }
 
 impl<'a> LitBuffers<'a> {
@@ -206,6 +250,49 @@ impl<'a> LitBuffers<'a> {
         s[path::LIGHTING] = self.lighting;
         s[path::ENV] = self.env;
         s[path::STATES] = self.states;
+        s[path::SHADOW_MAP] = self.shadow_map;
+        s
+    }
+}
+
+/// The buffers of `msm_build_cs`, by name.
+pub struct MsmBuildBuffers<'a> {
+    pub params: &'a Buffer,
+    pub desc: &'a Buffer,
+    pub voxels: &'a Buffer,
+    pub bricks: &'a Buffer,
+    pub lighting: &'a Buffer,
+    pub raw: &'a Buffer,
+}
+
+impl<'a> MsmBuildBuffers<'a> {
+    /// The buffers in binding order.
+    pub fn slots(&self) -> [&'a Buffer; msm_build::COUNT] {
+        let mut s = [self.params; msm_build::COUNT];
+        s[msm_build::PARAMS] = self.params;
+        s[msm_build::DESC] = self.desc;
+        s[msm_build::VOXELS] = self.voxels;
+        s[msm_build::BRICKS] = self.bricks;
+        s[msm_build::LIGHTING] = self.lighting;
+        s[msm_build::RAW] = self.raw;
+        s
+    }
+}
+
+/// The buffers of `msm_store_cs`, by name.
+pub struct MsmStoreBuffers<'a> {
+    pub lighting: &'a Buffer,
+    pub raw: &'a Buffer,
+    pub map: &'a Buffer,
+}
+
+impl<'a> MsmStoreBuffers<'a> {
+    /// The buffers in binding order.
+    pub fn slots(&self) -> [&'a Buffer; msm_store::COUNT] {
+        let mut s = [self.lighting; msm_store::COUNT];
+        s[msm_store::LIGHTING] = self.lighting;
+        s[msm_store::RAW] = self.raw;
+        s[msm_store::MAP] = self.map;
         s
     }
 }

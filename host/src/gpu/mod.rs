@@ -15,8 +15,9 @@ mod resources;
 pub use device::{pick_memory_type, DeviceOwner, MemoryChoice, MemoryRole};
 pub use error::GpuError;
 pub use kernels::{
-    Kernel, KernelDef, LitBuffers, MapBuffers, PushConstants, RenderBuffers, DIRECT, EQUIANGULAR,
-    MATH_VALUES, PATH, RENDER, RNG_DRAWS, TRANSMITTANCE_PAIR,
+    Kernel, KernelDef, LitBuffers, MapBuffers, MsmBuildBuffers, MsmStoreBuffers, PushConstants,
+    RenderBuffers, DIRECT, EQUIANGULAR, MATH_VALUES, MSM_BUILD, MSM_LOOKUP, MSM_STORE, PATH, PHASE,
+    RENDER, RNG_DRAWS, TRANSMITTANCE_PAIR,
 };
 pub use plan::{plan, Command, Step};
 pub use resources::Buffer;

@@ -1,6 +1,9 @@
 //! The GPU backend's render loop: a resident volume, image tiles, passes as submissions.
 
-use super::{Buffer, Gpu, LitBuffers, RenderBuffers, Step, Work, DIRECT, PATH, RENDER};
+use super::{
+    Buffer, Gpu, LitBuffers, MsmBuildBuffers, MsmStoreBuffers, RenderBuffers, Step, Work, DIRECT,
+    MSM_BUILD, MSM_STORE, PATH, RENDER,
+};
 use crate::bricks::PackedVolume;
 use crate::lighting::SceneLights;
 use crate::schedule::{RenderBackend, Schedule};
@@ -11,9 +14,11 @@ use shared::integrators::path::PathState;
 use shared::kernels::launch::bindings::path;
 use shared::kernels::launch::Launch;
 use shared::kernels::render::{PathPass, PixelSums, RenderPass};
+use shared::kernels::shadow_map::MsmPass;
 use shared::params::{Integrator, RenderParams};
 use shared::sampling::lighting::Lighting;
 use shared::sampling::lights::PointLight;
+use shared::shadows::map::{Shadows, RAW_PER_TEXEL};
 use std::sync::Mutex;
 
 /// A volume resident on the GPU: the render loop of the GPU backend.
@@ -56,6 +61,77 @@ impl RenderBackend for GpuVolume<'_> {
     ) -> Result<Vec<PixelSums>> {
         render_tiles(self, params, lights, schedule, bar)
     }
+
+    /// Both passes as one submission (a barrier between), in dispatches of at most 2^16
+    /// texels; the stored words are read back.
+    fn build_shadow_map(
+        &self,
+        params: &RenderParams,
+        lighting: &Lighting,
+        pass: &MsmPass,
+    ) -> Result<Vec<u32>> {
+        let gpu = self.gpu;
+        let m = &lighting.shadow_map;
+        let texels = m.width * m.height;
+        let n = Shadows::from_u32(lighting.shadows).words_per_texel();
+        let raw_bytes = u64::from(texels) * (RAW_PER_TEXEL * 4) as u64;
+        anyhow::ensure!(
+            raw_bytes <= gpu.max_buffer_bytes(),
+            "a {}x{} moment shadow map needs a {raw_bytes}-byte storage buffer, more than this              GPU's maxStorageBufferRange of {} bytes; use a smaller --msm-res",
+            m.width,
+            m.height,
+            gpu.max_buffer_bytes()
+        );
+        let p = gpu.buffer(std::mem::size_of::<RenderParams>() as u64)?;
+        let l = gpu.buffer(std::mem::size_of::<Lighting>() as u64)?;
+        let raw = gpu.buffer(raw_bytes).context("allocating the shadow map")?;
+        let map = gpu
+            .buffer(u64::from(texels) * u64::from(n) * 4)
+            .context("allocating the shadow map")?;
+        let steps = || -> Vec<Step<MsmPass>> {
+            (0..texels)
+                .step_by(1 << 16)
+                .map(|start| Step::Run {
+                    push: *pass,
+                    ids: start..start.saturating_add(1 << 16).min(texels),
+                })
+                .collect()
+        };
+        let build = MsmBuildBuffers {
+            params: &p,
+            desc: &self.desc,
+            voxels: &self.voxels,
+            bricks: &self.bricks,
+            lighting: &l,
+            raw: &raw,
+        };
+        gpu.submit(Work {
+            kernel: &MSM_BUILD,
+            buffers: build.slots(),
+            uploads: vec![
+                (&p, bytemuck::bytes_of(params)),
+                (&l, bytemuck::bytes_of(lighting)),
+            ],
+            steps: steps(),
+            readbacks: vec![],
+        })
+        .with_context(|| format!("GPU kernel {}", MSM_BUILD.kernel.name()))?;
+        let mut words = vec![0u32; (texels * n) as usize];
+        let store = MsmStoreBuffers {
+            lighting: &l,
+            raw: &raw,
+            map: &map,
+        };
+        gpu.submit(Work {
+            kernel: &MSM_STORE,
+            buffers: store.slots(),
+            uploads: vec![],
+            steps: steps(),
+            readbacks: vec![(&map, bytemuck::cast_slice_mut::<u32, u8>(&mut words))],
+        })
+        .with_context(|| format!("GPU kernel {}", MSM_STORE.kernel.name()))?;
+        Ok(words)
+    }
 }
 
 /// [`GpuVolume::render_sums`].
@@ -90,6 +166,8 @@ fn render_tiles(
     let env_data: &[f32] = if direct { &lights.env } else { &[0.0] };
     let lighting = gpu.buffer(std::mem::size_of::<Lighting>() as u64)?;
     let env = gpu.buffer(std::mem::size_of_val(env_data) as u64)?;
+    let map_data: &[u32] = if direct { &lights.shadow_map } else { &[0] };
+    let shadow_map = gpu.buffer(std::mem::size_of_val(map_data) as u64)?;
     let mut uploads = vec![
         (&p, bytemuck::bytes_of(params)),
         (&l, bytemuck::cast_slice::<PointLight, u8>(points)),
@@ -97,6 +175,7 @@ fn render_tiles(
     if direct {
         uploads.push((&lighting, bytemuck::bytes_of(&lights.lighting)));
         uploads.push((&env, bytemuck::cast_slice::<f32, u8>(env_data)));
+        uploads.push((&shadow_map, bytemuck::cast_slice::<u32, u8>(map_data)));
     }
     let mut tiles = dev
         .tiles
@@ -140,6 +219,7 @@ fn render_tiles(
                 lighting: &lighting,
                 env: &env,
                 states: &states,
+                shadow_map: &shadow_map,
             };
             let uploads_now = std::mem::take(&mut uploads);
             render_wave(

@@ -3,6 +3,7 @@
 //! RGB albedo, and the pmf over the three kinds of light.
 
 pub mod env;
+pub mod shadow_map;
 pub mod sky;
 
 use anyhow::{ensure, Result};
@@ -67,6 +68,8 @@ pub struct SceneLights {
     pub points: Vec<PointLight>,
     /// The map's data buffer (one 0 without a map: GPU buffers may not be empty).
     pub env: Vec<f32>,
+    /// The sun's moment shadow map (one 0 with shadow rays), set by [`crate::shadow_map`].
+    pub shadow_map: Vec<u32>,
 }
 
 impl SceneLights {
@@ -76,6 +79,7 @@ impl SceneLights {
             lighting: Lighting::default(),
             points: points.to_vec(),
             env: vec![0.0],
+            shadow_map: vec![0],
         }
     }
 
@@ -86,6 +90,7 @@ impl SceneLights {
             points: &self.points,
             point_count: self.points.len() as u32,
             env: &self.env,
+            shadow_map: &self.shadow_map,
         }
     }
 }
@@ -239,5 +244,6 @@ pub fn build(opts: &LightingOptions, center: [f64; 3], radius: f64) -> Result<Sc
         lighting,
         points: opts.points.clone(),
         env: env_data,
+        shadow_map: vec![0],
     })
 }

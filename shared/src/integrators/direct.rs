@@ -12,7 +12,9 @@
 //!
 //! The three transmittance estimates (background, light sample, phase sample) go through one
 //! call site of [`estimate::transmittance`] ([`direct_estimate`]), so the kernel holds the
-//! estimators once; on the GPU each runs in its own dispatch ([`DirectState`]).
+//! estimators once; on the GPU each runs in its own dispatch ([`DirectState`]). With
+//! `--shadows msm4|msm6` a light sample of the sun takes its transmittance from the sun's moment
+//! shadow map instead ([`map_shadow`]); every other query keeps its shadow ray.
 
 use crate::estimators::estimate;
 use crate::estimators::tracking::delta_tracking_capped;
@@ -23,6 +25,7 @@ use crate::rgb::Rgb;
 use crate::rng::HashRng;
 use crate::sampling::lighting::{LightKind, Scene};
 use crate::sampling::phase::{phase_hg, sample_hg};
+use crate::shadows::map::{map_transmittance, Shadows};
 use crate::tally::Tally;
 use crate::volume::dda::clip_to_box;
 use crate::volume::grid::VolumeView;
@@ -55,7 +58,12 @@ pub struct DirectState {
     pub lookups: u32,
     pub capped: u32,
     pub outside: u32,
-    pub _pad: [u32; 3],
+    /// 1 if a moment-shadow-map lookup fell back ([`Tally::fallback`]).
+    pub fallback: u32,
+    /// 1 if query 1 (the light sample) went to the sun and takes its transmittance from the
+    /// moment shadow map.
+    pub map_query: u32,
+    pub _pad: u32,
 }
 
 impl DirectState {
@@ -66,6 +74,7 @@ impl DirectState {
             lookups: self.lookups,
             capped: self.capped,
             outside: self.outside,
+            fallback: self.fallback,
         }
     }
 
@@ -75,6 +84,7 @@ impl DirectState {
         self.lookups = t.lookups;
         self.capped = t.capped;
         self.outside = t.outside;
+        self.fallback = t.fallback;
     }
 }
 
@@ -101,7 +111,7 @@ pub fn direct_radiance(
     let mut st = direct_start(vol, cfg, params, scene, world, rng);
     let mut k = 0;
     while k < 3 {
-        st = direct_estimate(vol, cfg, params, st, k);
+        st = direct_estimate(vol, cfg, params, scene, st, k);
         k += 1;
     }
     (st.total, st.tally(), HashRng { state: st.rng })
@@ -150,7 +160,8 @@ pub fn direct_start(
         let x = world.at(ff.t);
         let wo = world.d * -1.0;
         let albedo = scene.lighting.albedo;
-        let (light, r) = light_sample(scene, params.hg_g, x, wo, rng);
+        let (light, to_sun, r) = light_sample(scene, params.hg_g, x, wo, rng);
+        st.map_query = (to_sun && scene.lighting.shadows != 0) as u32;
         let (phase, r) = phase_sample(scene, params.hg_g, x, wo, r);
         rng = r;
         st.queries[1] = ShadowQuery {
@@ -172,6 +183,7 @@ pub fn direct_estimate(
     vol: &VolumeView,
     cfg: &Config,
     params: &RenderParams,
+    scene: &Scene,
     st: DirectState,
     k: u32,
 ) -> DirectState {
@@ -180,7 +192,12 @@ pub fn direct_estimate(
         return st;
     }
     let mut st = st;
-    let (tr, t, rng) = shadow(vol, cfg, params, &q, HashRng { state: st.rng });
+    let rng = HashRng { state: st.rng };
+    let (tr, t, rng) = if k == 1 && st.map_query != 0 {
+        map_shadow(scene, &q, rng)
+    } else {
+        shadow(vol, cfg, params, &q, rng)
+    };
     st.rng = rng.state;
     st.set_tally(st.tally().merge(t));
     st.total = st.total + q.weight * tr;
@@ -211,15 +228,28 @@ pub(super) fn shadow(
     estimate::transmittance(vol, cfg, params, &ray, t0, t1, rng)
 }
 
+/// Transmittance toward the sun at a query's origin from the moment shadow map (no voxel
+/// lookups; a reconstruction that fell back is flagged).
+pub(super) fn map_shadow(scene: &Scene, q: &ShadowQuery, rng: HashRng) -> (f32, Tally, HashRng) {
+    let l = scene.lighting;
+    let (tr, fell_back) = map_transmittance(
+        &l.shadow_map,
+        Shadows::from_u32(l.shadows),
+        scene.shadow_map,
+        q.o,
+    );
+    (tr, Tally::default().fallback_if(fell_back), rng)
+}
+
 /// Strategy 1 at x (per unit albedo, before T): a light drawn by the pmf over kinds, then a
-/// direction (or point) on it.
+/// direction (or point) on it; true if the light is the sun.
 pub(super) fn light_sample(
     scene: &Scene,
     g: f32,
     x: V3,
     wo: V3,
     rng: HashRng,
-) -> (ShadowQuery, HashRng) {
+) -> (ShadowQuery, bool, HashRng) {
     let l = scene.lighting;
     let (u_kind, rng) = rng.next_f32();
     let (u0, rng) = rng.next_f32();
@@ -281,7 +311,7 @@ pub(super) fn light_sample(
             }
         }
     };
-    (query, rng)
+    (query, kind == LightKind::Sun, rng)
 }
 
 /// Strategy 2 at x (per unit albedo, before T): a direction drawn from the phase function; it

@@ -11,7 +11,7 @@
 //! flight's escape; an escape after a phase sample meets the map and the sun disk with the MIS
 //! weight p_phase / (p_phase + p_light), the counterpart of the light sample's.
 
-use super::direct::{light_sample, shadow};
+use super::direct::{light_sample, map_shadow, shadow};
 use crate::estimators::tracking::delta_tracking_capped;
 use crate::geometry::{to_index_space, Ray, V3};
 use crate::params::{Config, RenderParams};
@@ -53,7 +53,8 @@ pub struct PathState {
     pub lookups: u32,
     pub capped: u32,
     pub outside: u32,
-    pub _pad: u32,
+    /// 1 if a moment-shadow-map lookup of the path fell back.
+    pub fallback: u32,
 }
 
 impl PathState {
@@ -64,6 +65,7 @@ impl PathState {
             lookups: self.lookups,
             capped: self.capped,
             outside: self.outside,
+            fallback: self.fallback,
         }
     }
 
@@ -74,6 +76,7 @@ impl PathState {
         self.lookups = m.lookups;
         self.capped = m.capped;
         self.outside = m.outside;
+        self.fallback = m.fallback;
     }
 }
 
@@ -151,10 +154,14 @@ pub fn path_bounce(
     st.throughput = st.throughput.mul_rgb(scene.lighting.albedo);
     st.depth += 1;
     // Next-event estimation.
-    let (q, r) = light_sample(scene, params.hg_g, x, wo, rng);
+    let (q, to_sun, r) = light_sample(scene, params.hg_g, x, wo, rng);
     rng = r;
     if !q.weight.is_black() {
-        let (tr, tally, r) = shadow(vol, cfg, params, &q, rng);
+        let (tr, tally, r) = if to_sun && scene.lighting.shadows != 0 {
+            map_shadow(scene, &q, rng)
+        } else {
+            shadow(vol, cfg, params, &q, rng)
+        };
         rng = r;
         st.count(tally);
         st.radiance = st.radiance + q.weight.mul_rgb(st.throughput) * tr;

@@ -98,8 +98,40 @@ pub mod bindings {
         pub const ENV: usize = 7;
         /// One `DirectState` per pixel of the tile, read and written.
         pub const STATES: usize = 8;
+        /// The sun's moment shadow map (`u32` words; one unused word with shadow rays).
+        pub const SHADOW_MAP: usize = 9;
         /// Number of bindings.
-        pub const COUNT: usize = 9;
+        pub const COUNT: usize = 10;
+    }
+
+    /// `msm_build_cs`: the raw moments of each texel of the sun's moment shadow map.
+    pub mod msm_build {
+        /// One `RenderParams` (its world-to-index transform).
+        pub const PARAMS: usize = 0;
+        /// One `GridDesc`.
+        pub const DESC: usize = 1;
+        /// The packed voxels (`u32` words).
+        pub const VOXELS: usize = 2;
+        /// The bricks (`Brick`).
+        pub const BRICKS: usize = 3;
+        /// One `Lighting` (the map's frame).
+        pub const LIGHTING: usize = 4;
+        /// b_1 .. b_6 per texel (`f32`), written.
+        pub const RAW: usize = 5;
+        /// Number of bindings.
+        pub const COUNT: usize = 6;
+    }
+
+    /// `msm_store_cs`: each texel prefiltered and stored in the map's format.
+    pub mod msm_store {
+        /// One `Lighting` (the map's frame and storage).
+        pub const LIGHTING: usize = 0;
+        /// b_1 .. b_6 per texel (`f32`), read.
+        pub const RAW: usize = 1;
+        /// The stored map (`u32` words), written.
+        pub const MAP: usize = 2;
+        /// Number of bindings.
+        pub const COUNT: usize = 3;
     }
 
     /// `path_cs`: one step of a `path` image: the same layout as `direct_cs`, with `PathState`s

@@ -4,3 +4,4 @@
 pub mod launch;
 pub mod probe;
 pub mod render;
+pub mod shadow_map;

@@ -139,3 +139,69 @@ pub fn equiangular(p: EquiangularIn) -> EquiangularOut {
         _pad: [eq.pdf(p.ta + p.u), 0.0],
     }
 }
+
+/// Inputs of the phase-function probe kernel.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct PhaseIn {
+    pub wo: crate::geometry::V3,
+    pub g: f32,
+    pub u0: f32,
+    pub u1: f32,
+    pub cos_theta: f32,
+    pub _pad: f32,
+}
+
+/// Outputs of the phase-function probe kernel.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct PhaseOut {
+    pub wi: crate::geometry::V3,
+    pub pdf: f32,
+    pub phase: f32,
+    pub _pad: [f32; 3],
+}
+
+/// A Henyey-Greenstein sample (direction and density) and the phase function at `cos_theta`.
+#[inline]
+pub fn phase(p: PhaseIn) -> PhaseOut {
+    let (wi, pdf) = crate::sampling::phase::sample_hg(p.wo, p.g, p.u0, p.u1);
+    PhaseOut {
+        wi,
+        pdf,
+        phase: crate::sampling::phase::phase_hg(p.cos_theta, p.g),
+        _pad: [0.0; 3],
+    }
+}
+
+/// Inputs of the moment-shadow-map lookup probe: a 2 x 2 map (`desc.width` = `desc.height` =
+/// 2) in the layout of `mode`, and a point.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct MsmLookupIn {
+    pub desc: crate::shadows::map::MsmDesc,
+    pub x: crate::geometry::V3,
+    pub mode: u32,
+    pub words: [u32; 24],
+}
+
+/// Outputs of the moment-shadow-map lookup probe.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct MsmLookupOut {
+    pub t: f32,
+    pub fallback: u32,
+    pub _pad: [u32; 2],
+}
+
+/// [`crate::shadows::map::map_transmittance`] of one configuration.
+#[inline]
+pub fn msm_lookup(p: MsmLookupIn) -> MsmLookupOut {
+    let mode = crate::shadows::map::Shadows::from_u32(p.mode);
+    let (t, fallback) = crate::shadows::map::map_transmittance(&p.desc, mode, &p.words, p.x);
+    MsmLookupOut {
+        t,
+        fallback,
+        _pad: [0; 2],
+    }
+}

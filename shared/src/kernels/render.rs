@@ -27,6 +27,8 @@ pub struct PixelOut {
     pub capped: u32,
     /// Samples with a jackknife estimate outside its regime ([`Tally::outside`]).
     pub outside: u32,
+    /// Samples whose moment-shadow-map reconstruction fell back ([`Tally::fallback`]).
+    pub fallback: u32,
     /// Mean RGB radiance (the `direct` integrator; the scalar integrators repeat `t_mean`).
     pub rgb_mean: Rgb,
 }
@@ -73,6 +75,8 @@ pub struct PixelSums {
     pub capped: u32,
     /// Samples with a jackknife estimate outside its regime.
     pub outside: u32,
+    /// Samples whose moment-shadow-map reconstruction fell back.
+    pub fallback: u32,
     /// Sum of the RGB estimates (`t_sum` holds their luminance; scalar integrators: T, T, T).
     pub rgb_sum: Rgb,
 }
@@ -125,6 +129,7 @@ impl PixelSums {
             samples: self.samples + tally.lookups,
             capped: self.capped + tally.capped,
             outside: self.outside + tally.outside,
+            fallback: self.fallback + tally.fallback,
             rgb_sum: self.rgb_sum + rgb,
         }
     }
@@ -256,7 +261,7 @@ pub fn direct_step(
         };
         return (direct_start(vol, &cfg, params, scene, &world, rng), sums);
     }
-    let next = direct_estimate(vol, &cfg, params, st, stage - 1);
+    let next = direct_estimate(vol, &cfg, params, scene, st, stage - 1);
     if stage < 3 {
         return (next, sums);
     }
@@ -341,6 +346,7 @@ pub fn finish_pixel(sums: PixelSums, spp: u32) -> PixelOut {
         samples: sums.samples,
         capped: sums.capped,
         outside: sums.outside,
+        fallback: sums.fallback,
         rgb_mean: Rgb::new(
             sums.rgb_sum.r / spp as f32,
             sums.rgb_sum.g / spp as f32,

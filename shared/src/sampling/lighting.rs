@@ -10,6 +10,7 @@ use crate::rgb::Rgb;
 use crate::sampling::env::EnvDesc;
 use crate::sampling::lights::PointLight;
 use crate::sampling::sun::Sun;
+use crate::shadows::map::MsmDesc;
 use bytemuck::{Pod, Zeroable};
 
 /// Everything about the lights besides the point lights and the map's texels (one per render).
@@ -25,7 +26,12 @@ pub struct Lighting {
     pub p_sun: f32,
     pub p_env: f32,
     pub p_points: f32,
-    pub _pad: [u32; 2],
+    /// How light samples of the sun get their shadow transmittance
+    /// ([`crate::shadows::map::Shadows`] as u32; 0: shadow rays).
+    pub shadows: u32,
+    pub _pad: u32,
+    /// The frame of the sun's moment shadow map (unused with shadow rays).
+    pub shadow_map: MsmDesc,
 }
 
 /// The lights as the integrators see them: the [`Lighting`], the point lights and the map.
@@ -37,6 +43,9 @@ pub struct Scene<'a> {
     pub point_count: u32,
     /// The map's data buffer (see [`crate::sampling::env`]).
     pub env: &'a [f32],
+    /// The sun's moment shadow map (words of [`crate::shadows::map::store_texel`]; one unused
+    /// word with shadow rays).
+    pub shadow_map: &'a [u32],
 }
 
 /// The kind of light one light sample went to (`u32`: SPIR-V has no 8-bit integers here).

@@ -9,7 +9,7 @@ pub fn phase_hg(cos_theta: f32, g: f32) -> f32 {
     if !(d > 0.0) {
         return inv_4pi;
     }
-    inv_4pi * ((1.0 - g) * (1.0 + g)) / d
+    ((1.0 - g) * (1.0 + g)) / d * inv_4pi
 }
 
 /// 1 + g^2 + 2 g cos(theta), written without cancellation in the lobe: (1 - g)^2 + 2 g (1 + cos)

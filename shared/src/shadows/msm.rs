@@ -57,12 +57,22 @@ pub fn bias(b: Moments4, alpha: f32, target: Moments4) -> Moments4 {
 /// the moment space, which the bias keeps rare), it tries once more with [`RETRY_ALPHA`], then
 /// uses the bounds of the first two moments ([`shadow_bounds2`], weaker but valid).
 pub fn shadow_bounds(b: Moments4, zf: f32) -> (f32, f32) {
+    let (lower, upper, _) = shadow_bounds_flagged(b, zf);
+    (lower, upper)
+}
+
+/// [`shadow_bounds`] and whether it fell back (1: the retry with [`RETRY_ALPHA`] or the
+/// two-moment bounds gave the result; renders count such lookups).
+pub fn shadow_bounds_flagged(b: Moments4, zf: f32) -> (f32, f32, u32) {
     match hamburger4(b, zf) {
-        Some(bounds) => bounds,
+        Some((lower, upper)) => (lower, upper, 0),
         // Numerically singular: once more with a stronger bias, then the two-moment bounds.
         None => match hamburger4(bias(b, RETRY_ALPHA, TARGET_F32), zf) {
-            Some(bounds) => bounds,
-            None => shadow_bounds2(b, zf),
+            Some((lower, upper)) => (lower, upper, 1),
+            None => {
+                let (lower, upper) = shadow_bounds2(b, zf);
+                (lower, upper, 1)
+            }
         },
     }
 }
@@ -177,6 +187,8 @@ fn clamp01(v: f32) -> f32 {
 
 /// sqrt(3) in f32.
 const SQRT3: f32 = 1.732_050_8;
+/// 1 / det of the transform's (b_1, b_3) block: 3 / (2 sqrt(3)).
+const INV_DET: f32 = 3.0 / (2.0 * SQRT3);
 
 /// The sparse quantization transform Theta_4^* (Eq. 3): moments b_1..b_4 of depths in [-1, 1] to
 /// four values in about [0, 1] for 16-bit storage.
@@ -190,18 +202,68 @@ pub fn quantize_transform(b: Moments4) -> [f32; 4] {
     ]
 }
 
-/// The inverse of [`quantize_transform`] (b_0 = 1).
+/// The inverse of [`quantize_transform`] (b_0 = 1): b_1 and b_3 from the 2x2 block
+/// [1.5, -2; sqrt3/2, -2 sqrt3/9] [b1; b3] = [u_0 - 1/2; u_2 - 1/2] (determinant 2 sqrt3 / 3),
+/// multiplied out into input x constant + constant. Written as (u - 1/2) k, shader compilers
+/// distribute the constant factor over the offset, which rounds differently from the CPU; in
+/// this form there is nothing left to rewrite.
 #[inline]
 pub fn dequantize_transform(u: [f32; 4]) -> Moments4 {
-    let (a, c) = (u[0] - 0.5, u[2] - 0.5);
-    // [1.5, -2; sqrt3/2, -2 sqrt3/9] [b1; b3] = [a; c], determinant 2 sqrt3 / 3.
-    let det = 2.0 * SQRT3 / 3.0;
-    let b1 = (a * (-2.0 * SQRT3 / 9.0) + 2.0 * c) / det;
-    let b3 = (1.5 * c - (0.5 * SQRT3) * a) / det;
+    let b1 = u[0] * DQ_B1[0] + u[2] * DQ_B1[1] + DQ_B1[2];
+    let b3 = u[0] * DQ_B3[0] + u[2] * DQ_B3[1] + DQ_B3[2];
     let b2 = u[3] + 0.125 * u[1];
     let b4 = u[3] - 0.125 * u[1];
     [1.0, b1, b2, b3, b4]
 }
+
+/// b_1 = u_0 c_0 + u_2 c_1 + c_2: the first row of the block's inverse (-2 sqrt3/9, 2) / det and
+/// the offsets.
+const DQ_B1: [f32; 3] = [
+    -2.0 * SQRT3 / 9.0 * INV_DET,
+    2.0 * INV_DET,
+    (-0.5 * (-2.0 * SQRT3 / 9.0) - 0.5 * 2.0) * INV_DET,
+];
+/// b_3 = u_0 c_0 + u_2 c_1 + c_2: the second row (-sqrt3/2, 3/2) / det and the offsets.
+const DQ_B3: [f32; 3] = [
+    -0.5 * SQRT3 * INV_DET,
+    1.5 * INV_DET,
+    (0.5 * 0.5 * SQRT3 - 0.5 * 1.5) * INV_DET,
+];
+
+/// Moments b_1 .. b_4 of one texel's stored 16-bit integers `q` (as f32) of
+/// [`quantize_transform`]'s outputs: the unorm scale and [`dequantize_transform`] in one affine
+/// map, b = C q + c, with the coefficients `k` = [`U16_DEQUANT`] passed in at run time.
+/// Written with constants, shader compilers re-associate scales of scales and distribute
+/// constant factors over offsets, which rounds differently from the CPU; renders read the
+/// coefficients from the map's descriptor instead, where no compiler can fold them.
+#[inline]
+pub fn dequantize_u16(q: [f32; 4], k: &[f32; 12]) -> [f32; 4] {
+    [
+        q[2] * k[1] + (q[0] * k[0] + k[2]),
+        q[3] * k[3] + q[1] * k[4],
+        q[2] * k[6] + (q[0] * k[5] + k[7]),
+        q[3] * k[8] + q[1] * k[9],
+    ]
+}
+
+/// 1 / 65535, the unorm16 scale.
+const UNORM16: f32 = 1.0 / 65535.0;
+/// The coefficients of [`dequantize_u16`]: b_1 = q_0 k_0 + q_2 k_1 + k_2, b_2 = q_3 k_3 + q_1
+/// k_4, b_3 = q_0 k_5 + q_2 k_6 + k_7, b_4 = q_3 k_8 + q_1 k_9 (k_10, k_11 unused).
+pub const U16_DEQUANT: [f32; 12] = [
+    DQ_B1[0] * UNORM16,
+    DQ_B1[1] * UNORM16,
+    DQ_B1[2],
+    UNORM16,
+    0.125 * UNORM16,
+    DQ_B3[0] * UNORM16,
+    DQ_B3[1] * UNORM16,
+    DQ_B3[2],
+    UNORM16,
+    -0.125 * UNORM16,
+    0.0,
+    0.0,
+];
 
 /// x in [0, 1] as a 16-bit unsigned normalized integer (rounded to nearest, clamped).
 #[inline]
@@ -261,11 +323,21 @@ pub fn bias6(b: Moments6, alpha: f32, target: Moments6) -> Moments6 {
 /// weights of the four atoms by Lagrange). Where it fails numerically: once more with a stronger
 /// bias, then the four-moment bounds of b_0 .. b_4.
 pub fn shadow_bounds6(b: Moments6, zf: f32) -> (f32, f32) {
+    let (lower, upper, _) = shadow_bounds6_flagged(b, zf);
+    (lower, upper)
+}
+
+/// [`shadow_bounds6`] and whether it fell back (1: the stronger bias or the four-moment
+/// bounds gave the result).
+pub fn shadow_bounds6_flagged(b: Moments6, zf: f32) -> (f32, f32, u32) {
     match hausdorff6(b, zf) {
-        Some(bounds) => bounds,
+        Some((lower, upper)) => (lower, upper, 0),
         None => match hausdorff6(bias6(b, 10.0 * ALPHA6_F32, TARGET6), zf) {
-            Some(bounds) => bounds,
-            None => shadow_bounds([b[0], b[1], b[2], b[3], b[4]], zf),
+            Some((lower, upper)) => (lower, upper, 1),
+            None => {
+                let (lower, upper, _) = shadow_bounds_flagged([b[0], b[1], b[2], b[3], b[4]], zf);
+                (lower, upper, 1)
+            }
         },
     }
 }
@@ -340,7 +412,7 @@ fn hausdorff6(b: Moments6, zf: f32) -> Option<(f32, f32)> {
             _ => (z[0], z[1], z[2]),
         };
         let den = (z[m] - a) * (z[m] - c) * (z[m] - e);
-        let num = b[3] - (a + c + e) * b[2] + (a * c + c * e + e * a) * b[1] - a * c * e * b[0];
+        let num = cubic_moment(&b, a, c, e);
         if den == 0.0 {
             return None;
         }
@@ -362,16 +434,31 @@ fn hausdorff6(b: Moments6, zf: f32) -> Option<(f32, f32)> {
     Some((clamp01(lower), clamp01(upper)))
 }
 
+/// E[(z - a)(z - c)(z - e)] from the moments b_0 .. b_3, one factor at a time (moments of
+/// (z - a) z^k, then of (z - a)(z - c) z^k): only two-term sums, which shader compilers leave in
+/// order (they re-associate longer chains, which rounds differently from the CPU).
+#[inline]
+fn cubic_moment(b: &Moments6, a: f32, c: f32, e: f32) -> f32 {
+    let y0 = b[1] - a * b[0];
+    let y1 = b[2] - a * b[1];
+    let y2 = b[3] - a * b[2];
+    let z0 = y1 - c * y0;
+    let z1 = y2 - c * y1;
+    z1 - e * z0
+}
+
 /// The three real roots of c3 z^3 + c2 z^2 + c1 z + c0 by the trigonometric method (depressed
-/// cubic t^3 + p t + q, t_k = 2 sqrt(-p/3) cos(phi/3 - 2 pi k / 3)); None unless all three are
-/// real.
+/// cubic t^3 + p t + q, t_0 = 2 sqrt(-p/3) cos(phi/3) and t_1,2 from cos(phi/3 -+ 2 pi/3) =
+/// -cos(phi/3)/2 +- sqrt(3)/2 sin(phi/3)); None unless all three are real. Written with
+/// two-term sums and one sine/cosine of phi/3, so that shader compilers round as the CPU does.
 fn cubic_roots(c3: f32, c2: f32, c1: f32, c0: f32) -> Option<[f32; 3]> {
     if !(c3 != 0.0) {
         return None;
     }
     let (a, bb, c) = (c2 / c3, c1 / c3, c0 / c3);
     let p = bb - a * a * (1.0 / 3.0);
-    let q = a * a * a * (2.0 / 27.0) - a * bb * (1.0 / 3.0) + c;
+    // q = 2 a^3 / 27 - a bb / 3 + c, nested.
+    let q = a * (a * a * (2.0 / 27.0) - bb * (1.0 / 3.0)) + c;
     if !(p < 0.0) {
         return None;
     }
@@ -386,11 +473,13 @@ fn cubic_roots(c3: f32, c2: f32, c1: f32, c0: f32) -> Option<[f32; 3]> {
     }
     let sin_phi = sqrt(1.0 - cos_phi * cos_phi);
     let phi = crate::math::atan2(sin_phi, cos_phi);
+    let (s3, c3) = crate::math::sin_cos(phi * (1.0 / 3.0));
     let shift = -a * (1.0 / 3.0);
-    let two_pi_3 = 2.0 * core::f32::consts::PI / 3.0;
+    let half_sqrt3_s = (0.5 * SQRT3) * s3;
+    let half_c = 0.5 * c3;
     Some([
-        shift + 2.0 * r * crate::math::cos(phi * (1.0 / 3.0)),
-        shift + 2.0 * r * crate::math::cos(phi * (1.0 / 3.0) - two_pi_3),
-        shift + 2.0 * r * crate::math::cos(phi * (1.0 / 3.0) + two_pi_3),
+        shift + 2.0 * r * c3,
+        shift + 2.0 * r * (half_sqrt3_s - half_c),
+        shift - 2.0 * r * (half_sqrt3_s + half_c),
     ])
 }
