@@ -1157,8 +1157,9 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
         .iter()
         .map(|&i| crate::integrators::integrator_name(i))
         .collect();
-    let estimators = crate::eval::parse_list(&args.estimators)?;
-    let names: Vec<&str> = estimators.iter().map(|e| e.name).collect();
+    let entries = crate::eval_direct::parse_entries(&args.estimators)?;
+    let names: Vec<String> = entries.iter().map(|e| e.name()).collect();
+    let names: Vec<&str> = names.iter().map(String::as_str).collect();
     let images = crate::eval_direct::direct_files(&args.out_dir, &labels, &names);
     let json = plan_eval_outputs(args, &images)?;
     let scene = prepare_scene(&args.scene, args.lookup, args.width, args.height)?;
@@ -1198,6 +1199,17 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
         given: Vec::new(),
     };
     let lights = direct_lights(&render, vol)?;
+    if let Some(map) = entries
+        .iter()
+        .find(|e| matches!(e, crate::eval_direct::ShadowEntry::Map { .. }))
+    {
+        anyhow::ensure!(
+            lights.lighting.sun.present != 0,
+            "--estimators {}: a moment shadow map is the sun's; add --sun x,y,z (or --env sky, \
+             whose sun it is)",
+            map.name()
+        );
+    }
     let params = RenderParams {
         camera: scene.camera,
         world_to_index: scene.world_to_index,
@@ -1228,7 +1240,8 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
         &setup,
         integrators,
         &lights,
-        &estimators,
+        &entries,
+        occupied_world_bounds(vol),
         args.exposure,
     )?;
     crate::output::write_json(&json, &report)?;

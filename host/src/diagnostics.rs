@@ -65,7 +65,10 @@ impl RayFlags {
         }
         if self.msm_fallback_rays > 0 {
             out.push(format!(
-                "{} of {} rays ({:.3}%) had a moment-shadow-map lookup whose reconstruction was                  numerically singular and fell back to a stronger bias or fewer moments (shadows                  there are smoother than the map's moments say); a smaller --msm-res or a                  --msm-filter makes the moments less extreme",
+                "{} of {} rays ({:.3}%) had a moment-shadow-map lookup whose reconstruction was \
+                  numerically singular and fell back to a stronger bias or fewer moments (shadows \
+                  there are smoother than the map's moments say); a smaller --msm-res or a \
+                  --msm-filter makes the moments less extreme",
                 self.msm_fallback_rays,
                 self.rays,
                 pct(self.msm_fallback_rays)

@@ -6,10 +6,22 @@
 //! Statistics are of each pixel's luminance: SMAPE (epsilon 0.01), mean bias over the image with
 //! its standard error from the per-pixel variances of both images, mean per-sample standard
 //! deviation, mean radiance, time and shadow-ray lookups.
+//!
+//! Entries `msm4[:RES]` and `msm6[:RES]` take the sun's transmittance from its moment shadow
+//! map (`--shadows msm4|msm6` at RES texels per side, default 512; every other shadow ray uses
+//! the jackknife); their time includes the map's build. When any map entry is present, an image
+//! with exact shadows (regular tracking, deterministic) at the entries' seed is rendered too:
+//! every entry then also gets its paired error, the RMS and mean of its per-pixel difference
+//! to that image. The camera samples are the same in both (the shadow estimates of the map and
+//! of regular tracking draw no random numbers), so for a map the paired error is its shadow
+//! bias alone, free of the camera's noise.
 
+use crate::estimators::EstimatorSpec;
 use crate::eval::{EvalHeader, EvalSetup};
+use crate::lighting::shadow_map::{self, MapSummary, ShadowKind, ShadowOptions};
 use crate::lighting::SceneLights;
 use crate::output::{write_exr_rgb, write_png_rgb_exposed};
+use crate::render::Resident;
 use anyhow::{Context, Result};
 use shared::kernels::render::PixelOut;
 use shared::params::Integrator;
@@ -39,8 +51,99 @@ pub struct DirectEntry {
     pub flags: crate::diagnostics::RayFlags,
     /// The tracking loops' collision cap used.
     pub collision_cap: u32,
+    /// Map entries: the sun's moment shadow map (its build time is part of `elapsed_ms`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shadow_map: Option<MapSummary>,
+    /// RMS over pixels of the difference to the exact-shadow image with the same camera
+    /// samples (present when the evaluation has map entries).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub paired_rms: Option<f64>,
+    /// Mean over pixels of that difference.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub paired_mean: Option<f64>,
     pub exr: String,
     pub png: String,
+}
+
+/// How one entry's shadow rays toward the sun get their transmittance.
+#[derive(Clone, Copy, Debug)]
+pub enum ShadowEntry {
+    /// Shadow rays through this estimator.
+    Rays(&'static EstimatorSpec),
+    /// The sun's moment shadow map (the other shadow rays: the jackknife).
+    Map { kind: ShadowKind, resolution: u32 },
+}
+
+impl ShadowEntry {
+    /// The entry's name: the estimator, or `msm4-512`.
+    pub fn name(&self) -> String {
+        match self {
+            ShadowEntry::Rays(spec) => spec.name.into(),
+            ShadowEntry::Map { kind, resolution } => {
+                format!("{}-{resolution}", shadow_map::name(*kind))
+            }
+        }
+    }
+}
+
+/// `--estimators` of `host eval --integrators direct|path`: estimators, `all`, and `msm4[:RES]`,
+/// `msm6[:RES]` (the sun's moment shadow map at RES texels per side).
+pub fn parse_entries(list: &str) -> Result<Vec<ShadowEntry>> {
+    if list == "all" {
+        return Ok(crate::eval::parse_list(list)?
+            .into_iter()
+            .map(ShadowEntry::Rays)
+            .collect());
+    }
+    list.split(',')
+        .map(|item| {
+            let item = item.trim();
+            let (head, res) = match item.split_once(':') {
+                Some((h, r)) => (h, Some(r)),
+                None => (item, None),
+            };
+            let kind = match head {
+                "msm4" => Some(ShadowKind::Msm4),
+                "msm6" => Some(ShadowKind::Msm6),
+                _ => None,
+            };
+            match kind {
+                Some(kind) => {
+                    let resolution = match res {
+                        None => shadow_map::DEFAULT_RESOLUTION,
+                        Some(r) => r
+                            .parse::<u32>()
+                            .ok()
+                            .filter(|r| {
+                                (shadow_map::MIN_RESOLUTION..=shadow_map::MAX_RESOLUTION)
+                                    .contains(r)
+                            })
+                            .with_context(|| {
+                                format!(
+                                    "--estimators: {item:?}: the map resolution must be {} to {} \
+                                      texels per side (e.g. msm4:512)",
+                                    shadow_map::MIN_RESOLUTION,
+                                    shadow_map::MAX_RESOLUTION
+                                )
+                            })?,
+                    };
+                    Ok(ShadowEntry::Map { kind, resolution })
+                }
+                None => {
+                    anyhow::ensure!(
+                        res.is_none(),
+                        "--estimators: {item:?}: only msm4 and msm6 take a :RES suffix"
+                    );
+                    Ok(ShadowEntry::Rays(
+                        crate::eval::parse_list(head)?
+                            .into_iter()
+                            .next()
+                            .context("--estimators: an empty name")?,
+                    ))
+                }
+            }
+        })
+        .collect()
 }
 
 /// The reference image of one integrator.
@@ -77,7 +180,10 @@ fn stem(integrator: &str, name: &str) -> String {
 pub fn direct_files(out_dir: &Path, integrators: &[&str], names: &[&str]) -> Vec<PathBuf> {
     let mut files = Vec::new();
     for integrator in integrators {
-        for name in std::iter::once("reference").chain(names.iter().copied()) {
+        for name in ["reference", "exact"]
+            .into_iter()
+            .chain(names.iter().copied())
+        {
             files.push(out_dir.join(format!("{}.exr", stem(integrator, name))));
             files.push(out_dir.join(format!("{}.png", stem(integrator, name))));
         }
@@ -131,15 +237,15 @@ fn moments(pixels: &[PixelOut]) -> Vec<(f64, f64)> {
 /// Renders and writes one image; returns its pixels and the render time.
 fn render_one(
     setup: &EvalSetup,
+    resident: &Resident,
     params: &shared::params::RenderParams,
     lights: &SceneLights,
     stem: &str,
     exposure: f32,
 ) -> Result<(Vec<PixelOut>, f64, String, String)> {
     let start = Instant::now();
-    let pixels =
-        crate::render::render_lit(setup.backend, setup.volume, params, lights, setup.progress)
-            .with_context(|| format!("rendering {stem}"))?;
+    let pixels = crate::render::render_resident_lit(resident, params, lights, setup.progress)
+        .with_context(|| format!("rendering {stem}"))?;
     let elapsed_ms = start.elapsed().as_secs_f64() * 1e3;
     let rgb: Vec<[f32; 3]> = pixels
         .iter()
@@ -161,19 +267,26 @@ fn render_one(
 }
 
 /// Renders, for each of `integrators` (`direct`, `path`; `setup.params` carries the depths), the
-/// reference (ratio-tracking shadow rays) and each estimator's image, and the insets.
+/// reference (ratio-tracking shadow rays), the exact-shadow image if any entry is a map, each
+/// entry's image, and the insets. `bounds` is the world box of the volume's density (the
+/// maps' frame).
 pub fn evaluate_direct(
     setup: &EvalSetup,
     integrators: &[Integrator],
     lights: &SceneLights,
-    estimators: &[&'static crate::estimators::EstimatorSpec],
+    entries_in: &[ShadowEntry],
+    bounds: ([f64; 3], [f64; 3]),
     exposure: f32,
 ) -> Result<DirectEvalReport> {
     std::fs::create_dir_all(setup.out_dir)
         .with_context(|| format!("creating {}", setup.out_dir.display()))?;
+    let resident = Resident::new(setup.backend, setup.volume)?;
+    let any_map = entries_in
+        .iter()
+        .any(|e| matches!(e, ShadowEntry::Map { .. }));
     let mut references = Vec::new();
     let mut entries = Vec::new();
-    let total = integrators.len() * (estimators.len() + 1);
+    let total = integrators.len() * (entries_in.len() + 1 + any_map as usize);
     let mut done = 0;
     for &integrator in integrators {
         let mut base = setup.params;
@@ -192,32 +305,80 @@ pub fn evaluate_direct(
         done += 1;
         let (ref_px, _, exr, png) = render_one(
             setup,
+            &resident,
             &ref_params,
             lights,
             &stem(label, "reference"),
             exposure,
         )?;
         let ref_m = moments(&ref_px);
+        // Exact shadows with the entries' camera samples, for the paired errors.
+        let exact = if any_map {
+            let mut p = base;
+            crate::estimators::by_name("regular")
+                .expect("registered")
+                .apply(&mut p);
+            let p = crate::render::fit_collision_cap(&p, &setup.volume.desc);
+            let what = format!("{label} with exact shadows (paired)");
+            crate::eval::step(setup, done, total, &what, p.spp);
+            done += 1;
+            let (px, ..) = render_one(
+                setup,
+                &resident,
+                &p,
+                lights,
+                &stem(label, "exact"),
+                exposure,
+            )?;
+            Some(px)
+        } else {
+            None
+        };
         let mut pngs = vec![png.clone()];
-        for spec in estimators {
+        for entry in entries_in {
             let mut params = base;
+            let mut entry_lights = lights.clone();
+            let spec = match entry {
+                ShadowEntry::Rays(spec) => spec,
+                ShadowEntry::Map { .. } => {
+                    crate::estimators::by_name("jackknife").expect("registered")
+                }
+            };
             spec.apply(&mut params);
             let params = crate::render::fit_collision_cap(&params, &setup.volume.desc);
-            let name = format!("{label}/{}", spec.name);
+            let name = format!("{label}/{}", entry.name());
             crate::eval::step(setup, done, total, &name, params.spp);
             done += 1;
-            let entry = measure(
+            let map = match entry {
+                ShadowEntry::Rays(_) => None,
+                ShadowEntry::Map { kind, resolution } => {
+                    let opts = ShadowOptions {
+                        kind: *kind,
+                        resolution: *resolution,
+                        ..Default::default()
+                    };
+                    shadow_map::build_into(&resident, &params, &mut entry_lights, bounds, &opts)?
+                        .map
+                }
+            };
+            let mut e = measure(
                 setup,
+                &resident,
                 &params,
-                lights,
+                &entry_lights,
                 &ref_m,
                 &ref_params,
                 label,
-                spec.name,
+                &entry.name(),
                 exposure,
+                exact.as_deref(),
             )?;
-            pngs.push(entry.png.clone());
-            entries.push(entry);
+            if let Some(m) = &map {
+                e.elapsed_ms += m.build_ms;
+            }
+            e.shadow_map = map;
+            pngs.push(e.png.clone());
+            entries.push(e);
         }
         let insets = setup.out_dir.join(format!("{}.png", stem(label, "insets")));
         write_insets(&pngs, &insets)?;
@@ -243,6 +404,7 @@ pub fn evaluate_direct(
 #[allow(clippy::too_many_arguments)]
 fn measure(
     setup: &EvalSetup,
+    resident: &Resident,
     params: &shared::params::RenderParams,
     lights: &SceneLights,
     ref_m: &[(f64, f64)],
@@ -250,10 +412,27 @@ fn measure(
     label: &str,
     estimator: &str,
     exposure: f32,
+    exact: Option<&[PixelOut]>,
 ) -> Result<DirectEntry> {
     let name = format!("{label}/{estimator}");
-    let (px, elapsed_ms, exr, png) =
-        render_one(setup, params, lights, &stem(label, estimator), exposure)?;
+    let (px, elapsed_ms, exr, png) = render_one(
+        setup,
+        resident,
+        params,
+        lights,
+        &stem(label, estimator),
+        exposure,
+    )?;
+    let paired: Option<(f64, f64)> = exact.map(|ex| {
+        let n = px.len() as f64;
+        let d = px
+            .iter()
+            .zip(ex)
+            .map(|(a, b)| a.t_mean as f64 - b.t_mean as f64);
+        let mean = d.clone().sum::<f64>() / n;
+        let rms = (d.map(|x| x * x).sum::<f64>() / n).sqrt();
+        (rms, mean)
+    });
     let m = moments(&px);
     let n = m.len() as f64;
     let pairs = m.iter().zip(ref_m);
@@ -277,6 +456,9 @@ fn measure(
         lookups_per_ray: px.iter().map(|p| p.samples as f64).sum::<f64>() / (n * params.spp as f64),
         flags: crate::diagnostics::RayFlags::of(&px, params.spp),
         collision_cap: crate::render::collision_cap(params),
+        shadow_map: None,
+        paired_rms: paired.map(|p| p.0),
+        paired_mean: paired.map(|p| p.1),
         exr,
         png,
     };
@@ -291,6 +473,12 @@ fn measure(
         entry.lookups_per_ray,
         entry.elapsed_ms
     );
+    if let Some((rms, mean)) = paired {
+        println!(
+            "{:<24} paired with exact shadows: RMS {rms:.5}  mean {mean:+.5}",
+            ""
+        );
+    }
     entry.flags.warn(params);
     Ok(entry)
 }

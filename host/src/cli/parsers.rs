@@ -101,7 +101,8 @@ value_enum! {
 pub fn parse_msm_filter(s: &str) -> Result<(MsmFilter, u32), String> {
     let usage = || {
         format!(
-            "expected none, box:R or gauss:R with a radius R of 1 to {MAX_FILTER_RADIUS} texels,              got {s:?}"
+            "expected none, box:R or gauss:R with a radius R of 1 to {MAX_FILTER_RADIUS} texels, \
+              got {s:?}"
         )
     };
     if s == "none" {

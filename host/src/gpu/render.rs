@@ -77,7 +77,8 @@ impl RenderBackend for GpuVolume<'_> {
         let raw_bytes = u64::from(texels) * (RAW_PER_TEXEL * 4) as u64;
         anyhow::ensure!(
             raw_bytes <= gpu.max_buffer_bytes(),
-            "a {}x{} moment shadow map needs a {raw_bytes}-byte storage buffer, more than this              GPU's maxStorageBufferRange of {} bytes; use a smaller --msm-res",
+            "a {}x{} moment shadow map needs a {raw_bytes}-byte storage buffer, more than this \
+              GPU's maxStorageBufferRange of {} bytes; use a smaller --msm-res",
             m.width,
             m.height,
             gpu.max_buffer_bytes()

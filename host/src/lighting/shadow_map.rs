@@ -20,7 +20,7 @@ pub const MIN_RESOLUTION: u32 = 8;
 pub const MAX_RESOLUTION: u32 = 2048;
 
 /// Which shadow-map family `--shadows` asked for.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ShadowKind {
     /// Shadow rays through `--estimator`.
@@ -32,7 +32,7 @@ pub enum ShadowKind {
 }
 
 /// How the moments are stored (`--msm-storage`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum MsmStorage {
     /// 16-bit unorm after the quantization transform Theta_4* (four moments only).
@@ -179,7 +179,7 @@ pub struct ShadowSummary {
 }
 
 /// The built map.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct MapSummary {
     pub storage: MsmStorage,
     pub resolution: u32,
