@@ -111,7 +111,7 @@ pub struct RenderOptions {
     pub env_rotate: f32,
     pub sun: Option<crate::lighting::SunSpec>,
     /// `direct`, `path`: shadow rays toward the sun or its moment shadow map.
-    pub shadows: crate::lighting::shadow_map::ShadowOptions,
+    pub shadows: crate::shadow_map::ShadowOptions,
     /// `path`: vertices before Russian roulette.
     pub rr_depth: u32,
     /// `path`: most vertices of a path.
@@ -397,7 +397,7 @@ pub struct IntegratorSettings {
     pub sun: Option<SunSettings>,
     /// `direct`, `path`: shadow rays toward the sun (`rays`) or its moment shadow map.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub shadows: Option<crate::lighting::shadow_map::ShadowSummary>,
+    pub shadows: Option<crate::shadow_map::ShadowSummary>,
     /// `direct`: probability of sampling the sun, the map and the point lights.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub light_pmf: Option<[f32; 3]>,
@@ -519,7 +519,7 @@ pub fn check_render_flags(args: &RenderOptions) -> Result<()> {
              --integrator mis-jackknife) or drop {flag}"
         );
     }
-    if args.shadows.kind == crate::lighting::shadow_map::ShadowKind::Rays {
+    if args.shadows.kind == crate::shadow_map::ShadowKind::Rays {
         if let Some((_, flag)) = MSM_ONLY.iter().find(|(id, _)| given(id)) {
             bail!("{flag} only applies to --shadows msm4 or msm6; add one or drop {flag}");
         }
@@ -636,7 +636,7 @@ fn direct_settings(
     args: &RenderOptions,
     lights: &crate::lighting::SceneLights,
     collision_cap: u32,
-    shadows: crate::lighting::shadow_map::ShadowSummary,
+    shadows: crate::shadow_map::ShadowSummary,
 ) -> IntegratorSettings {
     let l = &lights.lighting;
     let env = match &args.env {
@@ -739,7 +739,7 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
     let resident = crate::render::Resident::new(&backend, packed)?;
     let mut scene_lights = scene_lights;
     let shadows = if direct {
-        let s = crate::lighting::shadow_map::build_into(
+        let s = crate::shadow_map::build_into(
             &resident,
             &params,
             &mut scene_lights,
@@ -749,7 +749,7 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         if let (Some(m), false) = (&s.map, args.quiet) {
             tracing::info!(
                 "moment shadow map of the sun ({}, {}x{} texels, {:?}, {} bytes) built in {:.1} ms",
-                crate::lighting::shadow_map::name(s.shadows),
+                crate::shadow_map::name(s.shadows),
                 m.resolution,
                 m.resolution,
                 m.storage,

@@ -18,10 +18,10 @@
 
 use crate::estimators::EstimatorSpec;
 use crate::eval::{EvalHeader, EvalSetup};
-use crate::lighting::shadow_map::{self, MapSummary, ShadowKind, ShadowOptions};
 use crate::lighting::SceneLights;
 use crate::output::{write_exr_rgb, write_png_rgb_exposed};
 use crate::render::Resident;
+use crate::shadow_map::{self, MapSummary, ShadowKind, ShadowOptions};
 use anyhow::{Context, Result};
 use shared::kernels::render::PixelOut;
 use shared::params::Integrator;

@@ -25,4 +25,5 @@ pub mod output;
 pub mod render;
 pub mod report;
 pub mod schedule;
+pub mod shadow_map;
 pub mod study;

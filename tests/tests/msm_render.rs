@@ -3,9 +3,9 @@
 //! the map's transmittance against an exact reference on a homogeneous slab.
 
 use host::bricks::{pack, PackedVolume};
-use host::lighting::shadow_map::{build_into, MsmStorage, ShadowKind, ShadowOptions};
 use host::lighting::{build, EnvSource, LightingOptions, SceneLights, SunSpec};
 use host::render::{occupied_world_bounds, render_resident_lit, Resident};
+use host::shadow_map::{build_into, MsmStorage, ShadowKind, ShadowOptions};
 use host::volume::DenseVolume;
 use host::Backend;
 use integration_tests::{assert_bytes_equal, camera_params, gpu, lumpy_blobs};

@@ -3,8 +3,8 @@
 
 use crate::backend::BackendChoice;
 use crate::bench::BenchBackend;
-use crate::lighting::shadow_map::{MsmStorage, ShadowKind};
 use crate::render::UpAxis;
+use crate::shadow_map::{MsmStorage, ShadowKind};
 use crate::study::distributions::Distribution;
 use crate::study::profile::Sampling;
 use shared::params::TransmittanceHat;

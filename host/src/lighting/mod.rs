@@ -3,7 +3,6 @@
 //! RGB albedo, and the pmf over the three kinds of light.
 
 pub mod env;
-pub mod shadow_map;
 pub mod sky;
 
 use anyhow::{ensure, Result};

@@ -2,7 +2,7 @@
 //! orthographic frame over the volume, its build on a backend (both passes of
 //! `shared::kernels::shadow_map`), and what the JSON summary reports about it.
 
-use super::SceneLights;
+use crate::lighting::SceneLights;
 use crate::render::Resident;
 use anyhow::{ensure, Result};
 use shared::geometry::V3;
