@@ -174,9 +174,9 @@ fn images_larger_than_a_gpu_buffer_are_tiled_with_identical_results() {
     let args = ["--backend", "gpu", "--seed", "4", "--resolution", "8"];
     let out = render(whole.path(), &args, &[]);
     assert!(out.status.success(), "{}", text(&out));
-    // 2048 bytes hold 64 pixels' sums (32 B each), so the 693-pixel image takes 11 tiles; the
+    // 2304 bytes hold 64 pixels' sums (36 B each), so the 693-pixel image takes 11 tiles; the
     // 8^3 volume's f16 voxels (1 KiB) still fit.
-    let out = render(tiled.path(), &args, &[("JK_GPU_MAX_BUFFER_BYTES", "2048")]);
+    let out = render(tiled.path(), &args, &[("JK_GPU_MAX_BUFFER_BYTES", "2304")]);
     assert!(out.status.success(), "{}", text(&out));
     let read = |d: &tempfile::TempDir| std::fs::read(d.path().join("r.exr")).unwrap();
     assert!(read(&whole) == read(&tiled), "tiled GPU image differs");
