@@ -98,9 +98,7 @@ mod tests {
             let p = pack(&vol, scale, 4, Lookup::Nearest).unwrap();
             assert_eq!(p.desc.density_scale, scale);
             let want = [0.0f32, 0.25, 1.0, 3.5, 60000.0].map(|v| f16::from_f32(v).to_bits());
-            let got: Vec<u16> = (0..5)
-                .map(|i| (p.voxels[i / 2] >> (16 * (i % 2))) as u16)
-                .collect();
+            let got: Vec<u16> = (0..5).map(|i| p.stored_f16(i, 0, 0)).collect();
             assert_eq!(got, want, "scale {scale}");
             assert_eq!(p.underflow.count, 0);
         }

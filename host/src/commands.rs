@@ -365,6 +365,12 @@ pub struct RenderSummary {
     pub integrator: Option<IntegratorSettings>,
     /// Nonzero densities that became 0 as scaled f16 values (see the warning).
     pub underflowed_voxels: u64,
+    /// Bricks of the grid, those holding a nonzero voxel, and the bytes of the voxel pool (the
+    /// f16 voxels of the occupied bricks only) and of the brick table.
+    pub bricks: usize,
+    pub occupied_bricks: usize,
+    pub pool_bytes: u64,
+    pub brick_table_bytes: u64,
     /// The host version and the command line, to reproduce the image.
     pub host_version: String,
     pub command_line: Vec<String>,
@@ -693,12 +699,14 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
     };
     if !args.quiet {
         tracing::info!(
-            "volume {volume_label} {}x{}x{} (density scale {density_scale}, {} bricks of {}^3), prepared in {load_ms:.0} ms",
+            "volume {volume_label} {}x{}x{} (density scale {density_scale}, {} bricks of {}^3, {} occupied: {:.1} MiB of voxels), prepared in {load_ms:.0} ms",
             vol.dims[0],
             vol.dims[1],
             vol.dims[2],
             packed.bricks.len(),
-            args.scene.brick_size
+            args.scene.brick_size,
+            packed.occupied_bricks(),
+            std::mem::size_of_val(packed.voxels.as_slice()) as f64 / (1 << 20) as f64
         );
         tracing::info!("backend: {} ({})", backend.kind(), backend.device());
     }
@@ -849,6 +857,10 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
             None => None,
         },
         underflowed_voxels: packed.underflow.count,
+        bricks: packed.bricks.len(),
+        occupied_bricks: packed.occupied_bricks(),
+        pool_bytes: std::mem::size_of_val(packed.voxels.as_slice()) as u64,
+        brick_table_bytes: std::mem::size_of_val(packed.bricks.as_slice()) as u64,
         host_version: env!("CARGO_PKG_VERSION").into(),
         command_line: std::env::args().collect(),
     };

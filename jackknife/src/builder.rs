@@ -1,8 +1,9 @@
-//! The brick grid the estimators traverse: f16 voxels and per-brick statistics (min, max, mean
-//! and the variance-aware importance P of Eq. 5), built from a user's dense or sparse densities.
+//! The brick grid the estimators traverse: per-brick statistics (min, max, mean and the
+//! variance-aware importance P of Eq. 5) over the whole grid, and a pool of the f16 voxels of
+//! the bricks that hold a nonzero voxel, built from a user's dense or sparse densities.
 
 use half::f16;
-use shared::volume::grid::{Brick, GridDesc, Lookup, VolumeView};
+use shared::volume::grid::{Brick, GridDesc, Lookup, VolumeView, EMPTY_BRICK};
 
 /// Default brick (super-voxel) size B in voxels per axis, as in the paper.
 pub const DEFAULT_BRICK_SIZE: u32 = 16;
@@ -81,9 +82,10 @@ pub struct Underflow {
 pub struct Grid {
     /// Shape, brick shape, lookup mode and the scale applied to the f16 voxels.
     pub desc: GridDesc,
-    /// f16 voxel bits, two per word, x fastest (padded to whole words).
+    /// The pool: f16 voxel bits of the non-empty bricks, two per word; per brick its voxels x
+    /// fastest over its extent clipped to the grid, bricks in order (padded to a whole word).
     pub voxels: Vec<u32>,
-    /// Statistics of every brick, x fastest.
+    /// Statistics and pool slot of every brick, x fastest.
     pub bricks: Vec<Brick>,
     /// Nonzero densities lost to underflow.
     pub underflow: Underflow,
@@ -97,6 +99,28 @@ impl Grid {
             voxels: &self.voxels,
             bricks: &self.bricks,
         }
+    }
+
+    /// The stored f16 bits of voxel (i, j, k) (0 in an empty brick); the extinction is
+    /// `desc.density_scale` times their value.
+    pub fn stored_f16(&self, i: u32, j: u32, k: u32) -> u16 {
+        let b = self.desc.brick_size;
+        let bd = self.desc.brick_dims;
+        let (bi, bj, bk) = (i / b, j / b, k / b);
+        let slot = self.bricks[(bi + bd[0] * (bj + bd[1] * bk)) as usize].slot;
+        if slot == EMPTY_BRICK {
+            return 0;
+        }
+        let view = self.view();
+        let (w, h) = (view.brick_extent(0, bi), view.brick_extent(1, bj));
+        let local = (i - bi * b) + w * ((j - bj * b) + h * (k - bk * b));
+        let index = slot as usize + local as usize;
+        (self.voxels[index / 2] >> (16 * (index % 2))) as u16
+    }
+
+    /// Bricks that hold a nonzero voxel (the pool holds their voxels only).
+    pub fn occupied_bricks(&self) -> usize {
+        self.bricks.iter().filter(|b| b.slot != EMPTY_BRICK).count()
     }
 
     /// The part [t0, t1] of an index-space ray inside the grid's box (t0 >= t1: a miss).
@@ -216,18 +240,12 @@ impl<'a> GridBuilder<'a> {
         self.check_optical_depth(max_i, max)?;
         let k = Self::f16_exponent(max, min_positive);
         let stored_scale = (scale as f64 * pow2(-k)) as f32;
-        let (mut halves, underflow) = self.to_f16(count, k, stored_scale);
-        if !halves.len().is_multiple_of(2) {
-            halves.push(0);
-        }
-        let voxels: Vec<u32> = halves
-            .as_chunks::<2>()
-            .0
-            .iter()
-            .map(|&[lo, hi]| lo as u32 | (hi as u32) << 16)
-            .collect();
+        let (halves, underflow) = self.to_f16(count, k, stored_scale);
         let b = self.brick_size;
         let brick_dims = [0, 1, 2].map(|a| dims[a].div_ceil(b));
+        let n_bricks = brick_dims.iter().map(|&d| d as usize).product::<usize>();
+        let (slots, voxels) = pool(&halves, dims, brick_dims, b)?;
+        drop(halves);
         let desc = GridDesc {
             dims: [dims[0], dims[1], dims[2], 0],
             brick_dims: [brick_dims[0], brick_dims[1], brick_dims[2], 0],
@@ -236,16 +254,25 @@ impl<'a> GridBuilder<'a> {
             density_scale: stored_scale,
             _pad: 0,
         };
+        let slots_only: Vec<Brick> = slots
+            .iter()
+            .map(|&slot| Brick {
+                slot,
+                ..Brick::default()
+            })
+            .collect();
         let view = VolumeView {
             desc: &desc,
             voxels: &voxels,
-            bricks: &[],
+            bricks: &slots_only,
         };
-        let n_bricks = brick_dims.iter().map(|&d| d as usize).product::<usize>();
         use rayon::prelude::*;
         let bricks: Vec<Brick> = (0..n_bricks)
             .into_par_iter()
-            .map(|i| brick_stats(&view, unflatten(i, brick_dims), b))
+            .map(|i| Brick {
+                slot: slots[i],
+                ..brick_stats(&view, unflatten(i, brick_dims), b)
+            })
             .collect();
         Ok(Grid {
             desc,
@@ -404,5 +431,82 @@ fn brick_stats(view: &VolumeView, b: [u32; 3], size: u32) -> Brick {
         mu_max: mx,
         mean: round_up(mean),
         p: round_up(p),
+        slot: EMPTY_BRICK,
     }
+}
+
+/// The pool of the grid's f16 voxels `halves` (x fastest): the voxels of each brick that holds
+/// a nonzero voxel are appended (x fastest over the brick's extent clipped to the grid) and its
+/// slot is the pool index of its first voxel; all-zero bricks get [`EMPTY_BRICK`] and store
+/// nothing. The pool never exceeds the dense grid. Returns the slots and the pool packed two
+/// halves per word.
+fn pool(
+    halves: &[u16],
+    dims: [u32; 3],
+    brick_dims: [u32; 3],
+    b: u32,
+) -> Result<(Vec<u32>, Vec<u32>), BuildError> {
+    use rayon::prelude::*;
+    let n_bricks = brick_dims.iter().map(|&d| d as usize).product::<usize>();
+    let at = |x: u32, y: u32, z: u32| {
+        halves[x as usize + dims[0] as usize * (y as usize + dims[1] as usize * z as usize)]
+    };
+    // The voxel range of brick i, clamped to the grid.
+    let range = |i: usize| {
+        let c = unflatten(i, brick_dims);
+        let lo = [0, 1, 2].map(|a| c[a] * b);
+        let hi = [0, 1, 2].map(|a| ((c[a] + 1) * b).min(dims[a]));
+        (lo, hi)
+    };
+    let occupied: Vec<bool> = (0..n_bricks)
+        .into_par_iter()
+        .map(|i| {
+            let (lo, hi) = range(i);
+            (lo[2]..hi[2]).any(|z| (lo[1]..hi[1]).any(|y| (lo[0]..hi[0]).any(|x| at(x, y, z) != 0)))
+        })
+        .collect();
+    // Slots: running sums of the occupied bricks' voxel counts (at most the dense count, which
+    // fits u32).
+    let mut slots = vec![EMPTY_BRICK; n_bricks];
+    let mut filled = Vec::new();
+    let mut total = 0usize;
+    for (i, _) in occupied.iter().enumerate().filter(|(_, o)| **o) {
+        let (lo, hi) = range(i);
+        let len = (0..3).map(|a| (hi[a] - lo[a]) as usize).product::<usize>();
+        slots[i] = total as u32;
+        filled.push((i, len));
+        total += len;
+    }
+    let mut pool = vec![0u16; total + total % 2];
+    // Split the pool into the bricks' runs, then fill them in parallel.
+    let mut runs = Vec::with_capacity(filled.len());
+    let mut rest = &mut pool[..total];
+    for &(i, len) in &filled {
+        let (run, tail) = rest.split_at_mut(len);
+        runs.push((i, run));
+        rest = tail;
+    }
+    runs.into_par_iter().for_each(|(i, dst)| {
+        let (lo, hi) = range(i);
+        let (w, h) = (hi[0] - lo[0], hi[1] - lo[1]);
+        for z in lo[2]..hi[2] {
+            for y in lo[1]..hi[1] {
+                for x in lo[0]..hi[0] {
+                    let local = (x - lo[0]) + w * ((y - lo[1]) + h * (z - lo[2]));
+                    dst[local as usize] = at(x, y, z);
+                }
+            }
+        }
+    });
+    let mut words: Vec<u32> = pool
+        .as_chunks::<2>()
+        .0
+        .iter()
+        .map(|&[lo, hi]| lo as u32 | (hi as u32) << 16)
+        .collect();
+    if words.is_empty() {
+        // An all-zero grid: GPU buffers may not be empty.
+        words.push(0);
+    }
+    Ok((slots, words))
 }

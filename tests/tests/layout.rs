@@ -31,7 +31,7 @@ fn shared_struct_layouts() {
     assert_eq!(align_of::<Pcg32>(), 8);
     assert_eq!(size_of::<Complex>(), 8);
     assert_eq!(size_of::<GridDesc>(), 48);
-    assert_eq!(size_of::<Brick>(), 16);
+    assert_eq!(size_of::<Brick>(), 20);
     assert_eq!(size_of::<RenderParams>(), 200);
     assert_eq!(size_of::<RenderPass>(), 32);
     assert_eq!(size_of::<PixelSums>(), 36);

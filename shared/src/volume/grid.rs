@@ -1,4 +1,7 @@
-//! Views of the high-resolution volume (f16 voxels) and of its super-voxel ("brick") grid.
+//! Views of the high-resolution volume and of its super-voxel ("brick") grid: a brick table
+//! over the whole grid (statistics, and where each brick's voxels are) and a pool holding the
+//! f16 voxels of the non-empty bricks only, so memory grows with the occupied bricks, not with
+//! the bounding box.
 
 use crate::geometry::V3;
 use crate::half::packed_f16;
@@ -56,13 +59,21 @@ pub struct Brick {
     pub mean: f32,
     /// Variance-aware importance P (Eq. 5), >= 0.01 mu_min; rounded up.
     pub p: f32,
+    /// Index in the pool of the brick's first voxel (its voxels follow x fastest, over the
+    /// brick's extent clipped to the grid), or [`EMPTY_BRICK`] if every voxel of the brick is 0
+    /// (then none is stored).
+    pub slot: u32,
 }
+
+/// [`Brick::slot`] of a brick whose voxels are all 0.
+pub const EMPTY_BRICK: u32 = u32::MAX;
 
 /// The high-resolution volume and its bricks, borrowed from kernel buffers or host vectors.
 #[derive(Clone, Copy)]
 pub struct VolumeView<'a> {
     pub desc: &'a GridDesc,
-    /// f16 voxels packed two per u32, x fastest.
+    /// The pool: f16 voxels of the non-empty bricks, two per u32; each brick's voxels x fastest
+    /// over its extent clipped to the grid, bricks in order.
     pub voxels: &'a [u32],
     /// Bricks, x fastest.
     pub bricks: &'a [Brick],
@@ -82,12 +93,31 @@ fn floor_index(v: f32, n: u32) -> u32 {
 }
 
 impl VolumeView<'_> {
-    /// Extinction of voxel (i, j, k), density scale applied.
+    /// Extinction of voxel (i, j, k), density scale applied: 0 in an empty brick, else its
+    /// f16 value in the pool.
     #[inline]
     pub fn voxel(&self, i: u32, j: u32, k: u32) -> f32 {
-        let d = &self.desc.dims;
-        let index = i as usize + d[0] as usize * (j as usize + d[1] as usize * k as usize);
-        self.desc.density_scale * packed_f16(self.voxels, index)
+        let b = self.desc.brick_size;
+        let (bi, bj, bk) = (i / b, j / b, k / b);
+        let slot = self.brick([bi, bj, bk]).slot;
+        if slot == EMPTY_BRICK {
+            return 0.0;
+        }
+        let (w, h) = (self.brick_extent(0, bi), self.brick_extent(1, bj));
+        let local = (i - bi * b) + w * ((j - bj * b) + h * (k - bk * b));
+        self.desc.density_scale * packed_f16(self.voxels, slot as usize + local as usize)
+    }
+
+    /// Voxels of brick `c` along `axis` inside the grid: B, or fewer in the last brick.
+    #[inline]
+    pub fn brick_extent(&self, axis: usize, c: u32) -> u32 {
+        let b = self.desc.brick_size;
+        let rest = self.desc.dims[axis] - c * b;
+        if rest < b {
+            rest
+        } else {
+            b
+        }
     }
 
     /// mu at index-space point p, nearest voxel, clamped to the grid's edge.

@@ -1,0 +1,136 @@
+//! The brick pool: only bricks holding a nonzero voxel are stored (their voxels over the brick's
+//! extent clipped to the grid), every voxel reads back as the dense grid's f16 value, and sparse
+//! volumes render bit-identically on the GPU and the CPU.
+
+use host::bricks::pack;
+use host::volume::{Affine, DenseVolume};
+use host::Backend;
+use integration_tests::{assert_bytes_equal, camera_params, gpu, volume};
+use shared::params::{Estimator, Integrator, RenderParams};
+use shared::rng::{pcg_hash, unit_f32};
+use shared::volume::grid::{Lookup, EMPTY_BRICK};
+
+/// A 37 x 20 x 9 grid (no side a multiple of the brick size 8) where only some 4^3 cells hold
+/// density.
+fn patchy() -> DenseVolume {
+    volume(
+        "patchy",
+        [37, 20, 9],
+        Affine::scale_translate([0.05; 3], [-0.9, -0.5, -0.2]),
+        |x, y, z| {
+            let cell = pcg_hash(x / 4 + 31 * (y / 4) + 977 * (z / 4));
+            if cell.is_multiple_of(5) {
+                0.5 + 3.0 * unit_f32(pcg_hash(x + 37 * (y + 20 * z)))
+            } else {
+                0.0
+            }
+        },
+    )
+}
+
+#[test]
+fn pool_holds_the_occupied_bricks_only_and_reads_back_every_voxel() {
+    let vol = patchy();
+    let b = 8;
+    let p = pack(&vol, 1.5, b, Lookup::Nearest).unwrap();
+    let view = p.view();
+    let [dx, dy, dz] = vol.dims;
+    let mut occupied_voxels = 0usize;
+    let mut occupied = 0usize;
+    for bz in 0..dz.div_ceil(b) {
+        for by in 0..dy.div_ceil(b) {
+            for bx in 0..dx.div_ceil(b) {
+                let (lo, hi) = (
+                    [bx * b, by * b, bz * b],
+                    [
+                        (bx * b + b).min(dx),
+                        (by * b + b).min(dy),
+                        (bz * b + b).min(dz),
+                    ],
+                );
+                let any = (lo[2]..hi[2])
+                    .any(|z| (lo[1]..hi[1]).any(|y| (lo[0]..hi[0]).any(|x| vol.at(x, y, z) > 0.0)));
+                let brick = view.brick([bx, by, bz]);
+                assert_eq!(brick.slot != EMPTY_BRICK, any, "brick {bx} {by} {bz}");
+                if any {
+                    occupied += 1;
+                    occupied_voxels += (0..3).map(|a| (hi[a] - lo[a]) as usize).product::<usize>();
+                }
+            }
+        }
+    }
+    assert!(
+        occupied > 0 && occupied < p.bricks.len(),
+        "{occupied} of {}",
+        p.bricks.len()
+    );
+    assert_eq!(p.occupied_bricks(), occupied);
+    assert_eq!(p.voxels.len(), occupied_voxels.div_ceil(2));
+    for z in 0..dz {
+        for y in 0..dy {
+            for x in 0..dx {
+                let v = vol.at(x, y, z);
+                let want = p.desc.density_scale * half::f16::from_f32(v).to_f32();
+                assert_eq!(
+                    view.voxel(x, y, z).to_bits(),
+                    want.to_bits(),
+                    "({x}, {y}, {z})"
+                );
+                assert_eq!(p.stored_f16(x, y, z), half::f16::from_f32(v).to_bits());
+            }
+        }
+    }
+}
+
+/// Two dense slabs at the ends of a 300-voxel-long grid: two of its 38 bricks stored (one of
+/// them a partial brick at the edge), and transmittance and `direct` images are bit-identical
+/// on the GPU and the CPU.
+#[test]
+fn a_sparse_volume_renders_identically_on_gpu_and_cpu() {
+    let vol = volume(
+        "two voxels",
+        [300, 6, 6],
+        Affine::scale_translate([0.01; 3], [-1.5, -0.03, -0.03]),
+        |x, _, _| if !(4..296).contains(&x) { 40.0 } else { 0.0 },
+    );
+    let p = pack(&vol, 1.0, 8, Lookup::Stochastic).unwrap();
+    assert_eq!(p.occupied_bricks(), 2);
+    // Brick 0 (8 x 6 x 6 voxels) and the last brick (296..300: 4 x 6 x 6).
+    assert_eq!(p.voxels.len(), (8 + 4) * 6 * 6 / 2);
+    let gpu = Backend::Gpu(Box::new(gpu()));
+    for integrator in [None, Some(Integrator::Direct)] {
+        let params = RenderParams {
+            spp: 4,
+            seed: 9,
+            n: 10,
+            estimator: Estimator::Jackknife as u32,
+            rm_scale: 1.0,
+            f_delta: 0.6,
+            pixel_jitter: 1,
+            integrator: integrator.map_or(0, |i| i as u32),
+            ..camera_params(&vol, 96, 12)
+        };
+        let lights = host::lighting::SceneLights {
+            lighting: shared::sampling::lighting::Lighting {
+                sun: shared::sampling::sun::Sun {
+                    dir: shared::geometry::V3::new(0.0, 1.0, 0.0),
+                    one_minus_cos: 0.0,
+                    radiance: shared::rgb::Rgb::splat(1.0),
+                    present: 1,
+                },
+                albedo: shared::rgb::Rgb::splat(0.8),
+                p_sun: 1.0,
+                ..Default::default()
+            },
+            ..host::lighting::SceneLights::points_only(&[])
+        };
+        let c = host::render::render_lit(&Backend::Cpu, &p, &params, &lights, false).unwrap();
+        let g = host::render::render_lit(&gpu, &p, &params, &lights, false).unwrap();
+        let ids: Vec<u32> = (0..c.len() as u32).collect();
+        assert_bytes_equal(&format!("{integrator:?}"), &ids, &g, &c);
+        assert!(
+            c.iter().any(|px| px.t_mean < 0.999),
+            "{integrator:?}: nothing hit"
+        );
+    }
+}
