@@ -83,7 +83,7 @@ pub struct Grid {
     /// Shape, brick shape, lookup mode and the scale applied to the f16 voxels.
     pub desc: GridDesc,
     /// The pool: f16 voxel bits of the non-empty bricks, two per word; per brick its voxels x
-    /// fastest over its extent clipped to the grid, bricks in order (padded to a whole word).
+    /// fastest over its extent clipped to the grid, each brick padded to a whole word.
     pub voxels: Vec<u32>,
     /// Statistics and pool slot of every brick, x fastest.
     pub bricks: Vec<Brick>,
@@ -240,12 +240,10 @@ impl<'a> GridBuilder<'a> {
         self.check_optical_depth(max_i, max)?;
         let k = Self::f16_exponent(max, min_positive);
         let stored_scale = (scale as f64 * pow2(-k)) as f32;
-        let (halves, underflow) = self.to_f16(count, k, stored_scale);
         let b = self.brick_size;
         let brick_dims = [0, 1, 2].map(|a| dims[a].div_ceil(b));
         let n_bricks = brick_dims.iter().map(|&d| d as usize).product::<usize>();
-        let (slots, voxels) = pool(&halves, dims, brick_dims, b)?;
-        drop(halves);
+        let (slots, voxels, underflow) = self.pool(brick_dims, k, stored_scale);
         let desc = GridDesc {
             dims: [dims[0], dims[1], dims[2], 0],
             brick_dims: [brick_dims[0], brick_dims[1], brick_dims[2], 0],
@@ -349,28 +347,110 @@ impl<'a> GridBuilder<'a> {
         k
     }
 
-    /// Every voxel's density x 2^k as f16 bits, and the nonzero densities whose extinction
-    /// (`stored_scale` x f16) is 0.
-    fn to_f16(&self, count: usize, k: i32, stored_scale: f32) -> (Vec<u16>, Underflow) {
-        let mut halves = Vec::with_capacity(count + 1);
-        let mut underflow = Underflow::default();
+    /// Density v x 2^k as f16 bits.
+    #[inline]
+    fn quantized(v: f32, prescale: f64) -> u16 {
+        f16::from_f32((v as f64 * prescale) as f32).to_bits()
+    }
+
+    /// The brick table's slots, the pool and the underflow count, without a dense copy of the
+    /// grid: a first pass over each brick (in parallel) quantizes its voxels (density x 2^k as
+    /// f16), finds whether any is nonzero and counts the nonzero densities whose extinction
+    /// (`stored_scale` x f16) is 0; the occupied bricks get consecutive runs of the pool (slot =
+    /// the pool index of the brick's first voxel; voxels x fastest over the brick's extent
+    /// clipped to the grid, padded to a whole word, so the pool exceeds the dense grid by at
+    /// most one voxel per brick), which a second pass writes as packed words; all-zero bricks get [`EMPTY_BRICK`] and store nothing.
+    fn pool(
+        &self,
+        brick_dims: [u32; 3],
+        k: i32,
+        stored_scale: f32,
+    ) -> (Vec<u32>, Vec<u32>, Underflow) {
+        use rayon::prelude::*;
+        let (dims, b) = (self.dims, self.brick_size);
         let prescale = pow2(k);
-        for i in 0..count {
-            let v = self.value(i);
-            let h = f16::from_f32((v as f64 * prescale) as f32);
-            // A scale of 0 empties the volume on purpose: nothing to report.
-            if v > 0.0 && self.density_scale > 0.0 {
-                underflow.nonzero += 1;
-                if stored_scale * h.to_f32() == 0.0 {
-                    underflow.count += 1;
-                    if underflow.first.is_none() {
-                        underflow.first = Some((unflatten(i, self.dims), v));
+        let n_bricks = brick_dims.iter().map(|&d| d as usize).product::<usize>();
+        let flat = |x: u32, y: u32, z: u32| {
+            x as usize + dims[0] as usize * (y as usize + dims[1] as usize * z as usize)
+        };
+        // The voxel range of brick i, clamped to the grid.
+        let range = |i: usize| {
+            let c = unflatten(i, brick_dims);
+            let lo = [0, 1, 2].map(|a| c[a] * b);
+            let hi = [0, 1, 2].map(|a| ((c[a] + 1) * b).min(dims[a]));
+            (lo, hi)
+        };
+        let voxels_of = |i: usize| {
+            let (lo, hi) = range(i);
+            (lo[2]..hi[2]).flat_map(move |z| {
+                (lo[1]..hi[1]).flat_map(move |y| (lo[0]..hi[0]).map(move |x| flat(x, y, z)))
+            })
+        };
+        // Pass 1: occupancy, voxel count and underflow of each brick (the first underflow as
+        // the smallest flat index, so the report does not depend on the thread count).
+        let scan: Vec<(bool, usize, u64, u64, Option<usize>)> = (0..n_bricks)
+            .into_par_iter()
+            .map(|i| {
+                let (mut any, mut len, mut nonzero, mut lost) = (false, 0usize, 0u64, 0u64);
+                let mut first = None;
+                for at in voxels_of(i) {
+                    let v = self.value(at);
+                    let h = Self::quantized(v, prescale);
+                    any |= h != 0;
+                    len += 1;
+                    // A scale of 0 empties the volume on purpose: nothing to report.
+                    if v > 0.0 && self.density_scale > 0.0 {
+                        nonzero += 1;
+                        if stored_scale * f16::from_bits(h).to_f32() == 0.0 {
+                            lost += 1;
+                            first = Some(first.map_or(at, |f: usize| f.min(at)));
+                        }
                     }
                 }
+                (any, len, nonzero, lost, first)
+            })
+            .collect();
+        let mut underflow = Underflow::default();
+        let mut first: Option<usize> = None;
+        let mut slots = vec![EMPTY_BRICK; n_bricks];
+        let mut runs = Vec::new();
+        let mut total = 0usize;
+        for (i, &(any, len, nonzero, lost, f)) in scan.iter().enumerate() {
+            underflow.nonzero += nonzero;
+            underflow.count += lost;
+            if let Some(f) = f {
+                first = Some(first.map_or(f, |g| g.min(f)));
             }
-            halves.push(h.to_bits());
+            if any {
+                // Runs start on whole words (at most one padding voxel per brick); the pool stays
+                // within the dense count plus one per brick, which fits u32.
+                slots[i] = total as u32;
+                runs.push((i, len));
+                total += len + len % 2;
+            }
         }
-        (halves, underflow)
+        underflow.first = first.map(|f| (unflatten(f, dims), self.value(f)));
+        drop(scan);
+        // Pass 2: each occupied brick's run of the pool, written as packed words directly.
+        let mut words = vec![0u32; total / 2];
+        let mut parts = Vec::with_capacity(runs.len());
+        let mut rest = words.as_mut_slice();
+        for &(i, len) in &runs {
+            let (run, tail) = rest.split_at_mut(len.div_ceil(2));
+            parts.push((i, run));
+            rest = tail;
+        }
+        parts.into_par_iter().for_each(|(i, dst)| {
+            for (n, at) in voxels_of(i).enumerate() {
+                let h = Self::quantized(self.value(at), prescale) as u32;
+                dst[n / 2] |= h << (16 * (n % 2));
+            }
+        });
+        if words.is_empty() {
+            // An all-zero grid: GPU buffers may not be empty.
+            words.push(0);
+        }
+        (slots, words, underflow)
     }
 }
 
@@ -433,80 +513,4 @@ fn brick_stats(view: &VolumeView, b: [u32; 3], size: u32) -> Brick {
         p: round_up(p),
         slot: EMPTY_BRICK,
     }
-}
-
-/// The pool of the grid's f16 voxels `halves` (x fastest): the voxels of each brick that holds
-/// a nonzero voxel are appended (x fastest over the brick's extent clipped to the grid) and its
-/// slot is the pool index of its first voxel; all-zero bricks get [`EMPTY_BRICK`] and store
-/// nothing. The pool never exceeds the dense grid. Returns the slots and the pool packed two
-/// halves per word.
-fn pool(
-    halves: &[u16],
-    dims: [u32; 3],
-    brick_dims: [u32; 3],
-    b: u32,
-) -> Result<(Vec<u32>, Vec<u32>), BuildError> {
-    use rayon::prelude::*;
-    let n_bricks = brick_dims.iter().map(|&d| d as usize).product::<usize>();
-    let at = |x: u32, y: u32, z: u32| {
-        halves[x as usize + dims[0] as usize * (y as usize + dims[1] as usize * z as usize)]
-    };
-    // The voxel range of brick i, clamped to the grid.
-    let range = |i: usize| {
-        let c = unflatten(i, brick_dims);
-        let lo = [0, 1, 2].map(|a| c[a] * b);
-        let hi = [0, 1, 2].map(|a| ((c[a] + 1) * b).min(dims[a]));
-        (lo, hi)
-    };
-    let occupied: Vec<bool> = (0..n_bricks)
-        .into_par_iter()
-        .map(|i| {
-            let (lo, hi) = range(i);
-            (lo[2]..hi[2]).any(|z| (lo[1]..hi[1]).any(|y| (lo[0]..hi[0]).any(|x| at(x, y, z) != 0)))
-        })
-        .collect();
-    // Slots: running sums of the occupied bricks' voxel counts (at most the dense count, which
-    // fits u32).
-    let mut slots = vec![EMPTY_BRICK; n_bricks];
-    let mut filled = Vec::new();
-    let mut total = 0usize;
-    for (i, _) in occupied.iter().enumerate().filter(|(_, o)| **o) {
-        let (lo, hi) = range(i);
-        let len = (0..3).map(|a| (hi[a] - lo[a]) as usize).product::<usize>();
-        slots[i] = total as u32;
-        filled.push((i, len));
-        total += len;
-    }
-    let mut pool = vec![0u16; total + total % 2];
-    // Split the pool into the bricks' runs, then fill them in parallel.
-    let mut runs = Vec::with_capacity(filled.len());
-    let mut rest = &mut pool[..total];
-    for &(i, len) in &filled {
-        let (run, tail) = rest.split_at_mut(len);
-        runs.push((i, run));
-        rest = tail;
-    }
-    runs.into_par_iter().for_each(|(i, dst)| {
-        let (lo, hi) = range(i);
-        let (w, h) = (hi[0] - lo[0], hi[1] - lo[1]);
-        for z in lo[2]..hi[2] {
-            for y in lo[1]..hi[1] {
-                for x in lo[0]..hi[0] {
-                    let local = (x - lo[0]) + w * ((y - lo[1]) + h * (z - lo[2]));
-                    dst[local as usize] = at(x, y, z);
-                }
-            }
-        }
-    });
-    let mut words: Vec<u32> = pool
-        .as_chunks::<2>()
-        .0
-        .iter()
-        .map(|&[lo, hi]| lo as u32 | (hi as u32) << 16)
-        .collect();
-    if words.is_empty() {
-        // An all-zero grid: GPU buffers may not be empty.
-        words.push(0);
-    }
-    Ok((slots, words))
 }

@@ -24,8 +24,8 @@ use std::path::Path;
 pub const DEFAULT_GRID: &str = "density";
 
 /// Peak bytes per dense voxel from loading to rendering: the f32 dense grid (4) plus, while it
-/// is packed, the f16 values (2) and their packed words (2).
-pub const PEAK_BYTES_PER_VOXEL: u64 = 8;
+/// is packed, the pool of packed f16 voxels (at most 2, for a volume with every brick occupied).
+pub const PEAK_BYTES_PER_VOXEL: u64 = 6;
 
 /// Largest dense grid a loader builds (2^31 voxels, 8 GiB of f32).
 pub const MAX_DENSE_VOXELS: u64 = 1 << 31;
@@ -446,7 +446,7 @@ fn check_memory(dims: [u32; 3], available: Option<u64>) -> Result<()> {
         ensure!(
             bytes <= available,
             "its dense {}x{}x{} grid needs {:.1} GiB at its peak ({PEAK_BYTES_PER_VOXEL} bytes \
-             per voxel of the active bounding box: f32 values, then f16 packing), more than \
+             per voxel of the active bounding box: f32 values, then the f16 pool), more than \
              the {:.1} GiB of memory available; crop the volume to the region of interest or \
              resample it coarser",
             dims[0],
@@ -601,14 +601,14 @@ mod tests {
 
     #[test]
     fn memory_check_counts_the_peak_not_just_the_f32_grid() {
-        // 2^20 voxels: 4 MiB of f32 fit in 6 MiB, the 8 MiB peak does not.
+        // 2^20 voxels: 4 MiB of f32 fit in 5 MiB, the 6 MiB peak does not.
         let dims = [128, 128, 64];
-        let err = check_memory(dims, Some(6 << 20)).unwrap_err().to_string();
+        let err = check_memory(dims, Some(5 << 20)).unwrap_err().to_string();
         assert!(
-            err.contains("8 bytes per voxel") && err.contains("crop"),
+            err.contains("6 bytes per voxel") && err.contains("crop"),
             "{err}"
         );
-        assert!(check_memory(dims, Some(8 << 20)).is_ok());
+        assert!(check_memory(dims, Some(6 << 20)).is_ok());
         assert!(check_memory(dims, None).is_ok());
     }
 
