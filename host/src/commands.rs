@@ -744,6 +744,22 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         // A safeguard: lower the tracking loops' collision cap if one invocation would not fit.
         params = crate::render::fit_collision_cap(&params, &packed.desc);
     }
+    let per_ray = crate::render::loop_iterations_per_ray(&params, &packed.desc);
+    let backend = match backend {
+        Backend::Gpu(_)
+            if args.backend == BackendChoice::Auto && per_ray > crate::render::LOOP_BUDGET =>
+        {
+            tracing::warn!(
+                "one ray may need {per_ray} loop iterations through this {}x{}x{} grid, more than \
+                 a GPU invocation may run; falling back to the CPU backend",
+                vol.dims[0],
+                vol.dims[1],
+                vol.dims[2]
+            );
+            Backend::Cpu
+        }
+        b => b,
+    };
     let resident = crate::render::Resident::new(&backend, packed)?;
     let mut scene_lights = scene_lights;
     let shadows = if direct {

@@ -223,7 +223,7 @@ pub fn make_camera(
 pub const SPP_PER_PASS: u32 = 16;
 /// Loop iterations one invocation may run: lavapipe's gallivm ends a shader after 65535
 /// iterations summed over all its loops; the rest is margin for small fixed loops.
-const LOOP_BUDGET: u64 = 60_000;
+pub const LOOP_BUDGET: u64 = 60_000;
 
 /// Upper bound on the loop iterations one primary ray of this estimator can take.
 pub fn loop_iterations_per_ray(
@@ -323,14 +323,32 @@ pub fn fit_collision_cap(
     p
 }
 
-/// Samples per pixel per pass so that one invocation stays within the loop budget.
+/// Samples per pixel per pass so that one invocation stays within the loop budget (on the GPU;
+/// the CPU has none, and its passes only pace the progress bar: results do not depend on them).
 pub fn spp_per_pass(params: &RenderParams, desc: &shared::volume::grid::GridDesc) -> Result<u32> {
+    spp_per_pass_within(params, desc, Some(LOOP_BUDGET))
+}
+
+/// [`spp_per_pass`] for a backend whose invocations may run at most `budget` loop iterations
+/// (None: no limit, the CPU); a ray that may need more is refused with advice.
+pub fn spp_per_pass_within(
+    params: &RenderParams,
+    desc: &shared::volume::grid::GridDesc,
+    budget: Option<u64>,
+) -> Result<u32> {
     let per_ray = loop_iterations_per_ray(params, desc);
-    anyhow::ensure!(
-        per_ray <= LOOP_BUDGET,
-        "one ray of this estimator may need {per_ray} loop iterations, more than the {LOOP_BUDGET} a GPU invocation may run; lower --n or use a smaller volume"
-    );
-    Ok(((LOOP_BUDGET / per_ray) as u32).clamp(1, SPP_PER_PASS))
+    if let Some(budget) = budget {
+        anyhow::ensure!(
+            per_ray <= budget,
+            "one ray of this estimator may need {per_ray} loop iterations through this {}x{}x{} \
+             grid, more than the {budget} a GPU invocation may run (lavapipe ends longer loops \
+             silently); use --backend cpu, lower --n, or crop the volume's bounding box",
+            desc.dims[0],
+            desc.dims[1],
+            desc.dims[2]
+        );
+    }
+    Ok(((LOOP_BUDGET / per_ray.max(1)) as u32).clamp(1, SPP_PER_PASS))
 }
 
 /// Renders every pixel of `params` on `backend`. Pixels go in row-major order. The work runs in
@@ -436,7 +454,7 @@ pub fn render_resident_lit(
         .checked_mul(params.height)
         .context("image too large")?;
     anyhow::ensure!(params.spp > 0, "--spp must be at least 1");
-    let step = spp_per_pass(params, &vol.desc)?;
+    let step = spp_per_pass_within(params, &vol.desc, resident.backend.loop_budget())?;
     let passes: Vec<(u32, u32)> = (0..params.spp)
         .step_by(step as usize)
         .map(|s| (s, (s + step).min(params.spp)))

@@ -21,6 +21,11 @@ pub trait RenderBackend: Sync {
         bar: Option<&ProgressBar>,
     ) -> Result<Vec<PixelSums>>;
 
+    /// Most loop iterations one invocation may run (None: no limit).
+    fn loop_budget(&self) -> Option<u64> {
+        None
+    }
+
     /// The stored words of the sun's moment shadow map of `lighting` (its frame and mode), with
     /// the prefilter of `pass` (both passes of `shared::kernels::shadow_map` over every texel).
     fn build_shadow_map(

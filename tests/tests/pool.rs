@@ -136,3 +136,40 @@ fn a_sparse_volume_renders_identically_on_gpu_and_cpu() {
         );
     }
 }
+
+/// A 200000 x 2 x 2 grid with density at both ends: one ray may need more loop iterations than a
+/// GPU invocation runs (the brick traversal alone), so the GPU backend refuses it naming
+/// `--backend cpu`, and the CPU backend, which has no such limit, renders it (before, both
+/// refused with the GPU's limit). The pool holds the two end bricks only.
+#[test]
+fn long_grids_beyond_the_gpu_loop_budget_render_on_the_cpu() {
+    let vol = volume(
+        "long",
+        [200_000, 2, 2],
+        Affine::scale_translate([1e-5; 3], [-1.0, -1e-5, -1e-5]),
+        |x, _, _| if !(8..199_992).contains(&x) { 5.0 } else { 0.0 },
+    );
+    let p = pack(&vol, 1.0, 8, Lookup::Nearest).unwrap();
+    assert_eq!(p.occupied_bricks(), 2);
+    let params = RenderParams {
+        spp: 2,
+        seed: 1,
+        n: 10,
+        estimator: Estimator::Jackknife as u32,
+        rm_scale: 1.0,
+        f_delta: 0.6,
+        pixel_jitter: 1,
+        ..camera_params(&vol, 8, 4)
+    };
+    assert!(host::render::loop_iterations_per_ray(&params, &p.desc) > host::render::LOOP_BUDGET);
+    let c = host::render::render(&Backend::Cpu, &p, &params, false).unwrap();
+    assert!(c.iter().all(|px| px.t_mean.is_finite() && px.t_mean <= 1.0));
+    let gpu = Backend::Gpu(Box::new(gpu()));
+    let e = host::render::render(&gpu, &p, &params, false)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("--backend cpu") && e.contains("200000x2x2"),
+        "{e}"
+    );
+}

@@ -62,6 +62,11 @@ impl RenderBackend for GpuVolume<'_> {
         render_tiles(self, params, lights, schedule, bar)
     }
 
+    /// lavapipe ends any shader loop after 65535 iterations.
+    fn loop_budget(&self) -> Option<u64> {
+        Some(crate::render::LOOP_BUDGET)
+    }
+
     /// Both passes as one submission (a barrier between), in dispatches of at most 2^16
     /// texels; the stored words are read back.
     fn build_shadow_map(
