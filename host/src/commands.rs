@@ -1102,7 +1102,9 @@ pub fn run_eval(args: &EvalOptions) -> Result<()> {
             crate::estimators::by_name("regular").expect("registered"),
             1,
         ),
-        Lookup::Stochastic => (
+        // Regular tracking integrates the nearest-neighbour grid only: ratio tracking is
+        // unbiased for any lookup.
+        Lookup::Stochastic | Lookup::Trilinear => (
             crate::estimators::by_name("ratio").expect("registered"),
             args.reference_spp.unwrap_or(4 * args.spp),
         ),

@@ -91,7 +91,7 @@ pub fn capped_advice(params: &RenderParams) -> String {
     let cap = crate::render::collision_cap(params);
     let tracking = format!(
         "after {cap} tentative collisions the rest of the ray was finished \
-         by regular tracking (exact for --lookup nearest, approximate for stochastic lookups); \
+         by regular tracking (exact for --lookup nearest, approximate for stochastic and trilinear lookups); \
          the medium is too dense for its per-brick majorants: lower --density-scale or use a \
          smaller --brick-size"
     );

@@ -65,7 +65,7 @@ fn both(gpu: &Backend, packed: &PackedVolume, p: &RenderParams, what: &str) -> V
 fn every_estimator_is_bit_identical_and_finite_at_every_density() {
     let gpu = Backend::Gpu(Box::new(gpu()));
     let vol = lumpy();
-    for lookup in [Lookup::Nearest, Lookup::Stochastic] {
+    for lookup in Lookup::ALL {
         for scale in SCALES {
             let packed = pack(&vol, scale, 8, lookup).unwrap();
             for e in Estimator::ALL {
@@ -102,7 +102,7 @@ fn every_estimator_is_bit_identical_and_finite_at_every_density() {
 fn every_integrator_is_bit_identical_and_finite_at_every_density() {
     let gpu = Backend::Gpu(Box::new(gpu()));
     let vol = lumpy();
-    for lookup in [Lookup::Nearest, Lookup::Stochastic] {
+    for lookup in Lookup::ALL {
         for scale in SCALES {
             let packed = pack(&vol, scale, 8, lookup).unwrap();
             for (_, integrator) in host::integrators::INTEGRATORS {

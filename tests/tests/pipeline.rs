@@ -210,7 +210,7 @@ fn every_ray_through_a_nonempty_brick_takes_exactly_20_samples() {
 #[test]
 fn transmittance_stays_in_unit_interval_and_empty_volume_gives_one() {
     let vol = lumpy(48);
-    for lookup in [Lookup::Nearest, Lookup::Stochastic] {
+    for lookup in Lookup::ALL {
         let packed = pack(&vol, 4.0, 16, lookup).unwrap();
         let view = packed.view();
         let p = params(&vol, 1, 1, 1, Estimator::Jackknife);
@@ -232,7 +232,7 @@ fn transmittance_stays_in_unit_interval_and_empty_volume_gives_one() {
 fn gpu_and_cpu_render_identical_images_for_every_estimator_and_lookup() {
     let gpu = Backend::Gpu(Box::new(gpu()));
     let vol = lumpy(64);
-    for lookup in [Lookup::Nearest, Lookup::Stochastic] {
+    for lookup in Lookup::ALL {
         let packed = pack(&vol, 3.0, 16, lookup).unwrap();
         for est in [Estimator::Jackknife, Estimator::NaiveMean] {
             for (importance, jitter) in [
@@ -363,7 +363,7 @@ fn gpu_and_cpu_agree_for_every_estimator_and_many_samples_per_pixel() {
     // once truncated a whole-spp loop on the GPU only. Every estimator, both lookups.
     let gpu = Backend::Gpu(Box::new(gpu()));
     let vol = lumpy(48);
-    for lookup in [Lookup::Nearest, Lookup::Stochastic] {
+    for lookup in Lookup::ALL {
         let packed = pack(&vol, 0.3, 16, lookup).unwrap();
         for spec in host::estimators::ESTIMATORS {
             let mut p = params(

@@ -11,8 +11,8 @@ use std::path::PathBuf;
 pub struct EvalArgs {
     #[command(flatten)]
     pub scene: SceneArgs,
-    /// Lookups: nearest (reference = regular tracking, exact) or stochastic (reference = ratio
-    /// tracking at --reference-spp, unbiased but noisy).
+    /// Lookups: nearest (reference = regular tracking, exact), stochastic or trilinear (reference
+    /// = ratio tracking at --reference-spp, unbiased but noisy).
     #[arg(long, value_enum, default_value_t = LookupArg::Nearest)]
     pub lookup: LookupArg,
     /// Comma-separated estimators, or "all" (every one but the reference).

@@ -49,6 +49,8 @@ value_enum! {
         Nearest,
         /// Stochastic texture filtering: jitter by up to half a voxel, then nearest (Sec. 4.3).
         Stochastic,
+        /// Deterministic trilinear interpolation of the eight nearest voxels.
+        Trilinear,
     }
 }
 

@@ -80,6 +80,7 @@ pub fn mu_at(vol: &VolumeView, p: V3, lookup: Lookup, key: [u32; 3]) -> f32 {
             );
             vol.mu_nearest(p + j)
         }
+        Lookup::Trilinear => vol.mu_trilinear(p),
     }
 }
 

@@ -15,18 +15,42 @@ pub enum Lookup {
     Nearest = 0,
     /// Stochastic texture filtering: jitter by (PCG3D - 0.5) voxels, then nearest (Sec. 4.3).
     Stochastic = 1,
+    /// Deterministic trilinear interpolation of the eight nearest voxel centres (the filter the
+    /// paper replaces by stochastic filtering; eight voxel reads per lookup).
+    Trilinear = 2,
 }
 
 impl Lookup {
+    /// Every lookup mode.
+    pub const ALL: [Lookup; 3] = [Lookup::Nearest, Lookup::Stochastic, Lookup::Trilinear];
+
     /// From the `u32` stored in [`GridDesc`] (unknown values read as nearest).
     #[inline]
     pub fn from_u32(v: u32) -> Self {
-        if v == 1 {
-            Lookup::Stochastic
-        } else {
-            Lookup::Nearest
+        match v {
+            1 => Lookup::Stochastic,
+            2 => Lookup::Trilinear,
+            _ => Lookup::Nearest,
         }
     }
+}
+
+/// The two voxels along one axis that a trilinear lookup at coordinate x (in voxel units, centres
+/// at i + 1/2, x already shifted by -1/2) blends, and their weights (f + 1 - x, x - f): clamped
+/// to the edge voxel (weights (1, 0)) outside [0, n - 1]; NaN reads voxel 0. Both weights are
+/// computed from x (written as 1 - w1, shader compilers fuse the blend into a lerp that rounds
+/// differently from the CPU).
+#[inline]
+fn trilinear_axis(x: f32, n: u32) -> (u32, u32, f32, f32) {
+    let f = crate::math::floor(x);
+    if !(f >= 0.0) {
+        return (0, 0, 1.0, 0.0);
+    }
+    if f >= (n - 1) as f32 {
+        return (n - 1, n - 1, 1.0, 0.0);
+    }
+    let i = f as u32;
+    (i, i + 1, (f + 1.0) - x, x - f)
 }
 
 /// Shape of the volume and its brick grid, as the kernels see it. All in voxel index space:
@@ -129,6 +153,19 @@ impl VolumeView<'_> {
             floor_index(p.y, d[1]),
             floor_index(p.z, d[2]),
         )
+    }
+
+    /// mu at index-space point p by trilinear interpolation of the voxel centres, clamped at the
+    /// grid's edge: blended along x, then y, then z, each a two-term weighted sum.
+    #[inline]
+    pub fn mu_trilinear(&self, p: V3) -> f32 {
+        let d = &self.desc.dims;
+        let (x0, x1, gx, fx) = trilinear_axis(p.x - 0.5, d[0]);
+        let (y0, y1, gy, fy) = trilinear_axis(p.y - 0.5, d[1]);
+        let (z0, z1, gz, fz) = trilinear_axis(p.z - 0.5, d[2]);
+        let row = |y: u32, z: u32| gx * self.voxel(x0, y, z) + fx * self.voxel(x1, y, z);
+        let plane = |z: u32| gy * row(y0, z) + fy * row(y1, z);
+        gz * plane(z0) + fz * plane(z1)
     }
 
     /// Brick (bx, by, bz).
