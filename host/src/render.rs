@@ -3,7 +3,7 @@
 use crate::backend::Backend;
 use crate::bricks::PackedVolume;
 use crate::lighting::SceneLights;
-pub use crate::schedule::{RenderBackend, Schedule};
+pub use crate::schedule::{RenderBackend, Schedule, LOOP_BUDGET};
 use crate::volume::{Affine, DenseVolume};
 use anyhow::{Context, Result};
 use shared::camera::Camera;
@@ -221,9 +221,6 @@ pub fn make_camera(
 
 /// Most samples per pixel per pass (see [`shared::kernels::render::RenderPass`] for why passes exist).
 pub const SPP_PER_PASS: u32 = 16;
-/// Loop iterations one invocation may run: lavapipe's gallivm ends a shader after 65535
-/// iterations summed over all its loops; the rest is margin for small fixed loops.
-pub const LOOP_BUDGET: u64 = 60_000;
 
 /// Upper bound on the loop iterations one primary ray of this estimator can take.
 pub fn loop_iterations_per_ray(

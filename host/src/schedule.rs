@@ -9,6 +9,10 @@ use shared::kernels::shadow_map::MsmPass;
 use shared::params::RenderParams;
 use shared::sampling::lighting::Lighting;
 
+/// Loop iterations one GPU invocation may run: lavapipe's gallivm ends a shader after 65535
+/// iterations summed over all its loops; the rest is margin for small fixed loops.
+pub const LOOP_BUDGET: u64 = 60_000;
+
 /// How one backend runs the passes of a render (the CPU loop in `cpu`, the GPU loop in `gpu`).
 pub trait RenderBackend: Sync {
     /// The sums of every pixel (row-major) after `schedule`'s passes, advancing `bar` (if any)

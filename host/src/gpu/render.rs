@@ -64,7 +64,7 @@ impl RenderBackend for GpuVolume<'_> {
 
     /// lavapipe ends any shader loop after 65535 iterations.
     fn loop_budget(&self) -> Option<u64> {
-        Some(crate::render::LOOP_BUDGET)
+        Some(crate::schedule::LOOP_BUDGET)
     }
 
     /// Both passes as one submission (a barrier between), in dispatches of at most 2^16
