@@ -14,7 +14,7 @@
 //! call site of [`estimate::transmittance`] ([`direct_estimate`]), so the kernel holds the
 //! estimators once; on the GPU each runs in its own dispatch ([`DirectState`]). With
 //! `--shadows msm4|msm6` a light sample of the sun takes its transmittance from the sun's moment
-//! shadow map instead ([`map_shadow`]); every other query keeps its shadow ray.
+//! shadow map instead (`map_shadow`); every other query keeps its shadow ray.
 
 use crate::estimators::estimate;
 use crate::estimators::tracking::delta_tracking_capped;

@@ -1,8 +1,8 @@
 //! An orthographic moment shadow map of a directional light over a volume: texel (i, j) holds
-//! the moments b_1 .. b_4 (or b_1 .. b_6) of the absorption depth distribution along the light ray
-//! through its centre (exact for the nearest-neighbour grid: per voxel segment, the light absorbed there,
-//! e^-tau0 - e^-tau1, as an atom at the segment's midpoint; the light left at the far plane as an
-//! atom at depth 1). Moments are linear in the distribution, so the map filters: a lookup
+//! the moments b_1 .. b_4 (or b_1 .. b_6) of the absorption depth distribution along the light
+//! ray through its centre (exact for the nearest-neighbour grid: per voxel segment, the light
+//! absorbed there, e^-tau0 - e^-tau1, as an atom at the segment's midpoint; the light left at
+//! the far plane as an atom at depth 1). Moments are linear in the distribution, so the map filters: a lookup
 //! interpolates the moments of the four nearest texel centres bilinearly before the
 //! reconstruction.
 
@@ -31,7 +31,7 @@ pub struct MsmDesc {
     pub depth_len: f32,
     pub dir: V3,
     pub _pad: u32,
-    /// [`U16_DEQUANT`], read at run time (see [`dequantize_u16`]).
+    /// [`super::msm::U16_DEQUANT`], read at run time (see [`dequantize_u16`]).
     pub dequant: [f32; 12],
 }
 
