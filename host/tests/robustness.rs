@@ -103,7 +103,7 @@ fn bad_flag_values_name_the_flag() {
         (&["--brick-size", "1"], "--brick-size"),
         (&["--resolution", "4"], "--resolution"),
         (&["--seed", "-3"], "--seed"),
-        (&["--lookup", "trilinear"], "--lookup"),
+        (&["--lookup", "bicubic"], "--lookup"),
         (&["--backend", "tpu"], "--backend"),
         (&["--integrator", "magic"], "--integrator"),
         (&["--albedo", "2"], "--albedo"),
