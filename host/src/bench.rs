@@ -106,6 +106,12 @@ pub struct SweepPoint {
     pub samples_per_ray: f64,
     /// Why the point is missing (e.g. the volume exceeds a GPU buffer), if it is.
     pub skipped: Option<String>,
+    /// Wall time to generate (or load) and pack the volume, once per resolution.
+    pub prepare_ms: f64,
+    /// Bricks of the grid, those holding a nonzero voxel, and the bytes of their voxel pool.
+    pub bricks: usize,
+    pub occupied_bricks: usize,
+    pub pool_bytes: u64,
 }
 
 /// Everything `host bench` measured.
@@ -442,22 +448,27 @@ fn sweep(
         .map(|&r| (r, args.width, true))
         .chain(sizes.iter().map(|&s| (args.scene.resolution, s, false)))
         .collect();
-    let mut cached: Option<(u32, crate::commands::Scene)> = None;
+    let mut cached: Option<(u32, crate::commands::Scene, f64)> = None;
     for (resolution, size, is_resolution) in cases {
-        if cached.as_ref().is_none_or(|(r, _)| *r != resolution) {
+        if cached.as_ref().is_none_or(|(r, _, _)| *r != resolution) {
             let mut scene_args = args.scene.clone();
             scene_args.resolution = resolution;
             let t = Instant::now();
             let scene = crate::commands::prepare_scene(&scene_args, lookup, size, size)?;
             if !args.quiet {
                 tracing::info!(
-                    "sweep: {name} {resolution}^3 prepared in {:.1} s",
-                    t.elapsed().as_secs_f64()
+                    "sweep: {name} {resolution}^3 prepared in {:.1} s ({} of {} bricks occupied, \
+                     {:.1} MiB of voxels)",
+                    t.elapsed().as_secs_f64(),
+                    scene.packed.occupied_bricks(),
+                    scene.packed.bricks.len(),
+                    std::mem::size_of_val(scene.packed.voxels.as_slice()) as f64
+                        / f64::from(1 << 20)
                 );
             }
-            cached = Some((resolution, scene));
+            cached = Some((resolution, scene, t.elapsed().as_secs_f64() * 1e3));
         }
-        let scene = &cached.as_ref().expect("just set").1;
+        let (_, scene, prepare_ms) = cached.as_ref().expect("just set");
         let params = RenderParams {
             // The camera frames the volume the same way at every resolution (same world box).
             camera: crate::render::make_camera(
@@ -494,6 +505,10 @@ fn sweep(
                     ns_per_ray: f64::NAN,
                     samples_per_ray: f64::NAN,
                     skipped: skipped.clone(),
+                    prepare_ms: *prepare_ms,
+                    bricks: scene.packed.bricks.len(),
+                    occupied_bricks: scene.packed.occupied_bricks(),
+                    pool_bytes: std::mem::size_of_val(scene.packed.voxels.as_slice()) as u64,
                 };
                 if let Some(resident) = &resident {
                     let reps = args.reps.min(3);

@@ -79,6 +79,16 @@ fn bench_reports_every_estimator_on_both_backends_and_the_sweep() {
     assert_eq!(r["goals"].as_array().unwrap().len(), 8);
     // 4 sweep estimators x 2 resolutions (or sizes) x 2 backends.
     assert_eq!(r["sweep_resolution"].as_array().unwrap().len(), 16);
+    // Each point records its volume's preparation and pool: only occupied bricks are stored.
+    for p in r["sweep_resolution"].as_array().unwrap() {
+        assert!(p["prepare_ms"].as_f64().unwrap() >= 0.0, "{p}");
+        let (all, occupied) = (
+            p["bricks"].as_u64().unwrap(),
+            p["occupied_bricks"].as_u64().unwrap(),
+        );
+        assert!(occupied > 0 && occupied <= all, "{p}");
+        assert!(p["pool_bytes"].as_u64().unwrap() > 0, "{p}");
+    }
     assert_eq!(r["sweep_size"].as_array().unwrap().len(), 16);
     let png = image::open(&plot).unwrap();
     assert_eq!((png.width(), png.height()), (1200, 500));
