@@ -1012,6 +1012,45 @@ fn path_flags_are_refused_outside_path_and_out_of_range() {
     refuse_all(&exr, &[], cases);
 }
 
+/// A 12 x 9, 2-spp `host eval --integrators INTEGRATORS --estimators ESTIMATORS` of a 16^3
+/// volume on the CPU (reference at 4 spp) into `out_dir` and `json`, with `extra` flags.
+fn small_eval(
+    out_dir: &Path,
+    json: &Path,
+    integrators: &str,
+    estimators: &str,
+    extra: &[&str],
+) -> Output {
+    host()
+        .args([
+            "eval",
+            "--integrators",
+            integrators,
+            "--estimators",
+            estimators,
+            "--resolution",
+            "16",
+            "--width",
+            "12",
+            "--height",
+            "9",
+            "--spp",
+            "2",
+            "--reference-spp",
+            "4",
+            "--backend",
+            "cpu",
+            "--quiet",
+            "--out-dir",
+            s(out_dir),
+            "--json",
+            s(json),
+        ])
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
 /// `host eval --integrators direct,path` writes one entry per integrator and estimator, a
 /// reference and an insets strip per integrator; mixing them with a single-scattering
 /// integrator is refused.
@@ -1021,33 +1060,7 @@ fn eval_of_direct_and_path_writes_entries_references_and_insets() {
     let out_dir = dir.path().join("eval");
     let json = dir.path().join("eval.json");
     let eval = |integrators: &str, estimators: &str| {
-        host()
-            .args([
-                "eval",
-                "--integrators",
-                integrators,
-                "--estimators",
-                estimators,
-                "--resolution",
-                "16",
-                "--width",
-                "12",
-                "--height",
-                "9",
-                "--spp",
-                "2",
-                "--reference-spp",
-                "4",
-                "--backend",
-                "cpu",
-                "--quiet",
-                "--out-dir",
-                s(&out_dir),
-                "--json",
-                s(&json),
-            ])
-            .output()
-            .unwrap()
+        small_eval(&out_dir, &json, integrators, estimators, &[])
     };
     let out = eval("direct,path", "jackknife,ratio");
     assert!(
@@ -1283,34 +1296,7 @@ fn eval_of_shadow_maps_reports_maps_and_paired_errors() {
     let out_dir = dir.path().join("eval");
     let json = dir.path().join("eval.json");
     let eval = |estimators: &str, lights: &[&str]| {
-        host()
-            .args([
-                "eval",
-                "--integrators",
-                "direct",
-                "--estimators",
-                estimators,
-                "--resolution",
-                "16",
-                "--width",
-                "12",
-                "--height",
-                "9",
-                "--spp",
-                "2",
-                "--reference-spp",
-                "4",
-                "--backend",
-                "cpu",
-                "--quiet",
-                "--out-dir",
-                s(&out_dir),
-                "--json",
-                s(&json),
-            ])
-            .args(lights)
-            .output()
-            .unwrap()
+        small_eval(&out_dir, &json, "direct", estimators, lights)
     };
     let sun = ["--env", "none", "--sun", "0.7,0.6,-0.45,3,0"];
     let out = eval("jackknife,msm4:16,msm6", &sun);

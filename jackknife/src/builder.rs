@@ -104,18 +104,10 @@ impl Grid {
     /// The stored f16 bits of voxel (i, j, k) (0 in an empty brick); the extinction is
     /// `desc.density_scale` times their value.
     pub fn stored_f16(&self, i: u32, j: u32, k: u32) -> u16 {
-        let b = self.desc.brick_size;
-        let bd = self.desc.brick_dims;
-        let (bi, bj, bk) = (i / b, j / b, k / b);
-        let slot = self.bricks[(bi + bd[0] * (bj + bd[1] * bk)) as usize].slot;
-        if slot == EMPTY_BRICK {
-            return 0;
+        match self.view().pool_index(i, j, k) {
+            Some(index) => (self.voxels[index / 2] >> (16 * (index % 2))) as u16,
+            None => 0,
         }
-        let view = self.view();
-        let (w, h) = (view.brick_extent(0, bi), view.brick_extent(1, bj));
-        let local = (i - bi * b) + w * ((j - bj * b) + h * (k - bk * b));
-        let index = slot as usize + local as usize;
-        (self.voxels[index / 2] >> (16 * (index % 2))) as u16
     }
 
     /// Bricks that hold a nonzero voxel (the pool holds their voxels only).

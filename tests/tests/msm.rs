@@ -289,15 +289,14 @@ fn six_moment_bounds_hold_and_are_tighter() {
     );
 }
 
-/// The map of a homogeneous cube (extinction 1.5 in [-1, 1]^3) under a sun straight above: at
-/// points of every height, the true T = exp(-1.5 (1 - y)) lies within the map's bounds, and the
-/// midpoint estimate's worst error is reported (8 x 8 texels, all alike, so filtering is exact).
-#[test]
-fn map_of_a_homogeneous_cube_bounds_the_truth() {
-    use host::bricks::pack;
-    use host::render::world_to_index;
+/// A homogeneous 16^3 cube (extinction 1.5 in [-1, 1]^3), its world-to-index map, and the frame
+/// of an 8 x 8 map of a sun straight above it (depth 3 from y = 1.5 down).
+fn homogeneous_cube() -> (
+    host::bricks::PackedVolume,
+    shared::geometry::Affine3x4,
+    shared::shadows::map::MsmDesc,
+) {
     use shared::geometry::V3;
-    use shared::shadows::map::{build_texel, filtered_moments, transmittance4, MsmDesc};
     let n = 16;
     let vol = integration_tests::volume(
         "cube",
@@ -305,9 +304,9 @@ fn map_of_a_homogeneous_cube_bounds_the_truth() {
         integration_tests::unit_cube(n),
         |_, _, _| 1.5,
     );
-    let packed = pack(&vol, 1.0, 8, shared::volume::grid::Lookup::Nearest).unwrap();
-    let w2i = world_to_index(&vol.index_to_world).unwrap();
-    let desc = MsmDesc {
+    let packed = host::bricks::pack(&vol, 1.0, 8, shared::volume::grid::Lookup::Nearest).unwrap();
+    let w2i = host::render::world_to_index(&vol.index_to_world).unwrap();
+    let desc = shared::shadows::map::MsmDesc {
         origin: V3::new(-1.0, 1.5, -1.0),
         width: 8,
         axis_u: V3::new(2.0, 0.0, 0.0),
@@ -318,6 +317,17 @@ fn map_of_a_homogeneous_cube_bounds_the_truth() {
         _pad: 0,
         dequant: shared::shadows::msm::U16_DEQUANT,
     };
+    (packed, w2i, desc)
+}
+
+/// The map of a homogeneous cube (extinction 1.5 in [-1, 1]^3) under a sun straight above: at
+/// points of every height, the true T = exp(-1.5 (1 - y)) lies within the map's bounds, and the
+/// midpoint estimate's worst error is reported (8 x 8 texels, all alike, so filtering is exact).
+#[test]
+fn map_of_a_homogeneous_cube_bounds_the_truth() {
+    use shared::geometry::V3;
+    use shared::shadows::map::{build_texel, filtered_moments, transmittance4};
+    let (packed, w2i, desc) = homogeneous_cube();
     let view = packed.view();
     let mut map = Vec::new();
     for j in 0..8 {
@@ -427,30 +437,9 @@ fn map_texels_match_an_f64_march() {
 /// is no few-atom distribution, so more moments tighten the bounds).
 #[test]
 fn stored_maps_of_a_homogeneous_cube_six_beat_four() {
-    use host::bricks::pack;
-    use host::render::world_to_index;
     use shared::geometry::V3;
-    use shared::shadows::map::{build_raw_texel, map_transmittance, store_texel, MsmDesc, Shadows};
-    let n = 16;
-    let vol = integration_tests::volume(
-        "cube",
-        [n; 3],
-        integration_tests::unit_cube(n),
-        |_, _, _| 1.5,
-    );
-    let packed = pack(&vol, 1.0, 8, shared::volume::grid::Lookup::Nearest).unwrap();
-    let w2i = world_to_index(&vol.index_to_world).unwrap();
-    let desc = MsmDesc {
-        origin: V3::new(-1.0, 1.5, -1.0),
-        width: 8,
-        axis_u: V3::new(2.0, 0.0, 0.0),
-        height: 8,
-        axis_v: V3::new(0.0, 0.0, 2.0),
-        depth_len: 3.0,
-        dir: V3::new(0.0, -1.0, 0.0),
-        _pad: 0,
-        dequant: shared::shadows::msm::U16_DEQUANT,
-    };
+    use shared::shadows::map::{build_raw_texel, map_transmittance, store_texel, Shadows};
+    let (packed, w2i, desc) = homogeneous_cube();
     let view = packed.view();
     let mut worst = Vec::new();
     for mode in [Shadows::Msm4U16, Shadows::Msm4, Shadows::Msm6] {

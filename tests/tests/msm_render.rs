@@ -76,8 +76,8 @@ fn map_settings() -> Vec<ShadowOptions> {
     ]
 }
 
-#[test]
-fn map_build_is_bit_identical_on_gpu_and_cpu() {
+/// Runs `f` with the test volume (dense and packed) resident on the CPU and on the GPU.
+fn with_residents(f: impl FnOnce(&DenseVolume, &PackedVolume, &Resident, &Resident)) {
     let vol = lumpy_blobs(24, 6);
     let packed = packed(&vol);
     let gpu = Backend::Gpu(Box::new(gpu()));
@@ -86,59 +86,60 @@ fn map_build_is_bit_identical_on_gpu_and_cpu() {
         Resident::new(&cpu, &packed).unwrap(),
         Resident::new(&gpu, &packed).unwrap(),
     );
-    let p = params(&vol, Integrator::Direct, Estimator::Jackknife);
-    for o in map_settings() {
-        let (mut lc, mut lg) = (sun_lights(0.0), sun_lights(0.0));
-        let bounds = occupied_world_bounds(&vol);
-        build_into(&rc, &p, &mut lc, bounds, &o).unwrap();
-        build_into(&rg, &p, &mut lg, bounds, &o).unwrap();
-        let texels = (o.resolution * o.resolution) as usize;
-        assert_eq!(
-            lc.shadow_map.len(),
-            texels * o.mode().words_per_texel() as usize,
-            "{o:?}"
-        );
-        let ids: Vec<u32> = (0..lc.shadow_map.len() as u32).collect();
-        assert_bytes_equal(&format!("map {o:?}"), &ids, &lg.shadow_map, &lc.shadow_map);
-        assert!(lc.shadow_map.iter().any(|&w| w != 0), "{o:?}: empty map");
-    }
+    f(&vol, &packed, &rc, &rg);
+}
+
+#[test]
+fn map_build_is_bit_identical_on_gpu_and_cpu() {
+    with_residents(|vol, _, rc, rg| {
+        let p = params(vol, Integrator::Direct, Estimator::Jackknife);
+        for o in map_settings() {
+            let (mut lc, mut lg) = (sun_lights(0.0), sun_lights(0.0));
+            let bounds = occupied_world_bounds(vol);
+            build_into(rc, &p, &mut lc, bounds, &o).unwrap();
+            build_into(rg, &p, &mut lg, bounds, &o).unwrap();
+            let texels = (o.resolution * o.resolution) as usize;
+            assert_eq!(
+                lc.shadow_map.len(),
+                texels * o.mode().words_per_texel() as usize,
+                "{o:?}"
+            );
+            let ids: Vec<u32> = (0..lc.shadow_map.len() as u32).collect();
+            assert_bytes_equal(&format!("map {o:?}"), &ids, &lg.shadow_map, &lc.shadow_map);
+            assert!(lc.shadow_map.iter().any(|&w| w != 0), "{o:?}: empty map");
+        }
+    });
 }
 
 #[test]
 fn direct_and_path_with_shadow_maps_are_bit_identical_on_gpu_and_cpu() {
-    let vol = lumpy_blobs(24, 6);
-    let packed = packed(&vol);
-    let gpu = Backend::Gpu(Box::new(gpu()));
-    let cpu = Backend::Cpu;
-    let (rc, rg) = (
-        Resident::new(&cpu, &packed).unwrap(),
-        Resident::new(&gpu, &packed).unwrap(),
-    );
-    let bounds = occupied_world_bounds(&vol);
-    for integrator in [Integrator::Direct, Integrator::Path] {
-        for estimator in [Estimator::Jackknife, Estimator::RatioTracking] {
-            for (k, o) in map_settings().into_iter().enumerate() {
-                // A delta sun and a sun disk (the disk's light samples also use the map).
-                let radius = if k % 2 == 0 { 0.0 } else { 2.0 };
-                let p = params(&vol, integrator, estimator);
-                let p = host::render::fit_collision_cap(&p, &packed.desc);
-                let mut lights = sun_lights(radius);
-                build_into(&rc, &p, &mut lights, bounds, &o).unwrap();
-                let c = render_resident_lit(&rc, &p, &lights, false).unwrap();
-                let g = render_resident_lit(&rg, &p, &lights, false).unwrap();
-                let ids: Vec<u32> = (0..c.len() as u32).collect();
-                let what = format!("{integrator:?} {estimator:?} {o:?}");
-                assert_bytes_equal(&what, &ids, &g, &c);
-                assert!(c.iter().any(|px| px.rgb_mean.g > 0.0), "{what}: black");
-                // The map replaced the sun's shadow rays: fewer voxel lookups than with rays.
-                let mut rays = sun_lights(radius);
-                build_into(&rc, &p, &mut rays, bounds, &ShadowOptions::default()).unwrap();
-                let r = render_resident_lit(&rc, &p, &rays, false).unwrap();
-                let lookups = |px: &[shared::kernels::render::PixelOut]| -> u64 {
-                    px.iter().map(|x| x.samples as u64).sum()
-                };
-                assert!(lookups(&c) < lookups(&r), "{what}: no lookups saved");
+    with_residents(|vol, packed, rc, rg| {
+        let bounds = occupied_world_bounds(vol);
+        for integrator in [Integrator::Direct, Integrator::Path] {
+            for estimator in [Estimator::Jackknife, Estimator::RatioTracking] {
+                for (k, o) in map_settings().into_iter().enumerate() {
+                    // A delta sun and a sun disk (the disk's light samples also use the map).
+                    let radius = if k % 2 == 0 { 0.0 } else { 2.0 };
+                    let p = params(vol, integrator, estimator);
+                    let p = host::render::fit_collision_cap(&p, &packed.desc);
+                    let mut lights = sun_lights(radius);
+                    build_into(rc, &p, &mut lights, bounds, &o).unwrap();
+                    let c = render_resident_lit(rc, &p, &lights, false).unwrap();
+                    let g = render_resident_lit(rg, &p, &lights, false).unwrap();
+                    let ids: Vec<u32> = (0..c.len() as u32).collect();
+                    let what = format!("{integrator:?} {estimator:?} {o:?}");
+                    assert_bytes_equal(&what, &ids, &g, &c);
+                    assert!(c.iter().any(|px| px.rgb_mean.g > 0.0), "{what}: black");
+                    // The map replaced the sun's shadow rays: fewer voxel lookups than with rays.
+                    let mut rays = sun_lights(radius);
+                    build_into(rc, &p, &mut rays, bounds, &ShadowOptions::default()).unwrap();
+                    let r = render_resident_lit(rc, &p, &rays, false).unwrap();
+                    let lookups = |px: &[shared::kernels::render::PixelOut]| -> u64 {
+                        px.iter().map(|x| x.samples as u64).sum()
+                    };
+                    assert!(lookups(&c) < lookups(&r), "{what}: no lookups saved");
+                }
             }
         }
-    }
+    });
 }

@@ -121,15 +121,24 @@ impl VolumeView<'_> {
     /// f16 value in the pool.
     #[inline]
     pub fn voxel(&self, i: u32, j: u32, k: u32) -> f32 {
+        match self.pool_index(i, j, k) {
+            Some(index) => self.desc.density_scale * packed_f16(self.voxels, index),
+            None => 0.0,
+        }
+    }
+
+    /// Index in the pool (in f16 values) of voxel (i, j, k), or None in an empty brick.
+    #[inline]
+    pub fn pool_index(&self, i: u32, j: u32, k: u32) -> Option<usize> {
         let b = self.desc.brick_size;
         let (bi, bj, bk) = (i / b, j / b, k / b);
         let slot = self.brick([bi, bj, bk]).slot;
         if slot == EMPTY_BRICK {
-            return 0.0;
+            return None;
         }
         let (w, h) = (self.brick_extent(0, bi), self.brick_extent(1, bj));
         let local = (i - bi * b) + w * ((j - bj * b) + h * (k - bk * b));
-        self.desc.density_scale * packed_f16(self.voxels, slot as usize + local as usize)
+        Some(slot as usize + local as usize)
     }
 
     /// Voxels of brick `c` along `axis` inside the grid: B, or fewer in the last brick.
