@@ -20,35 +20,65 @@ use shared::volume::grid::{Brick, GridDesc, VolumeView};
 use spirv_std::glam::UVec3;
 use spirv_std::spirv;
 
-/// Jackknife (Eq. 4) and naive transmittance of each (X0, X1) pair.
-#[spirv(compute(threads(64)))]
-pub fn transmittance_pair_cs(
-    #[spirv(global_invocation_id)] gid: UVec3,
-    #[spirv(push_constant)] launch: &Launch,
-    // bindings::map::INPUT
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] input: &[DepthPair],
-    // bindings::map::OUTPUT
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] output: &mut [TransmittancePair],
-) {
-    if let Some(i) = launch.id(gid.x) {
-        output[i] = probe::transmittance_pair(input[i]);
-    }
+/// A probe kernel (`bindings::map`): output i = `$f`(input i).
+macro_rules! map_kernel {
+    ($(#[$doc:meta])* $name:ident, $in:ty, $out:ty, $f:path) => {
+        $(#[$doc])*
+        #[spirv(compute(threads(64)))]
+        pub fn $name(
+            #[spirv(global_invocation_id)] gid: UVec3,
+            #[spirv(push_constant)] launch: &Launch,
+            // bindings::map::INPUT
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] input: &[$in],
+            // bindings::map::OUTPUT
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] output: &mut [$out],
+        ) {
+            if let Some(i) = launch.id(gid.x) {
+                output[i] = $f(input[i]);
+            }
+        }
+    };
 }
 
-/// exp, ln, sin, cos of each input, to pin the deterministic math on the GPU.
-#[spirv(compute(threads(64)))]
-pub fn math_values_cs(
-    #[spirv(global_invocation_id)] gid: UVec3,
-    #[spirv(push_constant)] launch: &Launch,
-    // bindings::map::INPUT
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] input: &[f32],
-    // bindings::map::OUTPUT
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] output: &mut [MathValues],
-) {
-    if let Some(i) = launch.id(gid.x) {
-        output[i] = probe::math_values(input[i]);
-    }
-}
+map_kernel!(
+    /// Jackknife (Eq. 4) and naive transmittance of each (X0, X1) pair.
+    transmittance_pair_cs,
+    DepthPair,
+    TransmittancePair,
+    probe::transmittance_pair
+);
+
+map_kernel!(
+    /// exp, ln, sin, cos of each input, to pin the deterministic math on the GPU.
+    math_values_cs,
+    f32,
+    MathValues,
+    probe::math_values
+);
+
+map_kernel!(
+    /// Henyey-Greenstein sample and phase value per configuration (diagnostics).
+    phase_cs,
+    probe::PhaseIn,
+    probe::PhaseOut,
+    probe::phase
+);
+
+map_kernel!(
+    /// A moment-shadow-map lookup per configuration (diagnostics).
+    msm_lookup_cs,
+    probe::MsmLookupIn,
+    probe::MsmLookupOut,
+    probe::msm_lookup
+);
+
+map_kernel!(
+    /// Equiangular sampling setup, sample and pdf per configuration (diagnostics).
+    equiangular_cs,
+    probe::EquiangularIn,
+    probe::EquiangularOut,
+    probe::equiangular
+);
 
 /// PCG32, PCG hash and PCG3D outputs for each id.
 #[spirv(compute(threads(64)))]
@@ -236,51 +266,5 @@ pub fn msm_store_cs(
             map[n * k + c] = w[c];
             c += 1;
         }
-    }
-}
-
-/// Henyey-Greenstein sample and phase value per configuration (diagnostics).
-#[spirv(compute(threads(64)))]
-pub fn phase_cs(
-    #[spirv(global_invocation_id)] gid: UVec3,
-    #[spirv(push_constant)] launch: &Launch,
-    // bindings::map::INPUT
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] input: &[probe::PhaseIn],
-    // bindings::map::OUTPUT
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] output: &mut [probe::PhaseOut],
-) {
-    if let Some(i) = launch.id(gid.x) {
-        output[i] = probe::phase(input[i]);
-    }
-}
-
-/// A moment-shadow-map lookup per configuration (diagnostics).
-#[spirv(compute(threads(64)))]
-pub fn msm_lookup_cs(
-    #[spirv(global_invocation_id)] gid: UVec3,
-    #[spirv(push_constant)] launch: &Launch,
-    // bindings::map::INPUT
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] input: &[probe::MsmLookupIn],
-    // bindings::map::OUTPUT
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] output: &mut [probe::MsmLookupOut],
-) {
-    if let Some(i) = launch.id(gid.x) {
-        output[i] = probe::msm_lookup(input[i]);
-    }
-}
-
-/// Equiangular sampling setup, sample and pdf per configuration (diagnostics).
-#[spirv(compute(threads(64)))]
-pub fn equiangular_cs(
-    #[spirv(global_invocation_id)] gid: UVec3,
-    #[spirv(push_constant)] launch: &Launch,
-    // bindings::map::INPUT
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] input: &[probe::EquiangularIn],
-    // bindings::map::OUTPUT
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)]
-    output: &mut [probe::EquiangularOut],
-) {
-    if let Some(i) = launch.id(gid.x) {
-        output[i] = probe::equiangular(input[i]);
     }
 }
