@@ -1,6 +1,7 @@
 //! Shared by the targets: load the input as a volume file of a given extension.
 
 use std::path::PathBuf;
+use volume_io::VolumeData;
 
 /// Dense-grid cap while fuzzing: small enough that no input can take seconds to fill.
 const FUZZ_MAX_VOXELS: u64 = 1 << 22;
@@ -14,12 +15,32 @@ pub fn load(data: &[u8], ext: &str) {
     let path = dir.join(format!("volume-io-fuzz-{}.{ext}", std::process::id()));
     std::fs::write(&path, data).expect("scratch file");
     for grid in [None, Some("density")] {
-        if let Ok(v) = volume_io::load_volume_capped(&path, grid, FUZZ_MAX_VOXELS) {
+        let dense = volume_io::load_volume_capped(&path, grid, FUZZ_MAX_VOXELS);
+        if let Ok(v) = &dense {
             assert!(v.values.iter().all(|x| x.is_finite() && *x >= 0.0));
             assert_eq!(
                 v.values.len() as u64,
                 v.dims.iter().map(|&d| u64::from(d)).product::<u64>()
             );
+        }
+        // The sparse load reads the same voxels or refuses the file with the same error.
+        let options = volume_io::LoadOptions {
+            grid,
+            max_voxels: FUZZ_MAX_VOXELS,
+            ..volume_io::LoadOptions::default()
+        };
+        let sparse = volume_io::load_volume_with(&path, &options);
+        match (&dense, &sparse) {
+            (Ok(d), Ok(s)) => {
+                let mut values = Vec::new();
+                if s.volume.fill([0; 3], s.volume.dims(), &mut values) {
+                    assert!(values.iter().zip(&d.values).all(|(a, b)| a.to_bits() == b.to_bits()));
+                } else {
+                    assert!(d.values.iter().all(|x| *x == 0.0));
+                }
+            }
+            (Err(d), Err(s)) => assert_eq!(format!("{d:#}"), format!("{s:#}")),
+            _ => panic!("dense and sparse loads disagree: {:?} vs {:?}", dense.err(), sparse.err()),
         }
     }
 }

@@ -7,6 +7,7 @@ use crate::commands::SceneOptions;
 use crate::estimators::EstimatorSpec;
 use crate::render::{render_resident, Resident};
 use crate::study::plot::{self, Figure, Legend, LinePanel, Series, Style};
+use crate::volume::VolumeData;
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
 use shared::kernels::render::PixelOut;
@@ -295,10 +296,10 @@ pub fn run(args: &BenchOptions) -> Result<BenchReport> {
     if !args.quiet {
         tracing::info!(
             "bench: {} {}x{}x{}, {}x{} px, {} spp, {} reps (+{} warm-up), {} CPU threads",
-            scene.volume.name,
-            scene.volume.dims[0],
-            scene.volume.dims[1],
-            scene.volume.dims[2],
+            scene.volume.name(),
+            scene.volume.dims()[0],
+            scene.volume.dims()[1],
+            scene.volume.dims()[2],
             args.width,
             args.height,
             args.spp,
@@ -358,7 +359,7 @@ pub fn run(args: &BenchOptions) -> Result<BenchReport> {
         (Vec::new(), Vec::new())
     };
     let report = BenchReport {
-        volume: scene.volume.name.clone(),
+        volume: scene.volume.name().to_owned(),
         lookup: crate::commands::lookup_name(args.lookup),
         width: args.width,
         height: args.height,

@@ -1,7 +1,7 @@
 //! Packing a loaded volume for the kernels: the `jackknife` crate's grid builder (f16 voxels and
 //! the super-voxel statistics), with its errors named in the volume file's coordinates.
 
-use crate::volume::DenseVolume;
+use crate::volume::VolumeData;
 use anyhow::{anyhow, Result};
 use jackknife::{BuildError, GridBuilder};
 use shared::volume::grid::Lookup;
@@ -11,12 +11,12 @@ pub use jackknife::{Grid as PackedVolume, Underflow, DEFAULT_BRICK_SIZE, MAX_OPT
 /// Builds the kernels' grid of `vol` (see [`jackknife::GridBuilder`]): extinction = density x
 /// `density_scale`, rays' t in world units (the optical depth check uses the grid's world chord).
 pub fn pack(
-    vol: &DenseVolume,
+    vol: &dyn VolumeData,
     density_scale: f32,
     brick_size: u32,
     lookup: Lookup,
 ) -> Result<PackedVolume> {
-    GridBuilder::dense(vol.dims, &vol.values)
+    GridBuilder::from_boxes(vol.dims(), |lo, hi, out| vol.fill(lo, hi, out))
         .density_scale(density_scale)
         .brick_size(brick_size)
         .lookup(lookup)
@@ -26,18 +26,19 @@ pub fn pack(
 }
 
 /// Longest chord through the grid in world units, bounded by the sum of its axes' world lengths.
-fn world_chord(vol: &DenseVolume) -> f64 {
-    let m = vol.index_to_world.0;
+fn world_chord(vol: &dyn VolumeData) -> f64 {
+    let m = vol.index_to_world().0;
+    let dims = vol.dims();
     (0..3)
         .map(|a| {
             let col = (0..3).map(|r| (m[r][a] as f64).powi(2)).sum::<f64>().sqrt();
-            col * vol.dims[a] as f64
+            col * dims[a] as f64
         })
         .sum()
 }
 
 /// A build error in the CLI's terms: flags by name, voxels in the file's index coordinates.
-fn explain(vol: &DenseVolume, e: BuildError) -> anyhow::Error {
+fn explain(vol: &dyn VolumeData, e: BuildError) -> anyhow::Error {
     let at = |v: [u32; 3]| vol.describe_voxel(v[0], v[1], v[2]);
     match e {
         BuildError::Scale(s) => anyhow!("--density-scale must be finite and >= 0 (got {s})"),
@@ -51,7 +52,7 @@ fn explain(vol: &DenseVolume, e: BuildError) -> anyhow::Error {
             "{}: {} has density {density}, which times --density-scale {scale} gives optical \
              depths up to {depth:.1e} through the volume, beyond the {MAX_OPTICAL_DEPTH:e} that \
              f32 arithmetic can sum; lower --density-scale",
-            vol.name,
+            vol.name(),
             at(voxel)
         ),
         BuildError::Extinction {
@@ -62,22 +63,22 @@ fn explain(vol: &DenseVolume, e: BuildError) -> anyhow::Error {
             "{}: {} has density {density}, which times --density-scale {scale} exceeds the f32 \
              range of extinctions (3.4e38); lower --density-scale (or rescale the file's \
              densities)",
-            vol.name,
+            vol.name(),
             at(voxel)
         ),
         BuildError::Density { voxel, density } => anyhow!(
             "{}: {} has density {density}; densities must be finite and >= 0",
-            vol.name,
+            vol.name(),
             at(voxel)
         ),
-        other => anyhow!("{}: {other}", vol.name),
+        other => anyhow!("{}: {other}", vol.name()),
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::volume::Affine;
+    use crate::volume::{Affine, DenseVolume};
     use half::f16;
 
     fn volume(values: Vec<f32>) -> DenseVolume {

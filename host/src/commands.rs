@@ -4,7 +4,7 @@ use crate::backend::{Backend, BackendChoice};
 use crate::bricks::pack;
 use crate::output::{write_exr, write_json, write_png, OutputPlan};
 use crate::render::{make_camera, occupied_world_bounds, world_to_index, CameraSpec};
-use crate::volume::DenseVolume;
+use crate::volume::{Volume, VolumeData};
 use anyhow::{bail, Context, Result};
 use shared::kernels::probe::{self, DepthPair};
 use shared::params::RenderParams;
@@ -228,7 +228,7 @@ pub fn lookup_name(lookup: Lookup) -> String {
 
 /// An embedded volume by name or a volume file by path, with its default density scale and, for
 /// a file, the name of the grid read.
-pub fn load_volume(scene: &SceneOptions) -> Result<(DenseVolume, f32, Option<String>)> {
+pub fn load_volume(scene: &SceneOptions) -> Result<(Volume, f32, Option<String>)> {
     let spec = scene.volume.as_str();
     let path = Path::new(spec);
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
@@ -249,7 +249,11 @@ pub fn load_volume(scene: &SceneOptions) -> Result<(DenseVolume, f32, Option<Str
         return Ok((loaded.volume, 1.0, Some(loaded.grid)));
     }
     match crate::procedural::by_name(spec, scene.resolution) {
-        Some(v) => Ok((v, crate::procedural::default_density_scale(spec), None)),
+        Some(v) => Ok((
+            v.into(),
+            crate::procedural::default_density_scale(spec),
+            None,
+        )),
         None => bail!(
             "--volume {spec:?} is neither a file nor an embedded volume; embedded volumes: {}",
             crate::procedural::NAMES.join(", ")
@@ -258,7 +262,7 @@ pub fn load_volume(scene: &SceneOptions) -> Result<(DenseVolume, f32, Option<Str
 }
 
 /// The lights of `--light`, or two default lights inside the volume's occupied bounds.
-fn scene_lights(args: &RenderOptions, vol: &DenseVolume) -> Result<Vec<PointLight>> {
+fn scene_lights(args: &RenderOptions, vol: &dyn VolumeData) -> Result<Vec<PointLight>> {
     anyhow::ensure!(
         args.hg_g.is_finite() && args.hg_g > -1.0 && args.hg_g < 1.0,
         "--hg-g must be in (-1, 1) (got {})",
@@ -278,7 +282,7 @@ fn lights_or_default(
     lights: &[PointLight],
     albedo: f32,
     exposure: f32,
-    vol: &DenseVolume,
+    vol: &dyn VolumeData,
 ) -> Result<Vec<PointLight>> {
     anyhow::ensure!(
         albedo.is_finite() && (0.0..=1.0).contains(&albedo),
@@ -602,7 +606,10 @@ fn integrator_settings(
 
 /// The lights of a `direct` render: `--env` (default: the sky unless only --sun or --light are
 /// given), `--sun`, `--light` (no default point lights).
-fn direct_lights(args: &RenderOptions, vol: &DenseVolume) -> Result<crate::lighting::SceneLights> {
+fn direct_lights(
+    args: &RenderOptions,
+    vol: &dyn VolumeData,
+) -> Result<crate::lighting::SceneLights> {
     use crate::lighting::{EnvSource, LightingOptions};
     anyhow::ensure!(
         args.hg_g.is_finite() && args.hg_g > -1.0 && args.hg_g < 1.0,
@@ -694,15 +701,15 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
     let load_ms = t_load.elapsed().as_secs_f64() * 1e3;
     let backend = Backend::open_for(args.backend, packed)?;
     let volume_label = match &scene.grid {
-        Some(grid) => format!("{} (grid '{grid}')", vol.name),
-        None => vol.name.clone(),
+        Some(grid) => format!("{} (grid '{grid}')", vol.name()),
+        None => vol.name().to_owned(),
     };
     if !args.quiet {
         tracing::info!(
             "volume {volume_label} {}x{}x{} (density scale {density_scale}, {} bricks of {}^3, {} occupied: {:.1} MiB of voxels), prepared in {load_ms:.0} ms",
-            vol.dims[0],
-            vol.dims[1],
-            vol.dims[2],
+            vol.dims()[0],
+            vol.dims()[1],
+            vol.dims()[2],
             packed.bricks.len(),
             args.scene.brick_size,
             packed.occupied_bricks(),
@@ -752,9 +759,9 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
             tracing::warn!(
                 "one ray may need {per_ray} loop iterations through this {}x{}x{} grid, more than \
                  a GPU invocation may run; falling back to the CPU backend",
-                vol.dims[0],
-                vol.dims[1],
-                vol.dims[2]
+                vol.dims()[0],
+                vol.dims()[1],
+                vol.dims()[2]
             );
             Backend::Cpu
         }
@@ -824,7 +831,7 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
     let summary = RenderSummary {
         backend: backend.kind().into(),
         device: backend.device(),
-        volume: vol.name.clone(),
+        volume: vol.name().to_owned(),
         estimator: match args.integrator {
             Some(i) => crate::integrators::integrator_name(i).into(),
             None => args.estimator.name.into(),
@@ -964,7 +971,7 @@ pub fn run_probe(args: &ProbeOptions) -> Result<()> {
 
 /// A loaded and packed volume with the camera framing it.
 pub struct Scene {
-    pub volume: DenseVolume,
+    pub volume: Volume,
     pub packed: crate::bricks::PackedVolume,
     pub density_scale: f32,
     pub camera: shared::camera::Camera,
@@ -984,7 +991,8 @@ pub fn prepare_scene(args: &SceneOptions, lookup: Lookup, w: u32, h: u32) -> Res
         args.fov
     );
     let (mut volume, default_scale, grid) = load_volume(args)?;
-    volume.index_to_world = args.up.apply(&volume.index_to_world);
+    let turned = args.up.apply(volume.index_to_world());
+    volume.set_index_to_world(turned);
     let density_scale = args.density_scale.unwrap_or(default_scale);
     let packed = pack(&volume, density_scale, args.brick_size, lookup)?;
     report_underflow(&volume, &packed.underflow, density_scale)?;
@@ -995,7 +1003,7 @@ pub fn prepare_scene(args: &SceneOptions, lookup: Lookup, w: u32, h: u32) -> Res
     };
     let bounds = occupied_world_bounds(&volume);
     let camera = make_camera(&spec, bounds, w, h)?;
-    let world_to_index = world_to_index(&volume.index_to_world)?;
+    let world_to_index = world_to_index(volume.index_to_world())?;
     Ok(Scene {
         volume,
         packed,
@@ -1010,11 +1018,11 @@ pub fn prepare_scene(args: &SceneOptions, lookup: Lookup, w: u32, h: u32) -> Res
 
 /// Warns (with a count) about nonzero densities that became 0 as scaled f16 values; refuses a
 /// volume all of whose nonzero densities did, which would render as empty.
-fn report_underflow(vol: &DenseVolume, u: &crate::bricks::Underflow, scale: f32) -> Result<()> {
+fn report_underflow(vol: &dyn VolumeData, u: &crate::bricks::Underflow, scale: f32) -> Result<()> {
     let Some(([x, y, z], density)) = u.first else {
         return Ok(());
     };
-    let (name, voxel) = (&vol.name, vol.describe_voxel(x, y, z));
+    let (name, voxel) = (vol.name(), vol.describe_voxel(x, y, z));
     let what = format!(
         "{name}: {} of {} nonzero densities (first: {voxel}, density {density}) become 0: \
          times --density-scale {scale:e} they are below f32's smallest value, or more than 2^40 \
@@ -1112,7 +1120,7 @@ pub fn run_eval(args: &EvalOptions) -> Result<()> {
     let setup = crate::eval::EvalSetup {
         backend: &backend,
         volume: packed,
-        volume_name: vol.name.clone(),
+        volume_name: vol.name().to_owned(),
         params,
         reference,
         reference_spp,
@@ -1152,7 +1160,7 @@ fn run_eval_integrators(
     args: &EvalOptions,
     integrators: &[(&'static str, Integrator)],
     json: &std::path::Path,
-    vol: &DenseVolume,
+    vol: &dyn VolumeData,
     packed: &crate::bricks::PackedVolume,
     backend: &Backend,
     mut params: RenderParams,
@@ -1165,7 +1173,7 @@ fn run_eval_integrators(
     let setup = crate::eval::EvalSetup {
         backend,
         volume: packed,
-        volume_name: vol.name.clone(),
+        volume_name: vol.name().to_owned(),
         params,
         reference: crate::estimators::by_name("jackknife").expect("registered"),
         reference_spp: args.reference_spp.unwrap_or(16 * args.spp),
@@ -1257,7 +1265,7 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
     let setup = crate::eval::EvalSetup {
         backend: &backend,
         volume: packed,
-        volume_name: vol.name.clone(),
+        volume_name: vol.name().to_owned(),
         params,
         reference: crate::estimators::by_name("ratio").expect("registered"),
         reference_spp: args.reference_spp.unwrap_or(16 * args.spp),

@@ -16,8 +16,8 @@ pub mod procedural;
 pub use backend::{Backend, BackendChoice};
 /// Volume loaders (`.vdb`, `.nvdb`), re-exported from the `volume-io` crate.
 pub use volume_io as io;
-/// Dense volumes, re-exported from the `volume-io` crate.
-pub use volume_io::dense as volume;
+/// Dense and sparse volumes, re-exported from the `volume-io` crate.
+pub use volume_io::volume;
 pub mod bricks;
 pub mod eval;
 pub mod eval_direct;

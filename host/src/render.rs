@@ -4,7 +4,7 @@ use crate::backend::Backend;
 use crate::bricks::PackedVolume;
 use crate::lighting::SceneLights;
 pub use crate::schedule::{RenderBackend, Schedule, LOOP_BUDGET};
-use crate::volume::{Affine, DenseVolume};
+use crate::volume::{Affine, VolumeData};
 use anyhow::{Context, Result};
 use shared::camera::Camera;
 use shared::geometry::{Affine3x4, V3};
@@ -13,37 +13,26 @@ use shared::params::RenderParams;
 use shared::sampling::lights::PointLight;
 
 /// Axis-aligned world-space bounds of the volume's grid box [0, dims].
-pub fn world_bounds(vol: &DenseVolume) -> ([f64; 3], [f64; 3]) {
-    index_box_to_world(vol, [0; 3], vol.dims)
+pub fn world_bounds(vol: &dyn VolumeData) -> ([f64; 3], [f64; 3]) {
+    index_box_to_world(vol, [0; 3], vol.dims())
 }
 
 /// Axis-aligned world-space bounds of the voxels with non-zero density (the whole grid if none),
 /// so the default camera frames what is visible rather than the grid's padding.
-pub fn occupied_world_bounds(vol: &DenseVolume) -> ([f64; 3], [f64; 3]) {
-    let (mut lo, mut hi) = ([u32::MAX; 3], [0u32; 3]);
-    let [dx, dy, _] = vol.dims.map(|d| d as usize);
-    for (i, &v) in vol.values.iter().enumerate() {
-        if v > 0.0 {
-            let c = [
-                (i % dx) as u32,
-                (i / dx % dy) as u32,
-                (i / (dx * dy)) as u32,
-            ];
-            for a in 0..3 {
-                lo[a] = lo[a].min(c[a]);
-                hi[a] = hi[a].max(c[a] + 1);
-            }
-        }
+pub fn occupied_world_bounds(vol: &dyn VolumeData) -> ([f64; 3], [f64; 3]) {
+    match vol.occupied_box() {
+        Some((lo, hi)) => index_box_to_world(vol, lo, hi),
+        None => world_bounds(vol),
     }
-    if lo[0] == u32::MAX {
-        return world_bounds(vol);
-    }
-    index_box_to_world(vol, lo, hi)
 }
 
 /// World bounds of the index-space box [lo, hi].
-fn index_box_to_world(vol: &DenseVolume, lo_i: [u32; 3], hi_i: [u32; 3]) -> ([f64; 3], [f64; 3]) {
-    let m = vol.index_to_world.0;
+fn index_box_to_world(
+    vol: &dyn VolumeData,
+    lo_i: [u32; 3],
+    hi_i: [u32; 3],
+) -> ([f64; 3], [f64; 3]) {
+    let m = vol.index_to_world().0;
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
     for c in 0..8 {
         let p = [0, 1, 2].map(|a| {

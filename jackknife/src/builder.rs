@@ -123,10 +123,14 @@ impl Grid {
     }
 }
 
+/// Fills `out` with the densities of the voxel box [lo, hi) (x fastest); false: all are 0.
+type FillBox<'a> = dyn Fn([u32; 3], [u32; 3], &mut Vec<f32>) -> bool + Sync + 'a;
+
 /// Where the densities come from.
 enum Source<'a> {
     Dense(&'a [f32]),
     Func(Box<dyn Fn(u32, u32, u32) -> f32 + Sync + 'a>),
+    Boxes(Box<FillBox<'a>>),
 }
 
 /// Builds a [`Grid`] from densities: extinction = density x `density_scale`.
@@ -154,6 +158,16 @@ impl<'a> GridBuilder<'a> {
     /// Densities from a function of the voxel (x, y, z), e.g. a lookup in a sparse structure.
     pub fn from_fn(dims: [u32; 3], f: impl Fn(u32, u32, u32) -> f32 + Sync + 'a) -> Self {
         Self::with_source(dims, Source::Func(Box::new(f)))
+    }
+
+    /// Densities box by box, for sparse sources: `fill(lo, hi, out)` writes the densities of the
+    /// voxel box [lo, hi) into `out` (x fastest) or returns false, leaving `out` as it is, when
+    /// it knows that every one of them is 0; such bricks cost no work beyond the call.
+    pub fn from_boxes(
+        dims: [u32; 3],
+        fill: impl Fn([u32; 3], [u32; 3], &mut Vec<f32>) -> bool + Sync + 'a,
+    ) -> Self {
+        Self::with_source(dims, Source::Boxes(Box::new(fill)))
     }
 
     fn with_source(dims: [u32; 3], source: Source<'a>) -> Self {
@@ -193,13 +207,61 @@ impl<'a> GridBuilder<'a> {
         self
     }
 
-    /// Density of voxel `i` (x fastest).
-    fn value(&self, i: usize) -> f32 {
+    /// Fills `out` with the densities of the voxel box [lo, hi) (x fastest); false (leaving
+    /// `out` unspecified) when the source knows they are all 0.
+    fn fill(&self, lo: [u32; 3], hi: [u32; 3], out: &mut Vec<f32>) -> bool {
+        let rows = || (lo[2]..hi[2]).flat_map(move |z| (lo[1]..hi[1]).map(move |y| (y, z)));
         match &self.source {
-            Source::Dense(v) => v[i],
+            Source::Dense(v) => {
+                out.clear();
+                let [dx, dy, _] = self.dims.map(|d| d as usize);
+                for (y, z) in rows() {
+                    let row = (z as usize * dy + y as usize) * dx;
+                    out.extend_from_slice(&v[row + lo[0] as usize..row + hi[0] as usize]);
+                }
+                true
+            }
             Source::Func(f) => {
-                let [x, y, z] = unflatten(i, self.dims);
-                f(x, y, z)
+                out.clear();
+                for (y, z) in rows() {
+                    out.extend((lo[0]..hi[0]).map(|x| f(x, y, z)));
+                }
+                true
+            }
+            Source::Boxes(f) => f(lo, hi, out),
+        }
+    }
+
+    /// The voxel box [lo, hi) of brick `i` (x fastest), clamped to the grid.
+    fn brick_box(&self, i: usize, brick_dims: [u32; 3]) -> ([u32; 3], [u32; 3]) {
+        let (dims, b) = (self.dims, self.brick_size);
+        let c = unflatten(i, brick_dims);
+        let lo = [0, 1, 2].map(|a| c[a] * b);
+        let hi = [0, 1, 2].map(|a| ((c[a] + 1) * b).min(dims[a]));
+        (lo, hi)
+    }
+
+    /// Calls `f(flat index in the grid, density)` for every voxel of brick `i` in x-fastest
+    /// order (bricks the source knows to be all zero: none); `buf` is scratch space.
+    fn brick_values(
+        &self,
+        i: usize,
+        brick_dims: [u32; 3],
+        buf: &mut Vec<f32>,
+        mut f: impl FnMut(usize, f32),
+    ) {
+        let (lo, hi) = self.brick_box(i, brick_dims);
+        if !self.fill(lo, hi, buf) {
+            return;
+        }
+        let [dx, dy, _] = self.dims.map(|d| d as usize);
+        let mut values = buf.iter();
+        for z in lo[2]..hi[2] {
+            for y in lo[1]..hi[1] {
+                let row = (z as usize * dy + y as usize) * dx;
+                for x in lo[0]..hi[0] {
+                    f(row + x as usize, *values.next().expect("a full box"));
+                }
             }
         }
     }
@@ -228,13 +290,13 @@ impl<'a> GridBuilder<'a> {
                 });
             }
         }
-        let (max_i, max, min_positive) = self.extremes(count)?;
-        self.check_optical_depth(max_i, max)?;
-        let k = Self::f16_exponent(max, min_positive);
-        let stored_scale = (scale as f64 * pow2(-k)) as f32;
         let b = self.brick_size;
         let brick_dims = [0, 1, 2].map(|a| dims[a].div_ceil(b));
         let n_bricks = brick_dims.iter().map(|&d| d as usize).product::<usize>();
+        let (max_i, max, min_positive) = self.extremes(brick_dims)?;
+        self.check_optical_depth(max_i, max)?;
+        let k = Self::f16_exponent(max, min_positive);
+        let stored_scale = (scale as f64 * pow2(-k)) as f32;
         let (slots, voxels, underflow) = self.pool(brick_dims, k, stored_scale);
         let desc = GridDesc {
             dims: [dims[0], dims[1], dims[2], 0],
@@ -257,11 +319,34 @@ impl<'a> GridBuilder<'a> {
             bricks: &slots_only,
         };
         use rayon::prelude::*;
+        // A brick whose widened window lies in empty bricks only has all-zero statistics.
+        let empty_around = |c: [u32; 3]| {
+            let lo = c.map(|v| v.saturating_sub(1));
+            let hi: [u32; 3] = std::array::from_fn(|a| (c[a] + 2).min(brick_dims[a]));
+            (lo[2]..hi[2]).all(|z| {
+                (lo[1]..hi[1]).all(|y| {
+                    (lo[0]..hi[0]).all(|x| {
+                        let j = x as usize
+                            + brick_dims[0] as usize
+                                * (y as usize + brick_dims[1] as usize * z as usize);
+                        slots[j] == EMPTY_BRICK
+                    })
+                })
+            })
+        };
         let bricks: Vec<Brick> = (0..n_bricks)
             .into_par_iter()
-            .map(|i| Brick {
-                slot: slots[i],
-                ..brick_stats(&view, unflatten(i, brick_dims), b)
+            .map(|i| {
+                let c = unflatten(i, brick_dims);
+                let stats = if empty_around(c) {
+                    ZERO_STATS
+                } else {
+                    brick_stats(&view, c, b)
+                };
+                Brick {
+                    slot: slots[i],
+                    ..stats
+                }
             })
             .collect();
         Ok(Grid {
@@ -272,26 +357,56 @@ impl<'a> GridBuilder<'a> {
         })
     }
 
-    /// One pass over the densities: the densest voxel (index, density) and the smallest positive
-    /// density (infinity if none); refuses NaN, infinite and negative densities.
-    fn extremes(&self, count: usize) -> Result<(usize, f32, f32), BuildError> {
-        let (mut best, mut min_positive) = ((0usize, 0.0f32), f32::INFINITY);
-        for i in 0..count {
-            let v = self.value(i);
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(BuildError::Density {
-                    voxel: unflatten(i, self.dims),
-                    density: v,
+    /// One pass over the densities, brick by brick in parallel: the densest voxel (flat index,
+    /// density; the first in x-fastest order among equals) and the smallest positive density
+    /// (infinity if none); refuses NaN, infinite and negative densities, naming the first.
+    fn extremes(&self, brick_dims: [u32; 3]) -> Result<(usize, f32, f32), BuildError> {
+        use rayon::prelude::*;
+        /// (first bad voxel, densest voxel, smallest positive density) of some bricks.
+        type Scan = (Option<(usize, f32)>, (usize, f32), f32);
+        let none: Scan = (None, (usize::MAX, 0.0), f32::INFINITY);
+        let merge = |a: Scan, b: Scan| -> Scan {
+            let bad = match (a.0, b.0) {
+                (Some(x), Some(y)) => Some(if x.0 <= y.0 { x } else { y }),
+                (x, y) => x.or(y),
+            };
+            let best = if b.1 .1 > a.1 .1 || (b.1 .1 == a.1 .1 && b.1 .0 < a.1 .0) {
+                b.1
+            } else {
+                a.1
+            };
+            (bad, best, a.2.min(b.2))
+        };
+        let n_bricks = brick_dims.iter().map(|&d| d as usize).product::<usize>();
+        let (bad, best, min_positive) = (0..n_bricks)
+            .into_par_iter()
+            .map_init(Vec::new, |buf, i| {
+                let mut scan = none;
+                self.brick_values(i, brick_dims, buf, |at, v| {
+                    if !(v.is_finite() && v >= 0.0) {
+                        if scan.0.is_none() {
+                            scan.0 = Some((at, v));
+                        }
+                    } else {
+                        if v > scan.1 .1 {
+                            scan.1 = (at, v);
+                        }
+                        if v > 0.0 && v < scan.2 {
+                            scan.2 = v;
+                        }
+                    }
                 });
-            }
-            if v > best.1 {
-                best = (i, v);
-            }
-            if v > 0.0 && v < min_positive {
-                min_positive = v;
-            }
+                scan
+            })
+            .reduce(|| none, merge);
+        if let Some((at, density)) = bad {
+            return Err(BuildError::Density {
+                voxel: unflatten(at, self.dims),
+                density,
+            });
         }
-        Ok((best.0, best.1, min_positive))
+        let max_i = if best.1 > 0.0 { best.0 } else { 0 };
+        Ok((max_i, best.1, min_positive))
     }
 
     /// Refuses a scale whose largest extinction exceeds f32 or, times the longest chord through
@@ -359,37 +474,21 @@ impl<'a> GridBuilder<'a> {
         stored_scale: f32,
     ) -> (Vec<u32>, Vec<u32>, Underflow) {
         use rayon::prelude::*;
-        let (dims, b) = (self.dims, self.brick_size);
+        let dims = self.dims;
         let prescale = pow2(k);
         let n_bricks = brick_dims.iter().map(|&d| d as usize).product::<usize>();
-        let flat = |x: u32, y: u32, z: u32| {
-            x as usize + dims[0] as usize * (y as usize + dims[1] as usize * z as usize)
-        };
-        // The voxel range of brick i, clamped to the grid.
-        let range = |i: usize| {
-            let c = unflatten(i, brick_dims);
-            let lo = [0, 1, 2].map(|a| c[a] * b);
-            let hi = [0, 1, 2].map(|a| ((c[a] + 1) * b).min(dims[a]));
-            (lo, hi)
-        };
-        let voxels_of = |i: usize| {
-            let (lo, hi) = range(i);
-            (lo[2]..hi[2]).flat_map(move |z| {
-                (lo[1]..hi[1]).flat_map(move |y| (lo[0]..hi[0]).map(move |x| flat(x, y, z)))
-            })
-        };
         // Pass 1: occupancy, voxel count and underflow of each brick (the first underflow as
         // the smallest flat index, so the report does not depend on the thread count).
         let scan: Vec<(bool, usize, u64, u64, Option<usize>)> = (0..n_bricks)
             .into_par_iter()
-            .map(|i| {
-                let (mut any, mut len, mut nonzero, mut lost) = (false, 0usize, 0u64, 0u64);
+            .map_init(Vec::new, |buf, i| {
+                let (lo, hi) = self.brick_box(i, brick_dims);
+                let len = (0..3).map(|a| (hi[a] - lo[a]) as usize).product();
+                let (mut any, mut nonzero, mut lost) = (false, 0u64, 0u64);
                 let mut first = None;
-                for at in voxels_of(i) {
-                    let v = self.value(at);
+                self.brick_values(i, brick_dims, buf, |at, v| {
                     let h = Self::quantized(v, prescale);
                     any |= h != 0;
-                    len += 1;
                     // A scale of 0 empties the volume on purpose: nothing to report.
                     if v > 0.0 && self.density_scale > 0.0 {
                         nonzero += 1;
@@ -398,7 +497,7 @@ impl<'a> GridBuilder<'a> {
                             first = Some(first.map_or(at, |f: usize| f.min(at)));
                         }
                     }
-                }
+                });
                 (any, len, nonzero, lost, first)
             })
             .collect();
@@ -421,7 +520,16 @@ impl<'a> GridBuilder<'a> {
                 total += len + len % 2;
             }
         }
-        underflow.first = first.map(|f| (unflatten(f, dims), self.value(f)));
+        underflow.first = first.map(|f| {
+            let v = unflatten(f, dims);
+            let mut one = Vec::new();
+            let density = if self.fill(v, v.map(|c| c + 1), &mut one) {
+                one[0]
+            } else {
+                0.0
+            };
+            (v, density)
+        });
         drop(scan);
         // Pass 2: each occupied brick's run of the pool, written as packed words directly.
         let mut words = vec![0u32; total / 2];
@@ -432,12 +540,16 @@ impl<'a> GridBuilder<'a> {
             parts.push((i, run));
             rest = tail;
         }
-        parts.into_par_iter().for_each(|(i, dst)| {
-            for (n, at) in voxels_of(i).enumerate() {
-                let h = Self::quantized(self.value(at), prescale) as u32;
-                dst[n / 2] |= h << (16 * (n % 2));
-            }
-        });
+        parts
+            .into_par_iter()
+            .for_each_init(Vec::new, |buf, (i, dst)| {
+                let mut n = 0;
+                self.brick_values(i, brick_dims, buf, |_, v| {
+                    let h = Self::quantized(v, prescale) as u32;
+                    dst[n / 2] |= h << (16 * (n % 2));
+                    n += 1;
+                });
+            });
         if words.is_empty() {
             // An all-zero grid: GPU buffers may not be empty.
             words.push(0);
@@ -470,6 +582,15 @@ fn round_up(v: f64) -> f32 {
         f
     }
 }
+
+/// The statistics of a brick whose widened window holds zeros only (what [`brick_stats`] gives).
+const ZERO_STATS: Brick = Brick {
+    mu_min: 0.0,
+    mu_max: 0.0,
+    mean: 0.0,
+    p: 0.0,
+    slot: EMPTY_BRICK,
+};
 
 /// Statistics of brick b over its widened, clamped window ([-1, B+1) per axis): exact min,
 /// max, mean and P of Eq. 5 (RMS of mu - mu_min) rounded up, P >= 0.01 mu_min.

@@ -89,19 +89,6 @@ impl DenseVolume {
         self
     }
 
-    /// Describes voxel (x, y, z) for messages: in file index coordinates for a file, else as is.
-    pub fn describe_voxel(&self, x: u32, y: u32, z: u32) -> String {
-        match self.file_origin {
-            Some(o) => format!(
-                "voxel ({}, {}, {}) (file index coordinates)",
-                i64::from(o[0]) + i64::from(x),
-                i64::from(o[1]) + i64::from(y),
-                i64::from(o[2]) + i64::from(z)
-            ),
-            None => format!("voxel ({x}, {y}, {z})"),
-        }
-    }
-
     /// Value of voxel (x, y, z).
     pub fn at(&self, x: u32, y: u32, z: u32) -> f32 {
         self.values[(x as usize)

@@ -14,11 +14,15 @@ mod bytes;
 pub mod dense;
 mod nanovdb;
 mod openvdb;
+pub mod sparse;
+pub mod volume;
 
 use anyhow::{anyhow, bail, ensure, Context, Result};
 pub use dense::{Affine, DenseVolume};
+pub use sparse::SparseVolume;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::Path;
+pub use volume::{Volume, VolumeData};
 
 /// The grid loaded when none is named.
 pub const DEFAULT_GRID: &str = "density";
@@ -41,9 +45,13 @@ pub fn load_volume_capped(path: &Path, grid: Option<&str>, max_voxels: u64) -> R
     let options = LoadOptions {
         grid,
         max_voxels,
+        sparse: false,
         ..LoadOptions::default()
     };
-    Ok(load_volume_with(path, &options)?.volume)
+    match load_volume_with(path, &options)?.volume {
+        Volume::Dense(v) => Ok(v),
+        Volume::Sparse(_) => unreachable!("a dense load never builds a sparse volume"),
+    }
 }
 
 /// How a volume file is loaded.
@@ -55,6 +63,11 @@ pub struct LoadOptions<'a> {
     pub max_voxels: u64,
     /// Set negative densities to 0 instead of refusing the file.
     pub clamp_negative: bool,
+    /// Keep an OpenVDB grid sparse (its leaves and tiles only) instead of filling a dense
+    /// array over its bounding box. The two read the same, voxel for voxel; a grid with a
+    /// nonzero background, or nodes off the 8-voxel lattice (corrupt files), loads dense.
+    /// NanoVDB files load dense.
+    pub sparse: bool,
 }
 
 impl Default for LoadOptions<'_> {
@@ -63,6 +76,7 @@ impl Default for LoadOptions<'_> {
             grid: None,
             max_voxels: MAX_DENSE_VOXELS,
             clamp_negative: false,
+            sparse: true,
         }
     }
 }
@@ -70,7 +84,7 @@ impl Default for LoadOptions<'_> {
 /// A loaded volume and what loading changed.
 #[derive(Clone, Debug)]
 pub struct LoadedVolume {
-    pub volume: DenseVolume,
+    pub volume: Volume,
     /// How many negative densities [`LoadOptions::clamp_negative`] set to 0.
     pub clamped_negative: u64,
     /// The name of the grid that was read (the one rendered).
@@ -83,7 +97,7 @@ pub fn load_volume_with(path: &Path, options: &LoadOptions) -> Result<LoadedVolu
     let cap = options.max_voxels.min(MAX_DENSE_VOXELS);
     let grid = options.grid;
     let loaded = guarded(|| match format {
-        Format::OpenVdb => openvdb::load(&read_file(path)?, grid, cap),
+        Format::OpenVdb => openvdb::load(&read_file(path)?, grid, cap, options.sparse),
         Format::NanoVdb => nanovdb::load(path, grid, cap),
     })
     .with_context(|| format!("cannot load {} file {}", format.name(), path.display()))?;
@@ -309,58 +323,100 @@ impl LinearMap {
     }
 }
 
-/// What a format reader returns: the dense values and the file's map.
+/// What a format reader returns: the voxels and the file's map.
 struct Loaded {
-    dense: Dense,
+    voxels: Voxels,
     map: LinearMap,
     /// The name of the grid read.
     grid: String,
 }
 
+/// The voxels a reader filled: a dense grid over the active bounding box, or the cells of the
+/// leaves and tiles (see [`sparse`]).
+enum Voxels {
+    Dense(Dense),
+    Sparse {
+        cells: sparse::Cells,
+        /// File index of local voxel (0, 0, 0).
+        min: [i32; 3],
+        dims: [u32; 3],
+    },
+}
+
 impl Loaded {
-    /// The validated [`DenseVolume`], named after the file; negative densities set to 0 if
-    /// `clamp_negative`, else refused like NaN and infinities, naming the voxel's file index.
-    fn into_volume(mut self, path: &Path, clamp_negative: bool) -> Result<LoadedVolume> {
+    /// The validated [`Volume`], named after the file; negative densities set to 0 if
+    /// `clamp_negative`, else refused like NaN and infinities, naming the voxel's file index
+    /// (the first one in x-fastest order, whatever the storage).
+    fn into_volume(self, path: &Path, clamp_negative: bool) -> Result<LoadedVolume> {
         let name = path.display().to_string();
         self.map
             .check_invertible()
             .with_context(|| format!("cannot load {name}: the grid transform is unusable"))?;
         let mut clamped_negative = 0;
-        if clamp_negative {
-            for v in self.dense.values.iter_mut().filter(|v| **v < 0.0) {
-                *v = 0.0;
-                clamped_negative += 1;
+        let clamp = |v: f32| if v < 0.0 { 0.0 } else { v };
+        let (volume, bad) = match self.voxels {
+            Voxels::Dense(mut dense) => {
+                if clamp_negative {
+                    for v in dense.values.iter_mut().filter(|v| **v < 0.0) {
+                        *v = 0.0;
+                        clamped_negative += 1;
+                    }
+                }
+                let values = &dense.values;
+                if let Some(i) = values.iter().position(|v| !v.is_finite() || *v < 0.0) {
+                    return Err(bad_density(&name, dense.file_index(i), values[i]));
+                }
+                let Dense {
+                    min, dims, values, ..
+                } = dense;
+                let volume = DenseVolume::new(&name, dims, values, self.map.dense_affine(min))?
+                    .with_file_origin(min);
+                (Volume::Dense(volume), None)
             }
+            Voxels::Sparse { cells, min, dims } => {
+                let mut volume = SparseVolume {
+                    name: name.clone(),
+                    dims,
+                    index_to_world: self.map.dense_affine(min),
+                    file_origin: min,
+                    cells,
+                };
+                if clamp_negative {
+                    clamped_negative = volume.map_values(clamp);
+                }
+                let bad = volume.first_bad().map(|(v, value)| {
+                    let ijk: [i64; 3] =
+                        std::array::from_fn(|a| i64::from(min[a]) + i64::from(v[a]));
+                    (ijk, value)
+                });
+                (Volume::Sparse(volume), bad)
+            }
+        };
+        if let Some((ijk, value)) = bad {
+            return Err(bad_density(&name, ijk, value));
         }
-        let values = &self.dense.values;
-        if let Some(i) = values.iter().position(|v| !v.is_finite() || *v < 0.0) {
-            let ijk = self.dense.file_index(i);
-            let value = values[i];
-            let advice = if value < 0.0 {
-                "densities must be >= 0: fix the grid, or pass --clamp-negative to set negative \
-                 values to 0"
-            } else {
-                "densities must be finite: fix the grid (replace NaN/inf in the tool that wrote it)"
-            };
-            bail!(
-                "cannot load {name}: voxel ({}, {}, {}) (file index coordinates) has density \
-                 {value}; {advice}",
-                ijk[0],
-                ijk[1],
-                ijk[2]
-            );
-        }
-        let Dense {
-            min, dims, values, ..
-        } = self.dense;
-        let volume =
-            DenseVolume::new(name, dims, values, self.map.dense_affine(min))?.with_file_origin(min);
         Ok(LoadedVolume {
             volume,
             clamped_negative,
             grid: self.grid,
         })
     }
+}
+
+/// The refusal of file voxel `ijk`'s density `value` (NaN, infinite or negative), with advice.
+fn bad_density(name: &str, ijk: [i64; 3], value: f32) -> anyhow::Error {
+    let advice = if value < 0.0 {
+        "densities must be >= 0: fix the grid, or pass --clamp-negative to set negative values to 0"
+    } else {
+        "densities must be finite: fix the grid (replace NaN/inf in the tool that wrote it)"
+    };
+    anyhow!(
+        "cannot load {name}: voxel ({}, {}, {}) (file index coordinates) has density {value}; \
+         {advice}",
+        ijk[0],
+        ijk[1],
+        ijk[2]
+    )
 }
 
 /// The bounding box of active voxels, grown tile by tile and leaf by leaf.
@@ -427,12 +483,7 @@ impl DenseBuilder {
         })?;
         values.resize(count, background);
         let min = lo.map(|v| v as i32);
-        Ok(Dense {
-            min,
-            dims,
-            values,
-            background,
-        })
+        Ok(Dense { min, dims, values })
     }
 }
 
@@ -452,6 +503,22 @@ fn check_memory(dims: [u32; 3], available: Option<u64>) -> Result<()> {
             dims[0],
             dims[1],
             dims[2],
+            gib(bytes),
+            gib(available)
+        );
+    }
+    Ok(())
+}
+
+/// Refuses loading `what` when its peak of `bytes` exceeds `available` bytes (when known).
+fn check_bytes(bytes: u64, what: &str, available: Option<u64>) -> Result<()> {
+    let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
+    if let Some(available) = available {
+        ensure!(
+            bytes <= available,
+            "{what} need {:.1} GiB at their peak (values, then the f16 pool), more than the \
+             {:.1} GiB of memory available; crop the volume to the region of interest or \
+             resample it coarser",
             gib(bytes),
             gib(available)
         );
@@ -491,7 +558,6 @@ struct Dense {
     min: [i32; 3],
     dims: [u32; 3],
     values: Vec<f32>,
-    background: f32,
 }
 
 impl Dense {

@@ -170,7 +170,7 @@ fn load_grid(g: &nanovdb_rs::Grid, cap: u64) -> Result<Loaded> {
         }
     }
     Ok(Loaded {
-        dense,
+        voxels: super::Voxels::Dense(dense),
         map,
         grid: g.name().to_owned(),
     })

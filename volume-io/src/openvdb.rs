@@ -7,7 +7,7 @@
 
 use super::blosc;
 use super::bytes::ByteReader;
-use super::{Dense, DenseBuilder, GridEntry, LinearMap};
+use super::{sparse, DenseBuilder, GridEntry, LinearMap, Voxels};
 use anyhow::{bail, ensure, Context, Result};
 use std::io::Read;
 
@@ -57,8 +57,9 @@ struct Leaf {
 }
 
 /// Loads grid `grid` (or the default) of the `.vdb` file held in `data`, refusing dense grids
-/// of more than `cap` voxels.
-pub fn load(data: &[u8], grid: Option<&str>, cap: u64) -> Result<super::Loaded> {
+/// of more than `cap` voxels; `sparse`: keep it sparse where it can be (see
+/// [`super::LoadOptions::sparse`]).
+pub fn load(data: &[u8], grid: Option<&str>, cap: u64, sparse: bool) -> Result<super::Loaded> {
     let mut r = ByteReader::new(data);
     read_header(&mut r)?;
     let descriptors = read_descriptors(&mut r)?;
@@ -70,7 +71,7 @@ pub fn load(data: &[u8], grid: Option<&str>, cap: u64) -> Result<super::Loaded> 
         })
         .collect();
     let chosen = &descriptors[super::select_grid(&entries, grid)?];
-    read_grid(&mut r, chosen, cap).with_context(|| format!("grid '{}'", chosen.entry.name))
+    read_grid(&mut r, chosen, cap, sparse).with_context(|| format!("grid '{}'", chosen.entry.name))
 }
 
 /// Checks the magic number and format version and skips the file-level metadata.
@@ -175,7 +176,7 @@ fn value_type_name(tree_type: &str) -> String {
 }
 
 /// Reads the chosen grid: compression, metadata, transform, topology, then leaf values.
-fn read_grid(r: &mut ByteReader, d: &Descriptor, cap: u64) -> Result<super::Loaded> {
+fn read_grid(r: &mut ByteReader, d: &Descriptor, cap: u64, sparse: bool) -> Result<super::Loaded> {
     ensure!(
         d.instance_parent.is_empty(),
         "it is an instance of grid '{parent}' (it shares that grid's tree, which this reader \
@@ -204,17 +205,22 @@ fn read_grid(r: &mut ByteReader, d: &Descriptor, cap: u64) -> Result<super::Load
     let topology = r.pos();
     let mut survey = Survey::default();
     let background = read_topology(r, storage, &mut survey).context("reading the tree topology")?;
-    let mut dense = survey.bounds.allocate(background, cap)?;
+    let mut voxels = if sparse && survey.fits_cells(background) {
+        survey.allocate_cells(cap)?
+    } else {
+        Voxels::Dense(survey.bounds.allocate(background, cap)?)
+    };
     let buffers = r.pos();
     r.seek(topology as u64)?;
-    read_topology(r, storage, &mut dense)?;
+    read_topology(r, storage, &mut voxels)?;
     ensure!(
         r.pos() == buffers,
         "the tree topology read differently twice"
     );
-    read_leaf_buffers(r, storage, &survey.leaves, &mut dense).context("reading the leaf values")?;
+    read_leaf_buffers(r, storage, &survey.leaves, background, &mut voxels)
+        .context("reading the leaf values")?;
     Ok(super::Loaded {
-        dense,
+        voxels,
         map,
         grid: d.entry.name.clone(),
     })
@@ -282,26 +288,86 @@ trait TopologySink {
 struct Survey {
     bounds: DenseBuilder,
     leaves: Vec<Leaf>,
+    /// A tile or leaf off the 8-voxel lattice (only in corrupt files).
+    off_lattice: bool,
+}
+
+impl Survey {
+    /// Whether the grid can be kept as [`sparse::Cells`]: background 0 (+0: a -0 background
+    /// reads as stored nonzero f16 bits) and every node on the 8-voxel lattice.
+    fn fits_cells(&self, background: f32) -> bool {
+        background.to_bits() == 0 && !self.off_lattice
+    }
+
+    /// Empty cells over the bounding box, with room for the leaves; refuses boxes above `cap`
+    /// voxels (as a dense grid would be refused) and tables or leaves that do not fit memory.
+    fn allocate_cells(&self, cap: u64) -> Result<Voxels> {
+        let (lo, hi) = self
+            .bounds
+            .bounds
+            .context("the grid has no active voxels (it is empty); pick another grid")?;
+        let dims = super::dense_dims(lo, hi, cap)?;
+        let leaves = self.leaves.len();
+        // The leaves' f32 values, later the f16 pool of at most as many voxels, and the table.
+        let table: u64 = dims.iter().map(|&d| u64::from(d / 8 + 2)).product();
+        let bytes = leaves as u64 * sparse::CELL_VALUES as u64 * (4 + 2) + table * 4;
+        super::check_bytes(bytes, "its leaves", super::available_memory())?;
+        let mut cells = sparse::Cells::new(lo, hi)
+            .context("the grid's cell table does not fit memory; crop the volume")?;
+        ensure!(
+            cells.reserve_leaves(leaves),
+            "cannot allocate {:.1} GiB for its {leaves} leaves; crop or resample the volume",
+            bytes as f64 / (1u64 << 30) as f64
+        );
+        Ok(Voxels::Sparse {
+            cells,
+            min: lo.map(|v| v as i32),
+            dims,
+        })
+    }
 }
 
 impl TopologySink for Survey {
     fn tile(&mut self, origin: [i32; 3], log2: u32, _value: f32) {
+        self.off_lattice |= origin.iter().any(|&o| o % 8 != 0) || log2 < 3;
         self.bounds.include_tile(origin, log2);
     }
 
     fn leaf(&mut self, origin: [i32; 3], mask: [u64; 8]) {
+        self.off_lattice |= origin.iter().any(|&o| o % 8 != 0);
         self.bounds.include_leaf(origin, &mask);
         self.leaves.push(Leaf { origin, mask });
     }
 }
 
 /// Pass two over the topology: the active tiles' values.
-impl TopologySink for Dense {
+impl TopologySink for Voxels {
     fn tile(&mut self, origin: [i32; 3], log2: u32, value: f32) {
-        self.fill_tile(origin, log2, value);
+        match self {
+            Voxels::Dense(dense) => dense.fill_tile(origin, log2, value),
+            Voxels::Sparse { cells, .. } => cells.tile(origin, log2, value),
+        }
     }
 
     fn leaf(&mut self, _origin: [i32; 3], _mask: [u64; 8]) {}
+}
+
+impl Voxels {
+    /// Writes the active values of a leaf at `origin` (bit `n` of `mask`: `values[n]`).
+    fn set_leaf(&mut self, origin: [i32; 3], mask: &[u64; 8], values: &[f32]) {
+        match self {
+            Voxels::Dense(dense) => {
+                for n in ones(mask) {
+                    let v = [n >> 6, (n >> 3) & 7, n & 7];
+                    dense.set(
+                        std::array::from_fn(|a| origin[a].wrapping_add(v[a] as i32)),
+                        values[n],
+                    );
+                }
+            }
+            Voxels::Sparse { cells, .. } => cells.leaf(origin, mask, values),
+        }
+    }
 }
 
 /// Reads a tree topology (`Tree::readTopology`) into `sink`; returns the background value.
@@ -395,7 +461,8 @@ fn read_leaf_buffers(
     r: &mut ByteReader,
     s: Storage,
     leaves: &[Leaf],
-    dense: &mut Dense,
+    background: f32,
+    voxels: &mut Voxels,
 ) -> Result<()> {
     let mut values = Vec::new();
     for (i, leaf) in leaves.iter().enumerate() {
@@ -405,15 +472,9 @@ fn read_leaf_buffers(
             "leaf {i} at {:?}: buffer mask differs from the topology",
             leaf.origin
         );
-        read_values(r, s, &leaf.mask, dense.background, &mut values)
+        read_values(r, s, &leaf.mask, background, &mut values)
             .with_context(|| format!("leaf {i} of {} at {:?}", leaves.len(), leaf.origin))?;
-        for n in ones(&leaf.mask) {
-            let v = [n >> 6, (n >> 3) & 7, n & 7];
-            dense.set(
-                std::array::from_fn(|a| leaf.origin[a].wrapping_add(v[a] as i32)),
-                values[n],
-            );
-        }
+        voxels.set_leaf(leaf.origin, &leaf.mask, &values);
     }
     Ok(())
 }

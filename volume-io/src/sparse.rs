@@ -1,0 +1,294 @@
+//! A sparse extinction volume: the active voxels of a file's 8^3 leaves and its active tiles,
+//! stored once each, addressed by a table of 8^3 cells over the active bounding box. No dense
+//! array of the bounding box is ever built; voxels outside every leaf and tile read as 0.
+//!
+//! Local index conventions are those of [`crate::dense::DenseVolume`]: local voxel `p` is file
+//! voxel `file_origin + p`, and a sparse volume reads exactly as the dense volume of the same
+//! file would, voxel for voxel.
+
+use crate::dense::Affine;
+
+/// Voxels per cell axis: OpenVDB's leaf nodes are 8^3.
+pub(crate) const CELL: i64 = 8;
+/// Values per cell (a leaf's value count).
+pub(crate) const CELL_VALUES: usize = 512;
+/// Table entry of a cell no leaf or tile touches (background, 0).
+const NONE: u32 = u32::MAX;
+/// Table entry flag: the rest is an index into the tile values.
+const TILE: u32 = 1 << 31;
+
+/// The cells of a sparse volume: a table over the bounding box in 8^3 cells aligned to the
+/// file's index coordinates, each empty, a constant (a tile) or a leaf's 512 values.
+#[derive(Clone, Debug)]
+pub(crate) struct Cells {
+    /// File index of the first voxel of cell (0, 0, 0), a multiple of 8 per axis.
+    origin: [i64; 3],
+    /// Cells per axis.
+    dims: [u32; 3],
+    /// Per cell (x fastest): [`NONE`], `TILE | k` (value `tiles[k]`) or a leaf index.
+    table: Vec<u32>,
+    /// Tile values.
+    tiles: Vec<f32>,
+    /// Leaf values, [`CELL_VALUES`] per leaf, value `x << 6 | y << 3 | z` (OpenVDB's order).
+    leaves: Vec<f32>,
+}
+
+impl Cells {
+    /// Empty cells covering the inclusive file index box `lo..=hi`; `None` if the table would
+    /// not fit memory indices.
+    pub(crate) fn new(lo: [i64; 3], hi: [i64; 3]) -> Option<Self> {
+        let origin = lo.map(|v| v.div_euclid(CELL) * CELL);
+        let dims: [u32; 3] = std::array::from_fn(|a| {
+            u32::try_from((hi[a] - origin[a]).div_euclid(CELL) + 1).unwrap_or(u32::MAX)
+        });
+        let count = dims
+            .iter()
+            .try_fold(1usize, |n, &d| n.checked_mul(d as usize))?;
+        let mut table = Vec::new();
+        table.try_reserve_exact(count).ok()?;
+        table.resize(count, NONE);
+        Some(Cells {
+            origin,
+            dims,
+            table,
+            tiles: Vec::new(),
+            leaves: Vec::new(),
+        })
+    }
+
+    /// Bytes held: the table and the values.
+    pub(crate) fn bytes(&self) -> u64 {
+        (self.table.len() * 4 + self.tiles.len() * 4 + self.leaves.len() * 4) as u64
+    }
+
+    /// Leaves stored.
+    pub(crate) fn leaf_count(&self) -> usize {
+        self.leaves.len() / CELL_VALUES
+    }
+
+    /// Table index of the cell holding file voxel `ijk`, if the table covers it.
+    fn cell_of(&self, ijk: [i64; 3]) -> Option<usize> {
+        let mut index = 0usize;
+        for a in (0..3).rev() {
+            let c = (ijk[a] - self.origin[a]).div_euclid(CELL);
+            if c < 0 || c >= i64::from(self.dims[a]) {
+                return None;
+            }
+            index = index * self.dims[a] as usize + c as usize;
+        }
+        Some(index)
+    }
+
+    /// Sets every cell of an active tile of `2^log2` (>= 8) voxels per axis at `origin` (a
+    /// multiple of 8) to `value`, clipped to the table; later tiles replace earlier ones.
+    pub(crate) fn tile(&mut self, origin: [i32; 3], log2: u32, value: f32) {
+        let size = 1i64 << log2;
+        let lo: [i64; 3] =
+            std::array::from_fn(|a| ((i64::from(origin[a]) - self.origin[a]) / CELL).max(0));
+        let hi: [i64; 3] = std::array::from_fn(|a| {
+            ((i64::from(origin[a]) + size - self.origin[a]) / CELL).min(i64::from(self.dims[a]))
+        });
+        if (0..3).any(|a| lo[a] >= hi[a]) {
+            return;
+        }
+        let k = self.tiles.len() as u32;
+        self.tiles.push(value);
+        let [dx, dy, _] = self.dims.map(|d| d as usize);
+        for z in lo[2]..hi[2] {
+            for y in lo[1]..hi[1] {
+                let row = (z as usize * dy + y as usize) * dx;
+                self.table[row + lo[0] as usize..row + hi[0] as usize].fill(TILE | k);
+            }
+        }
+    }
+
+    /// Writes the active values of a leaf at `origin` (a multiple of 8): bit `n` of `mask`
+    /// active means `values[n]`. Inactive values keep what the cell held (a tile's value, an
+    /// earlier leaf's values at the same origin, or 0), as a dense grid filled in file order.
+    pub(crate) fn leaf(&mut self, origin: [i32; 3], mask: &[u64; 8], values: &[f32]) {
+        if mask.iter().all(|&w| w == 0) {
+            return;
+        }
+        let Some(cell) = self.cell_of(origin.map(i64::from)) else {
+            return;
+        };
+        let entry = self.table[cell];
+        let n = if entry != NONE && entry & TILE == 0 {
+            entry as usize
+        } else {
+            let fill = if entry == NONE {
+                0.0
+            } else {
+                self.tiles[(entry & !TILE) as usize]
+            };
+            let n = self.leaf_count();
+            self.leaves.resize(self.leaves.len() + CELL_VALUES, fill);
+            self.table[cell] = n as u32;
+            n
+        };
+        let leaf = &mut self.leaves[n * CELL_VALUES..(n + 1) * CELL_VALUES];
+        for (w, &word) in mask.iter().enumerate() {
+            let mut bits = word;
+            while bits != 0 {
+                let i = w * 64 + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                leaf[i] = values[i];
+            }
+        }
+    }
+
+    /// Reserves room for `leaves` leaves; false if that memory cannot be had.
+    pub(crate) fn reserve_leaves(&mut self, leaves: usize) -> bool {
+        leaves
+            .checked_mul(CELL_VALUES)
+            .is_some_and(|n| self.leaves.try_reserve_exact(n).is_ok())
+    }
+}
+
+/// A volume stored as the cells its file's leaves and tiles touch: memory proportional to the
+/// active leaves, not the bounding box.
+#[derive(Clone, Debug)]
+pub struct SparseVolume {
+    /// The file it came from, for messages.
+    pub name: String,
+    /// Voxel counts of the active bounding box along x, y, z (each >= 1).
+    pub dims: [u32; 3],
+    /// Voxel index space to world space.
+    pub index_to_world: Affine,
+    /// File index of local voxel (0, 0, 0).
+    pub file_origin: [i32; 3],
+    pub(crate) cells: Cells,
+}
+
+/// One cell's part of a local box: the cell's table entry and the local voxel box [lo, hi) it
+/// covers there.
+struct Piece {
+    entry: u32,
+    lo: [u32; 3],
+    hi: [u32; 3],
+    /// Local coordinates of the cell's first voxel (may be negative at the grid's low faces).
+    cell_lo: [i64; 3],
+}
+
+impl SparseVolume {
+    /// The cells meeting the local voxel box [lo, hi), with their parts of it, in table order.
+    fn pieces(&self, lo: [u32; 3], hi: [u32; 3], mut f: impl FnMut(Piece)) {
+        let c = &self.cells;
+        let shift: [i64; 3] = std::array::from_fn(|a| i64::from(self.file_origin[a]) - c.origin[a]);
+        let c_lo: [i64; 3] = std::array::from_fn(|a| (i64::from(lo[a]) + shift[a]) / CELL);
+        let c_hi: [i64; 3] = std::array::from_fn(|a| (i64::from(hi[a]) - 1 + shift[a]) / CELL + 1);
+        if (0..3).any(|a| lo[a] >= hi[a]) {
+            return;
+        }
+        let [dx, dy, _] = c.dims.map(|d| d as usize);
+        for z in c_lo[2]..c_hi[2] {
+            for y in c_lo[1]..c_hi[1] {
+                for x in c_lo[0]..c_hi[0] {
+                    let entry = c.table[(z as usize * dy + y as usize) * dx + x as usize];
+                    if entry == NONE {
+                        continue;
+                    }
+                    let cell = [x, y, z];
+                    let cell_lo: [i64; 3] = std::array::from_fn(|a| cell[a] * CELL - shift[a]);
+                    f(Piece {
+                        entry,
+                        lo: std::array::from_fn(|a| cell_lo[a].max(i64::from(lo[a])) as u32),
+                        hi: std::array::from_fn(|a| {
+                            (cell_lo[a] + CELL).min(i64::from(hi[a])) as u32
+                        }),
+                        cell_lo,
+                    });
+                }
+            }
+        }
+    }
+
+    /// Calls `f(local voxel, value)` for every voxel of a piece.
+    fn piece_values(&self, p: &Piece, mut f: impl FnMut([u32; 3], f32)) {
+        let c = &self.cells;
+        for z in p.lo[2]..p.hi[2] {
+            for y in p.lo[1]..p.hi[1] {
+                for x in p.lo[0]..p.hi[0] {
+                    let v = if p.entry & TILE != 0 {
+                        c.tiles[(p.entry & !TILE) as usize]
+                    } else {
+                        let l = [x, y, z].map(i64::from);
+                        let i = ((l[0] - p.cell_lo[0]) << 6)
+                            | ((l[1] - p.cell_lo[1]) << 3)
+                            | (l[2] - p.cell_lo[2]);
+                        c.leaves[p.entry as usize * CELL_VALUES + i as usize]
+                    };
+                    f([x, y, z], v);
+                }
+            }
+        }
+    }
+
+    /// Calls `f(local voxel, value)` for every stored voxel inside the grid (those of the
+    /// leaves and tiles; every other voxel is 0), cell by cell.
+    pub fn for_each_stored(&self, mut f: impl FnMut([u32; 3], f32)) {
+        self.pieces([0; 3], self.dims, |p| self.piece_values(&p, &mut f));
+    }
+
+    /// Sets every stored value `v` to `g(v)` (tiles once per tile), returning how many voxels
+    /// inside the grid changed.
+    pub(crate) fn map_values(&mut self, g: impl Fn(f32) -> f32) -> u64 {
+        let mut changed = 0u64;
+        self.for_each_stored(|_, v| {
+            if g(v).to_bits() != v.to_bits() {
+                changed += 1;
+            }
+        });
+        for v in self
+            .cells
+            .tiles
+            .iter_mut()
+            .chain(self.cells.leaves.iter_mut())
+        {
+            *v = g(*v);
+        }
+        changed
+    }
+
+    /// The first voxel in x-fastest order whose density is NaN, infinite or negative, and
+    /// that density.
+    pub(crate) fn first_bad(&self) -> Option<([u32; 3], f32)> {
+        let mut first: Option<([u32; 3], f32)> = None;
+        self.for_each_stored(|v, value| {
+            let before = |f: &[u32; 3]| (v[2], v[1], v[0]) < (f[2], f[1], f[0]);
+            if !(value.is_finite() && value >= 0.0) && first.is_none_or(|(f, _)| before(&f)) {
+                first = Some((v, value));
+            }
+        });
+        first
+    }
+
+    /// Writes the densities of the local voxel box [lo, hi) into `out` (x fastest); returns
+    /// false, leaving `out` unspecified, when every density there is 0.
+    pub fn fill(&self, lo: [u32; 3], hi: [u32; 3], out: &mut Vec<f32>) -> bool {
+        let n: [usize; 3] = std::array::from_fn(|a| hi[a].saturating_sub(lo[a]) as usize);
+        let mut any = false;
+        self.pieces(lo, hi, |p| {
+            if !any {
+                out.clear();
+                out.resize(n[0] * n[1] * n[2], 0.0);
+                any = true;
+            }
+            self.piece_values(&p, |v, value| {
+                let l: [usize; 3] = std::array::from_fn(|a| (v[a] - lo[a]) as usize);
+                out[l[0] + n[0] * (l[1] + n[1] * l[2])] = value;
+            });
+        });
+        any
+    }
+
+    /// Bytes of the stored cells (table and values).
+    pub fn stored_bytes(&self) -> u64 {
+        self.cells.bytes()
+    }
+
+    /// Leaves stored (8^3 blocks of values).
+    pub fn leaf_count(&self) -> usize {
+        self.cells.leaf_count()
+    }
+}
