@@ -70,9 +70,25 @@ impl Backend {
             return None;
         };
         let limit = gpu.max_buffer_bytes();
-        let largest = (std::mem::size_of_val(volume.voxels.as_slice()) as u64)
-            .max(std::mem::size_of_val(volume.bricks.as_slice()) as u64);
         let d = volume.desc.dims;
+        if volume.paged_desc().is_none() {
+            return Some(format!(
+                "the {}x{}x{} volume's voxel pool ({:.0} MiB) needs more than the {} pages of \
+                 {} MiB the kernels bind",
+                d[0],
+                d[1],
+                d[2],
+                std::mem::size_of_val(volume.voxels.as_slice()) as f64 / (1 << 20) as f64,
+                shared::volume::pages::MAX_PAGES,
+                (4u64 << volume.page_log2) >> 20
+            ));
+        }
+        let largest = volume
+            .pages()
+            .map(|p| std::mem::size_of_val(p) as u64)
+            .max()
+            .unwrap_or(0)
+            .max(std::mem::size_of_val(volume.bricks.as_slice()) as u64);
         (largest > limit).then(|| {
             format!(
                 "the {}x{}x{} volume needs a {largest}-byte storage buffer, more than this GPU's \

@@ -4,6 +4,7 @@
 
 use half::f16;
 use shared::volume::grid::{Brick, GridDesc, Lookup, VolumeView, EMPTY_BRICK};
+use shared::volume::pages::{Pages, GPU_PAGE_LOG2, MAX_PAGES, ONE_PAGE_LOG2};
 
 /// Default brick (super-voxel) size B in voxels per axis, as in the paper.
 pub const DEFAULT_BRICK_SIZE: u32 = 16;
@@ -34,6 +35,9 @@ pub enum BuildError {
         /// Their product.
         expected: usize,
     },
+    /// The pool of occupied bricks' voxels exceeds 2^32 - 1 f16 values (8 GiB).
+    #[error("the occupied bricks of the {0:?} grid hold more than 2^32 - 1 voxels (8 GiB of f16)")]
+    Pool([u32; 3]),
     /// A density is NaN, infinite or negative.
     #[error("voxel {voxel:?} has density {density}: densities must be finite and >= 0")]
     Density {
@@ -89,6 +93,9 @@ pub struct Grid {
     pub bricks: Vec<Brick>,
     /// Nonzero densities lost to underflow.
     pub underflow: Underflow,
+    /// log2 of the words per page the pool is laid out in: no brick's run crosses a multiple
+    /// of 2^page_log2 words (`desc.page_log2` is [`ONE_PAGE_LOG2`]: the CPU reads one page).
+    pub page_log2: u32,
 }
 
 impl Grid {
@@ -96,7 +103,7 @@ impl Grid {
     pub fn view(&self) -> VolumeView<'_> {
         VolumeView {
             desc: &self.desc,
-            voxels: &self.voxels,
+            voxels: Pages::one(&self.voxels),
             bricks: &self.bricks,
         }
     }
@@ -108,6 +115,20 @@ impl Grid {
             Some(index) => (self.voxels[index / 2] >> (16 * (index % 2))) as u16,
             None => 0,
         }
+    }
+
+    /// The pool's pages as a kernel binds them (each at most 2^page_log2 words).
+    pub fn pages(&self) -> impl Iterator<Item = &[u32]> {
+        self.voxels.chunks(1 << self.page_log2)
+    }
+
+    /// The descriptor for a view that binds the pool in [`Grid::pages`], or None if there are
+    /// more than [`MAX_PAGES`] pages.
+    pub fn paged_desc(&self) -> Option<GridDesc> {
+        (self.pages().count() <= MAX_PAGES).then_some(GridDesc {
+            page_log2: self.page_log2,
+            ..self.desc
+        })
     }
 
     /// Bricks that hold a nonzero voxel (the pool holds their voxels only).
@@ -147,6 +168,7 @@ pub struct GridBuilder<'a> {
     brick_size: u32,
     lookup: Lookup,
     chord: Option<f64>,
+    page_log2: u32,
 }
 
 impl<'a> GridBuilder<'a> {
@@ -178,6 +200,7 @@ impl<'a> GridBuilder<'a> {
             brick_size: DEFAULT_BRICK_SIZE,
             lookup: Lookup::Stochastic,
             chord: None,
+            page_log2: GPU_PAGE_LOG2,
         }
     }
 
@@ -196,6 +219,14 @@ impl<'a> GridBuilder<'a> {
     /// How the estimators read voxels (default: stochastic filtering, as in the paper).
     pub fn lookup(mut self, lookup: Lookup) -> Self {
         self.lookup = lookup;
+        self
+    }
+
+    /// Lays the pool out in pages of 2^`log2` words (default [`GPU_PAGE_LOG2`], 128 MiB: any
+    /// Vulkan device binds such pages); smaller pages exercise paging on small volumes. The
+    /// voxels read are the same for every page size. At most 25; raised to fit one brick.
+    pub fn page_log2(mut self, log2: u32) -> Self {
+        self.page_log2 = log2.min(GPU_PAGE_LOG2);
         self
     }
 
@@ -297,14 +328,19 @@ impl<'a> GridBuilder<'a> {
         self.check_optical_depth(max_i, max)?;
         let k = Self::f16_exponent(max, min_positive);
         let stored_scale = (scale as f64 * pow2(-k)) as f32;
-        let (slots, voxels, underflow) = self.pool(brick_dims, k, stored_scale);
+        // Pages hold at least one brick's run (B^3 / 2 words; 2^23 for B = 256).
+        let run_words = (b * b * b).div_ceil(2);
+        let page_log2 = self
+            .page_log2
+            .max(run_words.next_power_of_two().trailing_zeros());
+        let (slots, voxels, underflow) = self.pool(brick_dims, k, stored_scale, page_log2)?;
         let desc = GridDesc {
             dims: [dims[0], dims[1], dims[2], 0],
             brick_dims: [brick_dims[0], brick_dims[1], brick_dims[2], 0],
             brick_size: b,
             lookup: self.lookup as u32,
             density_scale: stored_scale,
-            _pad: 0,
+            page_log2: ONE_PAGE_LOG2,
         };
         let slots_only: Vec<Brick> = slots
             .iter()
@@ -315,7 +351,7 @@ impl<'a> GridBuilder<'a> {
             .collect();
         let view = VolumeView {
             desc: &desc,
-            voxels: &voxels,
+            voxels: Pages::one(&voxels),
             bricks: &slots_only,
         };
         use rayon::prelude::*;
@@ -354,6 +390,7 @@ impl<'a> GridBuilder<'a> {
             voxels,
             bricks,
             underflow,
+            page_log2,
         })
     }
 
@@ -465,14 +502,16 @@ impl<'a> GridBuilder<'a> {
     /// f16), finds whether any is nonzero and counts the nonzero densities whose extinction
     /// (`stored_scale` x f16) is 0; the occupied bricks get consecutive runs of the pool (slot =
     /// the pool index of the brick's first voxel; voxels x fastest over the brick's extent
-    /// clipped to the grid, padded to a whole word, so the pool exceeds the dense grid by at
-    /// most one voxel per brick), which a second pass writes as packed words; all-zero bricks get [`EMPTY_BRICK`] and store nothing.
+    /// clipped to the grid, padded to a whole word and moved to the next page of 2^`page_log2`
+    /// words rather than cross into it), which a second pass writes as packed words; all-zero
+    /// bricks get [`EMPTY_BRICK`] and store nothing.
     fn pool(
         &self,
         brick_dims: [u32; 3],
         k: i32,
         stored_scale: f32,
-    ) -> (Vec<u32>, Vec<u32>, Underflow) {
+        page_log2: u32,
+    ) -> Result<(Vec<u32>, Vec<u32>, Underflow), BuildError> {
         use rayon::prelude::*;
         let dims = self.dims;
         let prescale = pow2(k);
@@ -513,8 +552,16 @@ impl<'a> GridBuilder<'a> {
                 first = Some(first.map_or(f, |g| g.min(f)));
             }
             if any {
-                // Runs start on whole words (at most one padding voxel per brick); the pool stays
-                // within the dense count plus one per brick, which fits u32.
+                // Runs start on whole words (at most one padding voxel per brick) and never
+                // cross a page boundary (a run that would starts the next page).
+                let (start, words) = (total / 2, len.div_ceil(2));
+                let page = |w: usize| w >> page_log2;
+                if page(start) != page(start + words - 1) {
+                    total = (page(start) + 1) << (page_log2 + 1);
+                }
+                if total + len >= EMPTY_BRICK as usize {
+                    return Err(BuildError::Pool(dims));
+                }
                 slots[i] = total as u32;
                 runs.push((i, len));
                 total += len + len % 2;
@@ -535,10 +582,14 @@ impl<'a> GridBuilder<'a> {
         let mut words = vec![0u32; total / 2];
         let mut parts = Vec::with_capacity(runs.len());
         let mut rest = words.as_mut_slice();
+        let mut at = 0usize;
         for &(i, len) in &runs {
-            let (run, tail) = rest.split_at_mut(len.div_ceil(2));
+            let start = slots[i] as usize / 2;
+            let (_, tail) = rest.split_at_mut(start - at);
+            let (run, tail) = tail.split_at_mut(len.div_ceil(2));
             parts.push((i, run));
             rest = tail;
+            at = start + len.div_ceil(2);
         }
         parts
             .into_par_iter()
@@ -554,7 +605,7 @@ impl<'a> GridBuilder<'a> {
             // An all-zero grid: GPU buffers may not be empty.
             words.push(0);
         }
-        (slots, words, underflow)
+        Ok((slots, words, underflow))
     }
 }
 

@@ -17,6 +17,7 @@ use shared::sampling::lighting::{Lighting, Scene};
 use shared::sampling::lights::PointLight;
 use shared::shadows::map::RAW_PER_TEXEL;
 use shared::volume::grid::{Brick, GridDesc, VolumeView};
+use shared::volume::pages::Pages;
 use spirv_std::glam::UVec3;
 use spirv_std::spirv;
 
@@ -93,49 +94,89 @@ pub fn rng_draws_cs(
     }
 }
 
-/// One pass of a transmittance or single-scattering image: adds samples s_begin..s_end of each
-/// pixel.
-#[allow(clippy::too_many_arguments)] // one argument per binding
-#[spirv(compute(threads(64)))]
-pub fn render_cs(
-    #[spirv(global_invocation_id)] gid: UVec3,
-    #[spirv(push_constant)] pass: &RenderPass,
-    // bindings::render::PARAMS
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &[RenderParams],
-    // bindings::render::DESC
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] desc: &[GridDesc],
-    // bindings::render::VOXELS
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] voxels: &[u32],
-    // bindings::render::BRICKS
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] bricks: &[Brick],
-    // bindings::render::LIGHTS
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] lights: &[PointLight],
-    // bindings::render::SUMS
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] sums: &mut [PixelSums],
-) {
-    if let Some(i) = pass.launch.id(gid.x) {
-        let vol = VolumeView {
-            desc: &desc[0],
-            voxels,
-            bricks,
-        };
-        let slot = i - pass.sums_base as usize;
-        let prev = if pass.s_begin == 0 {
-            PixelSums::default()
-        } else {
-            sums[slot]
-        };
-        let p = &params[0];
-        sums[slot] =
-            render::render_pixel_pass(&vol, p, lights, i as u32, pass.s_begin, pass.s_end, prev);
-    }
+macro_rules! render_kernel {
+    ($(#[$doc:meta])* $name:ident, $single:literal) => {
+        $(#[$doc])*
+        #[allow(clippy::too_many_arguments)] // one argument per binding
+        #[spirv(compute(threads(64)))]
+        pub fn $name(
+            #[spirv(global_invocation_id)] gid: UVec3,
+            #[spirv(push_constant)] pass: &RenderPass,
+            // bindings::render::PARAMS
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &[RenderParams],
+            // bindings::render::DESC
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] desc: &[GridDesc],
+            // bindings::render::VOXELS
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] voxels: &[u32],
+            // bindings::render::BRICKS
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] bricks: &[Brick],
+            // bindings::render::LIGHTS
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] lights: &[PointLight],
+            // bindings::render::SUMS
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] sums: &mut [PixelSums],
+            // bindings::render::VOXEL_PAGES + 0
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] voxels_1: &[u32],
+            // bindings::render::VOXEL_PAGES + 1
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] voxels_2: &[u32],
+            // bindings::render::VOXEL_PAGES + 2
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] voxels_3: &[u32],
+            // bindings::render::VOXEL_PAGES + 3
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] voxels_4: &[u32],
+            // bindings::render::VOXEL_PAGES + 4
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] voxels_5: &[u32],
+            // bindings::render::VOXEL_PAGES + 5
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] voxels_6: &[u32],
+            // bindings::render::VOXEL_PAGES + 6
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] voxels_7: &[u32],
+        ) {
+            if let Some(i) = pass.launch.id(gid.x) {
+                let vol = VolumeView {
+                    desc: &desc[0],
+                    voxels: Pages {
+                        p0: voxels,
+                        p1: voxels_1,
+                        p2: voxels_2,
+                        p3: voxels_3,
+                        p4: voxels_4,
+                        p5: voxels_5,
+                        p6: voxels_6,
+                        p7: voxels_7,
+                        single: $single,
+                    },
+                    bricks,
+                };
+                let slot = i - pass.sums_base as usize;
+                let prev = if pass.s_begin == 0 {
+                    PixelSums::default()
+                } else {
+                    sums[slot]
+                };
+                let p = &params[0];
+                sums[slot] =
+                    render::render_pixel_pass(&vol, p, lights, i as u32, pass.s_begin, pass.s_end, prev);
+            }
+        }
+    };
 }
+
+render_kernel!(
+    /// One pass of a transmittance or single-scattering image: adds samples s_begin..s_end of
+    /// each pixel (the voxel pool in one page).
+    render_cs,
+    true
+);
+
+render_kernel!(
+    /// `render_cs` with the voxel pool in up to eight pages.
+    render_paged_cs,
+    false
+);
 
 /// A wavefront kernel (`direct_cs`, `path_cs`): the bindings of `bindings::direct` ==
 /// `bindings::path` with `$state` per pixel, and one call of `$step` per invocation: the stage
 /// `pass.mode` of sample `pass.sample`.
 macro_rules! wave_kernel {
-    ($(#[$doc:meta])* $name:ident, $state:ty, $step:path) => {
+    ($(#[$doc:meta])* $name:ident, $state:ty, $step:path, $single:literal) => {
         $(#[$doc])*
         #[allow(clippy::too_many_arguments)] // one argument per binding
         #[spirv(compute(threads(64)))]
@@ -162,11 +203,35 @@ macro_rules! wave_kernel {
             #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] states: &mut [$state],
             // bindings::path::SHADOW_MAP
             #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] shadow_map: &[u32],
+            // bindings::path::VOXEL_PAGES + 0
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] voxels_1: &[u32],
+            // bindings::path::VOXEL_PAGES + 1
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] voxels_2: &[u32],
+            // bindings::path::VOXEL_PAGES + 2
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] voxels_3: &[u32],
+            // bindings::path::VOXEL_PAGES + 3
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] voxels_4: &[u32],
+            // bindings::path::VOXEL_PAGES + 4
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] voxels_5: &[u32],
+            // bindings::path::VOXEL_PAGES + 5
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] voxels_6: &[u32],
+            // bindings::path::VOXEL_PAGES + 6
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 16)] voxels_7: &[u32],
         ) {
             if let Some(i) = pass.launch.id(gid.x) {
                 let vol = VolumeView {
                     desc: &desc[0],
-                    voxels,
+                    voxels: Pages {
+                p0: voxels,
+                p1: voxels_1,
+                p2: voxels_2,
+                p3: voxels_3,
+                p4: voxels_4,
+                p5: voxels_5,
+                p6: voxels_6,
+                p7: voxels_7,
+                single: $single,
+            },
                     bricks,
                 };
                 let slot = i - pass.sums_base as usize;
@@ -200,7 +265,16 @@ wave_kernel!(
     /// sample at the camera (mode 0), or estimate one of its three transmittance queries.
     direct_cs,
     DirectState,
-    render::direct_step
+    render::direct_step,
+    true
+);
+
+wave_kernel!(
+    /// `direct_cs` with the voxel pool in up to eight pages.
+    direct_paged_cs,
+    DirectState,
+    render::direct_step,
+    false
 );
 
 wave_kernel!(
@@ -208,42 +282,92 @@ wave_kernel!(
     /// one sample (mode 0), or advance every live path by one vertex.
     path_cs,
     PathState,
-    render::path_wave_step
+    render::path_wave_step,
+    true
 );
 
-/// Pass 1 of the sun's moment shadow map: the raw moments b_1 .. b_6 of each texel.
-#[allow(clippy::too_many_arguments)] // one argument per binding
-#[spirv(compute(threads(64)))]
-pub fn msm_build_cs(
-    #[spirv(global_invocation_id)] gid: UVec3,
-    #[spirv(push_constant)] pass: &MsmPass,
-    // bindings::msm_build::PARAMS
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &[RenderParams],
-    // bindings::msm_build::DESC
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] desc: &[GridDesc],
-    // bindings::msm_build::VOXELS
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] voxels: &[u32],
-    // bindings::msm_build::BRICKS
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] bricks: &[Brick],
-    // bindings::msm_build::LIGHTING
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] lighting: &[Lighting],
-    // bindings::msm_build::RAW
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] raw: &mut [f32],
-) {
-    if let Some(k) = pass.launch.id(gid.x) {
-        let vol = VolumeView {
-            desc: &desc[0],
-            voxels,
-            bricks,
-        };
-        let m = shadow_map::msm_raw_texel(&vol, &params[0], &lighting[0], k as u32);
-        let mut c = 0;
-        while c < RAW_PER_TEXEL {
-            raw[RAW_PER_TEXEL * k + c] = m[c];
-            c += 1;
+wave_kernel!(
+    /// `path_cs` with the voxel pool in up to eight pages.
+    path_paged_cs,
+    PathState,
+    render::path_wave_step,
+    false
+);
+
+macro_rules! msm_build_kernel {
+    ($(#[$doc:meta])* $name:ident, $single:literal) => {
+        $(#[$doc])*
+        #[allow(clippy::too_many_arguments)] // one argument per binding
+        #[spirv(compute(threads(64)))]
+        pub fn $name(
+            #[spirv(global_invocation_id)] gid: UVec3,
+            #[spirv(push_constant)] pass: &MsmPass,
+            // bindings::msm_build::PARAMS
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &[RenderParams],
+            // bindings::msm_build::DESC
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] desc: &[GridDesc],
+            // bindings::msm_build::VOXELS
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] voxels: &[u32],
+            // bindings::msm_build::BRICKS
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] bricks: &[Brick],
+            // bindings::msm_build::LIGHTING
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] lighting: &[Lighting],
+            // bindings::msm_build::RAW
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] raw: &mut [f32],
+            // bindings::msm_build::VOXEL_PAGES + 0
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] voxels_1: &[u32],
+            // bindings::msm_build::VOXEL_PAGES + 1
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] voxels_2: &[u32],
+            // bindings::msm_build::VOXEL_PAGES + 2
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] voxels_3: &[u32],
+            // bindings::msm_build::VOXEL_PAGES + 3
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] voxels_4: &[u32],
+            // bindings::msm_build::VOXEL_PAGES + 4
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] voxels_5: &[u32],
+            // bindings::msm_build::VOXEL_PAGES + 5
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] voxels_6: &[u32],
+            // bindings::msm_build::VOXEL_PAGES + 6
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] voxels_7: &[u32],
+        ) {
+            if let Some(k) = pass.launch.id(gid.x) {
+                let vol = VolumeView {
+                    desc: &desc[0],
+                    voxels: Pages {
+                        p0: voxels,
+                        p1: voxels_1,
+                        p2: voxels_2,
+                        p3: voxels_3,
+                        p4: voxels_4,
+                        p5: voxels_5,
+                        p6: voxels_6,
+                        p7: voxels_7,
+                        single: $single,
+                    },
+                    bricks,
+                };
+                let m = shadow_map::msm_raw_texel(&vol, &params[0], &lighting[0], k as u32);
+                let mut c = 0;
+                while c < RAW_PER_TEXEL {
+                    raw[RAW_PER_TEXEL * k + c] = m[c];
+                    c += 1;
+                }
+            }
         }
-    }
+    };
 }
+
+msm_build_kernel!(
+    /// Pass 1 of the sun's moment shadow map: the raw moments b_1 .. b_6 of each texel (the
+    /// voxel pool in one page).
+    msm_build_cs,
+    true
+);
+
+msm_build_kernel!(
+    /// `msm_build_cs` with the voxel pool in up to eight pages.
+    msm_build_paged_cs,
+    false
+);
 
 /// Pass 2 of the sun's moment shadow map: each texel prefiltered and stored.
 #[spirv(compute(threads(64)))]

@@ -173,3 +173,134 @@ fn long_grids_beyond_the_gpu_loop_budget_render_on_the_cpu() {
         "{e}"
     );
 }
+
+/// `patchy()` packed with pages of 2^`page_log2` words (brick size 4, stochastic lookups).
+fn patchy_paged(vol: &DenseVolume, page_log2: u32) -> host::bricks::PackedVolume {
+    use host::volume::VolumeData;
+    jackknife::GridBuilder::from_boxes(vol.dims, |lo, hi, out| vol.fill(lo, hi, out))
+        .density_scale(1.5)
+        .brick_size(4)
+        .lookup(Lookup::Stochastic)
+        .page_log2(page_log2)
+        .build()
+        .unwrap()
+}
+
+/// The pool in pages as a GPU binds it (here pages of a few bricks, so a small volume spans
+/// several): no brick's run crosses a page, every voxel reads as in the one-page layout, and
+/// transmittance, direct and path images are the same bytes on the CPU, paged or not, and on the
+/// GPU (pages bound as separate buffers) for transmittance and path (`render_paged_cs` and
+/// `path_paged_cs`; `direct_paged_cs` comes from the same macro as `path_paged_cs`, and each
+/// paged pipeline takes lavapipe ~30 s to compile).
+#[test]
+fn paged_pools_render_identically_on_gpu_and_cpu() {
+    let vol = patchy();
+    let one = patchy_paged(&vol, 25);
+    assert_eq!(one.pages().count(), 1);
+    // The smallest pages (at least one 4^3 brick, 32 words) that give at most 8 of them.
+    let paged = (5..25)
+        .map(|log2| patchy_paged(&vol, log2))
+        .find(|p| p.pages().count() <= 8)
+        .unwrap();
+    let pages = paged.pages().count();
+    assert!(pages >= 4, "{pages} pages of 2^{} words", paged.page_log2);
+    let [dx, dy, dz] = vol.dims;
+    let view = paged.view();
+    for bz in 0..dz.div_ceil(4) {
+        for by in 0..dy.div_ceil(4) {
+            for bx in 0..dx.div_ceil(4) {
+                let slot = view.brick([bx, by, bz]).slot;
+                if slot != EMPTY_BRICK {
+                    let len = view.brick_extent(0, bx)
+                        * view.brick_extent(1, by)
+                        * view.brick_extent(2, bz);
+                    let (start, words) = (slot as usize / 2, len.div_ceil(2) as usize);
+                    let page = |w: usize| w >> paged.page_log2;
+                    assert_eq!(page(start), page(start + words - 1), "brick {bx} {by} {bz}");
+                }
+            }
+        }
+    }
+    for z in 0..dz {
+        for y in 0..dy {
+            for x in 0..dx {
+                let (a, b) = (one.view().voxel(x, y, z), paged.view().voxel(x, y, z));
+                assert_eq!(a.to_bits(), b.to_bits(), "voxel {x} {y} {z}");
+            }
+        }
+    }
+    let gpu = Backend::Gpu(Box::new(gpu()));
+    for integrator in [None, Some(Integrator::Direct), Some(Integrator::Path)] {
+        let params = RenderParams {
+            spp: 3,
+            seed: 4,
+            n: 10,
+            estimator: Estimator::Jackknife as u32,
+            rm_scale: 1.0,
+            f_delta: 0.6,
+            pixel_jitter: 1,
+            max_depth: 4,
+            integrator: integrator.map_or(0, |i| i as u32),
+            ..camera_params(&vol, 24, 16)
+        };
+        let lights = host::lighting::SceneLights {
+            lighting: shared::sampling::lighting::Lighting {
+                sun: shared::sampling::sun::Sun {
+                    dir: shared::geometry::V3::new(0.0, 1.0, 0.0),
+                    one_minus_cos: 0.0,
+                    radiance: shared::rgb::Rgb::splat(1.0),
+                    present: 1,
+                },
+                albedo: shared::rgb::Rgb::splat(0.8),
+                p_sun: 1.0,
+                ..Default::default()
+            },
+            ..host::lighting::SceneLights::points_only(&[])
+        };
+        let render = |backend: &Backend, p: &host::bricks::PackedVolume| {
+            host::render::render_lit(backend, p, &params, &lights, false).unwrap()
+        };
+        let c = render(&Backend::Cpu, &one);
+        let ids: Vec<u32> = (0..c.len() as u32).collect();
+        let what = format!("{integrator:?}");
+        assert_bytes_equal(
+            &format!("{what} paged cpu"),
+            &ids,
+            &render(&Backend::Cpu, &paged),
+            &c,
+        );
+        assert_bytes_equal(
+            &format!("{what} paged gpu"),
+            &ids,
+            &render(&gpu, &paged),
+            &c,
+        );
+        assert!(c.iter().any(|px| px.t_mean < 0.99), "{what}: nothing hit");
+    }
+}
+
+/// A pool of more pages than the kernels bind is refused on the GPU, naming the CPU backend,
+/// which renders it.
+#[test]
+fn pools_beyond_the_bound_pages_are_refused_on_the_gpu() {
+    let vol = patchy();
+    let paged = patchy_paged(&vol, 5);
+    assert!(paged.pages().count() > 8, "{} pages", paged.pages().count());
+    let params = RenderParams {
+        spp: 1,
+        seed: 4,
+        n: 10,
+        estimator: Estimator::Jackknife as u32,
+        rm_scale: 1.0,
+        f_delta: 0.6,
+        pixel_jitter: 1,
+        ..camera_params(&vol, 8, 8)
+    };
+    let c = host::render::render(&Backend::Cpu, &paged, &params, false).unwrap();
+    assert!(c.iter().all(|px| px.t_mean.is_finite()));
+    let gpu = Backend::Gpu(Box::new(gpu()));
+    let e = host::render::render(&gpu, &paged, &params, false)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("pages") && e.contains("--backend cpu"), "{e}");
+}

@@ -3,6 +3,10 @@
 use super::error::GpuError;
 use ash::vk;
 
+/// Most storage buffers one dispatch can bind (`direct_cs`, `path_cs`: ten, plus the seven
+/// pages of the voxel pool beyond the first); devices must allow as many per stage.
+pub const MAX_BINDINGS: u32 = 17;
+
 /// Owns the Vulkan entry, instance and logical device; destroyed last, after `device_wait_idle`.
 pub struct DeviceOwner {
     _entry: ash::Entry,
@@ -232,6 +236,12 @@ impl DeviceOwner {
         let memory_model = have12.vulkan_memory_model == vk::TRUE;
         if let Some(feature) = missing_feature(int64, memory_model) {
             return Err(GpuError::Unsupported(description, feature));
+        }
+        if props.limits.max_per_stage_descriptor_storage_buffers < MAX_BINDINGS {
+            return Err(GpuError::Unsupported(
+                description,
+                "maxPerStageDescriptorStorageBuffers >= 17 (the kernels bind up to 17 buffers)",
+            ));
         }
 
         let priorities = [1.0f32];

@@ -21,6 +21,7 @@ use shared::params::RenderParams;
 use shared::sampling::lighting::Lighting;
 use shared::sampling::lights::PointLight;
 use shared::volume::grid::{Brick, GridDesc};
+use shared::volume::pages::MAX_PAGES;
 use std::marker::PhantomData;
 use std::mem::size_of;
 
@@ -121,24 +122,39 @@ pub const RNG_DRAWS: KernelDef<Launch, { rng_draws::COUNT }> =
         s[rng_draws::OUTPUT] = size_of::<RngDraws>();
         s
     });
-/// `render_cs`.
+/// Element sizes of the bindings of `render_cs` and `render_paged_cs`.
+const RENDER_SIZES: [usize; render::COUNT] = {
+    let mut s = [0; render::COUNT];
+    s[render::PARAMS] = size_of::<RenderParams>();
+    s[render::DESC] = size_of::<GridDesc>();
+    s[render::VOXELS] = size_of::<u32>();
+    let mut k = 0;
+    while k < MAX_PAGES - 1 {
+        s[render::VOXEL_PAGES + k] = size_of::<u32>();
+        k += 1;
+    }
+    s[render::BRICKS] = size_of::<Brick>();
+    s[render::LIGHTS] = size_of::<PointLight>();
+    s[render::SUMS] = size_of::<PixelSums>();
+    s
+};
+/// `render_cs` (the voxel pool in one page; the other pages' bindings are declared, never read).
 pub const RENDER: KernelDef<RenderPass, { render::COUNT }> =
-    KernelDef::checked(Kernel::RenderCs, {
-        let mut s = [0; render::COUNT];
-        s[render::PARAMS] = size_of::<RenderParams>();
-        s[render::DESC] = size_of::<GridDesc>();
-        s[render::VOXELS] = size_of::<u32>();
-        s[render::BRICKS] = size_of::<Brick>();
-        s[render::LIGHTS] = size_of::<PointLight>();
-        s[render::SUMS] = size_of::<PixelSums>();
-        s
-    });
-/// `direct_cs`.
-pub const DIRECT: KernelDef<PathPass, { direct::COUNT }> = KernelDef::checked(Kernel::DirectCs, {
+    KernelDef::checked(Kernel::RenderCs, RENDER_SIZES);
+/// `render_paged_cs`.
+pub const RENDER_PAGED: KernelDef<RenderPass, { render::COUNT }> =
+    KernelDef::checked(Kernel::RenderPagedCs, RENDER_SIZES);
+/// Element sizes of the bindings of `direct_cs` and `direct_paged_cs`.
+const DIRECT_SIZES: [usize; direct::COUNT] = {
     let mut s = [0; direct::COUNT];
     s[direct::PARAMS] = size_of::<RenderParams>();
     s[direct::DESC] = size_of::<GridDesc>();
     s[direct::VOXELS] = size_of::<u32>();
+    let mut k = 0;
+    while k < MAX_PAGES - 1 {
+        s[direct::VOXEL_PAGES + k] = size_of::<u32>();
+        k += 1;
+    }
     s[direct::BRICKS] = size_of::<Brick>();
     s[direct::LIGHTS] = size_of::<PointLight>();
     s[direct::SUMS] = size_of::<PixelSums>();
@@ -147,13 +163,24 @@ pub const DIRECT: KernelDef<PathPass, { direct::COUNT }> = KernelDef::checked(Ke
     s[direct::STATES] = size_of::<DirectState>();
     s[direct::SHADOW_MAP] = size_of::<u32>();
     s
-});
-/// `path_cs`.
-pub const PATH: KernelDef<PathPass, { path::COUNT }> = KernelDef::checked(Kernel::PathCs, {
+};
+/// `direct_cs` (the voxel pool in one page; the other pages' bindings are declared, never read).
+pub const DIRECT: KernelDef<PathPass, { direct::COUNT }> =
+    KernelDef::checked(Kernel::DirectCs, DIRECT_SIZES);
+/// `direct_paged_cs`.
+pub const DIRECT_PAGED: KernelDef<PathPass, { direct::COUNT }> =
+    KernelDef::checked(Kernel::DirectPagedCs, DIRECT_SIZES);
+/// Element sizes of the bindings of `path_cs` and `path_paged_cs`.
+const PATH_SIZES: [usize; path::COUNT] = {
     let mut s = [0; path::COUNT];
     s[path::PARAMS] = size_of::<RenderParams>();
     s[path::DESC] = size_of::<GridDesc>();
     s[path::VOXELS] = size_of::<u32>();
+    let mut k = 0;
+    while k < MAX_PAGES - 1 {
+        s[path::VOXEL_PAGES + k] = size_of::<u32>();
+        k += 1;
+    }
     s[path::BRICKS] = size_of::<Brick>();
     s[path::LIGHTS] = size_of::<PointLight>();
     s[path::SUMS] = size_of::<PixelSums>();
@@ -162,19 +189,35 @@ pub const PATH: KernelDef<PathPass, { path::COUNT }> = KernelDef::checked(Kernel
     s[path::STATES] = size_of::<PathState>();
     s[path::SHADOW_MAP] = size_of::<u32>();
     s
-});
-/// `msm_build_cs`.
+};
+/// `path_cs` (the voxel pool in one page; the other pages' bindings are declared, never read).
+pub const PATH: KernelDef<PathPass, { path::COUNT }> =
+    KernelDef::checked(Kernel::PathCs, PATH_SIZES);
+/// `path_paged_cs`.
+pub const PATH_PAGED: KernelDef<PathPass, { path::COUNT }> =
+    KernelDef::checked(Kernel::PathPagedCs, PATH_SIZES);
+/// Element sizes of the bindings of `msm_build_cs` and `msm_build_paged_cs`.
+const MSM_BUILD_SIZES: [usize; msm_build::COUNT] = {
+    let mut s = [0; msm_build::COUNT];
+    s[msm_build::PARAMS] = size_of::<RenderParams>();
+    s[msm_build::DESC] = size_of::<GridDesc>();
+    s[msm_build::VOXELS] = size_of::<u32>();
+    let mut k = 0;
+    while k < MAX_PAGES - 1 {
+        s[msm_build::VOXEL_PAGES + k] = size_of::<u32>();
+        k += 1;
+    }
+    s[msm_build::BRICKS] = size_of::<Brick>();
+    s[msm_build::LIGHTING] = size_of::<Lighting>();
+    s[msm_build::RAW] = size_of::<f32>();
+    s
+};
+/// `msm_build_cs` (the voxel pool in one page; the other pages' bindings are declared, never read).
 pub const MSM_BUILD: KernelDef<MsmPass, { msm_build::COUNT }> =
-    KernelDef::checked(Kernel::MsmBuildCs, {
-        let mut s = [0; msm_build::COUNT];
-        s[msm_build::PARAMS] = size_of::<RenderParams>();
-        s[msm_build::DESC] = size_of::<GridDesc>();
-        s[msm_build::VOXELS] = size_of::<u32>();
-        s[msm_build::BRICKS] = size_of::<Brick>();
-        s[msm_build::LIGHTING] = size_of::<Lighting>();
-        s[msm_build::RAW] = size_of::<f32>();
-        s
-    });
+    KernelDef::checked(Kernel::MsmBuildCs, MSM_BUILD_SIZES);
+/// `msm_build_paged_cs`.
+pub const MSM_BUILD_PAGED: KernelDef<MsmPass, { msm_build::COUNT }> =
+    KernelDef::checked(Kernel::MsmBuildPagedCs, MSM_BUILD_SIZES);
 /// `msm_store_cs`.
 pub const MSM_STORE: KernelDef<MsmPass, { msm_store::COUNT }> =
     KernelDef::checked(Kernel::MsmStoreCs, {
@@ -206,7 +249,8 @@ impl<'a> MapBuffers<'a> {
 pub struct RenderBuffers<'a> {
     pub params: &'a Buffer,
     pub desc: &'a Buffer,
-    pub voxels: &'a Buffer,
+    /// The voxel pool's pages (unused pages: any buffer, never read).
+    pub pages: [&'a Buffer; MAX_PAGES],
     pub bricks: &'a Buffer,
     pub lights: &'a Buffer,
     pub sums: &'a Buffer,
@@ -218,7 +262,10 @@ impl<'a> RenderBuffers<'a> {
         let mut s = [self.params; render::COUNT];
         s[render::PARAMS] = self.params;
         s[render::DESC] = self.desc;
-        s[render::VOXELS] = self.voxels;
+        s[render::VOXELS] = self.pages[0];
+        for k in 1..MAX_PAGES {
+            s[render::VOXEL_PAGES + k - 1] = self.pages[k];
+        }
         s[render::BRICKS] = self.bricks;
         s[render::LIGHTS] = self.lights;
         s[render::SUMS] = self.sums;
@@ -243,7 +290,10 @@ impl<'a> LitBuffers<'a> {
         let mut s = [r.params; path::COUNT];
         s[path::PARAMS] = r.params;
         s[path::DESC] = r.desc;
-        s[path::VOXELS] = r.voxels;
+        s[path::VOXELS] = r.pages[0];
+        for k in 1..MAX_PAGES {
+            s[path::VOXEL_PAGES + k - 1] = r.pages[k];
+        }
         s[path::BRICKS] = r.bricks;
         s[path::LIGHTS] = r.lights;
         s[path::SUMS] = r.sums;
@@ -259,7 +309,8 @@ impl<'a> LitBuffers<'a> {
 pub struct MsmBuildBuffers<'a> {
     pub params: &'a Buffer,
     pub desc: &'a Buffer,
-    pub voxels: &'a Buffer,
+    /// The voxel pool's pages (unused pages: any buffer, never read).
+    pub pages: [&'a Buffer; MAX_PAGES],
     pub bricks: &'a Buffer,
     pub lighting: &'a Buffer,
     pub raw: &'a Buffer,
@@ -271,7 +322,10 @@ impl<'a> MsmBuildBuffers<'a> {
         let mut s = [self.params; msm_build::COUNT];
         s[msm_build::PARAMS] = self.params;
         s[msm_build::DESC] = self.desc;
-        s[msm_build::VOXELS] = self.voxels;
+        s[msm_build::VOXELS] = self.pages[0];
+        for k in 1..MAX_PAGES {
+            s[msm_build::VOXEL_PAGES + k - 1] = self.pages[k];
+        }
         s[msm_build::BRICKS] = self.bricks;
         s[msm_build::LIGHTING] = self.lighting;
         s[msm_build::RAW] = self.raw;

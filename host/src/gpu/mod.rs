@@ -12,16 +12,18 @@ mod plan;
 pub mod render;
 mod resources;
 
+use device::MAX_BINDINGS;
 pub use device::{pick_memory_type, DeviceOwner, MemoryChoice, MemoryRole};
 pub use error::GpuError;
 pub use kernels::{
     Kernel, KernelDef, LitBuffers, MapBuffers, MsmBuildBuffers, MsmStoreBuffers, PushConstants,
-    RenderBuffers, DIRECT, EQUIANGULAR, MATH_VALUES, MSM_BUILD, MSM_LOOKUP, MSM_STORE, PATH, PHASE,
-    RENDER, RNG_DRAWS, TRANSMITTANCE_PAIR,
+    RenderBuffers, DIRECT, DIRECT_PAGED, EQUIANGULAR, MATH_VALUES, MSM_BUILD, MSM_BUILD_PAGED,
+    MSM_LOOKUP, MSM_STORE, PATH, PATH_PAGED, PHASE, RENDER, RENDER_PAGED, RNG_DRAWS,
+    TRANSMITTANCE_PAIR,
 };
 pub use plan::{plan, Command, Step};
 pub use resources::Buffer;
-use resources::{Pipeline, Staging, Submitter, MAX_BINDINGS};
+use resources::{Pipeline, Staging, Submitter};
 
 use ash::vk;
 use std::collections::HashMap;

@@ -2,7 +2,7 @@
 
 use super::{
     Buffer, Gpu, LitBuffers, MsmBuildBuffers, MsmStoreBuffers, RenderBuffers, Step, Work, DIRECT,
-    MSM_BUILD, MSM_STORE, PATH, RENDER,
+    DIRECT_PAGED, MSM_BUILD, MSM_BUILD_PAGED, MSM_STORE, PATH, PATH_PAGED, RENDER, RENDER_PAGED,
 };
 use crate::bricks::PackedVolume;
 use crate::lighting::SceneLights;
@@ -19,12 +19,14 @@ use shared::params::{Integrator, RenderParams};
 use shared::sampling::lighting::Lighting;
 use shared::sampling::lights::PointLight;
 use shared::shadows::map::{Shadows, RAW_PER_TEXEL};
+use shared::volume::pages::MAX_PAGES;
 use std::sync::Mutex;
 
 /// A volume resident on the GPU: the render loop of the GPU backend.
 pub struct GpuVolume<'a> {
     gpu: &'a Gpu,
-    voxels: Buffer,
+    /// The voxel pool's pages (at least one).
+    pages: Vec<Buffer>,
     bricks: Buffer,
     desc: Buffer,
     /// Image tile buffers, reused across frames of the same size.
@@ -32,19 +34,42 @@ pub struct GpuVolume<'a> {
 }
 
 impl<'a> GpuVolume<'a> {
-    /// Uploads the voxels, bricks and grid description of `vol`.
+    /// Uploads the voxels (page by page), bricks and grid description of `vol`.
     pub fn upload(gpu: &'a Gpu, vol: &PackedVolume) -> Result<Self> {
+        let desc = vol.paged_desc().with_context(|| {
+            format!(
+                "the voxel pool ({:.0} MiB) needs more than the {MAX_PAGES} pages of {} MiB the \
+                 kernels bind; use --backend cpu, or crop or resample the volume",
+                std::mem::size_of_val(vol.voxels.as_slice()) as f64 / (1 << 20) as f64,
+                (4u64 << vol.page_log2) >> 20
+            )
+        })?;
+        let pages = vol
+            .pages()
+            .map(|page| gpu.upload(bytemuck::cast_slice(page)))
+            .collect::<Result<Vec<_>, _>>()
+            .context("uploading the volume")?;
         Ok(GpuVolume {
             gpu,
-            voxels: gpu
-                .upload(bytemuck::cast_slice(&vol.voxels))
-                .context("uploading the volume")?,
+            pages,
             bricks: gpu
                 .upload(bytemuck::cast_slice(&vol.bricks))
                 .context("uploading the bricks")?,
-            desc: gpu.upload(bytemuck::bytes_of(&vol.desc))?,
+            desc: gpu.upload(bytemuck::bytes_of(&desc))?,
             tiles: Mutex::new(Vec::new()),
         })
+    }
+}
+
+impl GpuVolume<'_> {
+    /// The pages in binding order; unused slots repeat page 0 (never read).
+    fn page_slots(&self) -> [&Buffer; MAX_PAGES] {
+        std::array::from_fn(|k| self.pages.get(k).unwrap_or(&self.pages[0]))
+    }
+
+    /// Whether the pool spans several pages (the kernels' paged variants read it).
+    fn paged(&self) -> bool {
+        self.pages.len() > 1
     }
 }
 
@@ -106,13 +131,18 @@ impl RenderBackend for GpuVolume<'_> {
         let build = MsmBuildBuffers {
             params: &p,
             desc: &self.desc,
-            voxels: &self.voxels,
+            pages: self.page_slots(),
             bricks: &self.bricks,
             lighting: &l,
             raw: &raw,
         };
+        let kernel = if self.paged() {
+            &MSM_BUILD_PAGED
+        } else {
+            &MSM_BUILD
+        };
         gpu.submit(Work {
-            kernel: &MSM_BUILD,
+            kernel,
             buffers: build.slots(),
             uploads: vec![
                 (&p, bytemuck::bytes_of(params)),
@@ -121,7 +151,7 @@ impl RenderBackend for GpuVolume<'_> {
             steps: steps(),
             readbacks: vec![],
         })
-        .with_context(|| format!("GPU kernel {}", MSM_BUILD.kernel.name()))?;
+        .with_context(|| format!("GPU kernel {}", kernel.kernel.name()))?;
         let mut words = vec![0u32; (texels * n) as usize];
         let store = MsmStoreBuffers {
             lighting: &l,
@@ -213,7 +243,7 @@ fn render_tiles(
         let buffers = RenderBuffers {
             params: &p,
             desc: &dev.desc,
-            voxels: &dev.voxels,
+            pages: dev.page_slots(),
             bricks: &dev.bricks,
             lights: &l,
             sums: &tiles[k],
@@ -230,7 +260,8 @@ fn render_tiles(
             let uploads_now = std::mem::take(&mut uploads);
             render_wave(
                 gpu,
-                wave,
+                wave.kernel(dev.paged()),
+                wave.modes(params),
                 params,
                 ids,
                 chunk,
@@ -254,14 +285,15 @@ fn render_tiles(
             } else {
                 vec![]
             };
+            let kernel = if dev.paged() { &RENDER_PAGED } else { &RENDER };
             gpu.submit(Work {
-                kernel: &RENDER,
+                kernel,
                 buffers: buffers.slots(),
                 uploads: std::mem::take(&mut uploads),
                 steps,
                 readbacks,
             })
-            .with_context(|| format!("GPU kernel {}", RENDER.kernel.name()))?;
+            .with_context(|| format!("GPU kernel {}", kernel.kernel.name()))?;
             if let Some(bar) = bar {
                 bar.inc(work);
             }
@@ -298,11 +330,13 @@ impl Wave {
         }
     }
 
-    /// Its kernel (both take `LitBuffers`' layout).
-    fn kernel(self) -> &'static super::KernelDef<PathPass, { path::COUNT }> {
-        match self {
-            Wave::Direct => &DIRECT,
-            Wave::Path => &PATH,
+    /// Its kernel (all take `LitBuffers`' layout), for a pool in one page or several.
+    fn kernel(self, paged: bool) -> &'static super::KernelDef<PathPass, { path::COUNT }> {
+        match (self, paged) {
+            (Wave::Direct, false) => &DIRECT,
+            (Wave::Direct, true) => &DIRECT_PAGED,
+            (Wave::Path, false) => &PATH,
+            (Wave::Path, true) => &PATH_PAGED,
         }
     }
 }
@@ -313,7 +347,8 @@ impl Wave {
 #[allow(clippy::too_many_arguments)]
 fn render_wave(
     gpu: &Gpu,
-    wave: Wave,
+    kernel: &super::KernelDef<PathPass, { path::COUNT }>,
+    modes: Vec<u32>,
     params: &RenderParams,
     ids: std::ops::Range<u32>,
     chunk: u32,
@@ -322,8 +357,6 @@ fn render_wave(
     slice: &mut [PixelSums],
     bar: Option<&ProgressBar>,
 ) -> Result<()> {
-    let kernel = wave.kernel();
-    let modes = wave.modes(params);
     let mut uploads = Some(uploads);
     let mut readback = Some(bytemuck::cast_slice_mut::<PixelSums, u8>(slice));
     for s in 0..params.spp {

@@ -1,6 +1,6 @@
 //! RAII wrappers for the Vulkan objects a dispatch uses; each holds the device owner alive.
 
-use super::device::{DeviceOwner, MemoryRole};
+use super::device::{DeviceOwner, MemoryRole, MAX_BINDINGS};
 use super::error::GpuError;
 use ash::vk;
 use std::sync::Arc;
@@ -272,9 +272,6 @@ pub struct Submitter {
     /// The staging buffer of the last submission, reused while it is large enough.
     pub(crate) staging: Option<Staging>,
 }
-
-/// Most storage buffers one dispatch can bind.
-pub const MAX_BINDINGS: u32 = 12;
 
 impl Submitter {
     pub fn new(owner: &Arc<DeviceOwner>) -> Result<Self, GpuError> {

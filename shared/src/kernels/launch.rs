@@ -73,8 +73,10 @@ pub mod bindings {
         pub const LIGHTS: usize = 4;
         /// One `PixelSums` per pixel of the tile, read and written.
         pub const SUMS: usize = 5;
+        /// Pages 1 .. 7 of the voxel pool (`VOXELS` is page 0; see `volume::pages`).
+        pub const VOXEL_PAGES: usize = 6;
         /// Number of bindings.
-        pub const COUNT: usize = 6;
+        pub const COUNT: usize = 13;
     }
 
     /// `direct_cs`: one stage of a `direct` image: the bindings of `render_cs`, the lights', then
@@ -100,8 +102,10 @@ pub mod bindings {
         pub const STATES: usize = 8;
         /// The sun's moment shadow map (`u32` words; one unused word with shadow rays).
         pub const SHADOW_MAP: usize = 9;
+        /// Pages 1 .. 7 of the voxel pool (`VOXELS` is page 0; see `volume::pages`).
+        pub const VOXEL_PAGES: usize = 10;
         /// Number of bindings.
-        pub const COUNT: usize = 10;
+        pub const COUNT: usize = 17;
     }
 
     /// `msm_build_cs`: the raw moments of each texel of the sun's moment shadow map.
@@ -118,8 +122,10 @@ pub mod bindings {
         pub const LIGHTING: usize = 4;
         /// b_1 .. b_6 per texel (`f32`), written.
         pub const RAW: usize = 5;
+        /// Pages 1 .. 7 of the voxel pool (`VOXELS` is page 0; see `volume::pages`).
+        pub const VOXEL_PAGES: usize = 6;
         /// Number of bindings.
-        pub const COUNT: usize = 6;
+        pub const COUNT: usize = 13;
     }
 
     /// `msm_store_cs`: each texel prefiltered and stored in the map's format.

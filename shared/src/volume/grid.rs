@@ -4,7 +4,8 @@
 //! the bounding box.
 
 use crate::geometry::V3;
-use crate::half::packed_f16;
+use crate::half::f16_to_f32;
+use crate::volume::pages::Pages;
 use bytemuck::{Pod, Zeroable};
 
 /// How the high-resolution volume is read at a point.
@@ -68,7 +69,8 @@ pub struct GridDesc {
     pub lookup: u32,
     /// Extinction per unit of stored density ("density scale"); already applied to bricks.
     pub density_scale: f32,
-    pub _pad: u32,
+    /// log2 of the words per page of the pool as this view binds it (see [`Pages`]).
+    pub page_log2: u32,
 }
 
 /// Statistics of one brick, already multiplied by the density scale and rounded conservatively.
@@ -97,8 +99,8 @@ pub const EMPTY_BRICK: u32 = u32::MAX;
 pub struct VolumeView<'a> {
     pub desc: &'a GridDesc,
     /// The pool: f16 voxels of the non-empty bricks, two per u32; each brick's voxels x fastest
-    /// over its extent clipped to the grid, bricks in order.
-    pub voxels: &'a [u32],
+    /// over its extent clipped to the grid, bricks in order, in pages of 2^`desc.page_log2` words.
+    pub voxels: Pages<'a>,
     /// Bricks, x fastest.
     pub bricks: &'a [Brick],
 }
@@ -122,7 +124,10 @@ impl VolumeView<'_> {
     #[inline]
     pub fn voxel(&self, i: u32, j: u32, k: u32) -> f32 {
         match self.pool_index(i, j, k) {
-            Some(index) => self.desc.density_scale * packed_f16(self.voxels, index),
+            Some(index) => {
+                let h = self.voxels.half(self.desc.page_log2, index as u32);
+                self.desc.density_scale * f16_to_f32(h)
+            }
             None => 0.0,
         }
     }

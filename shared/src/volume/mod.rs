@@ -2,3 +2,4 @@
 
 pub mod dda;
 pub mod grid;
+pub mod pages;
