@@ -8,6 +8,10 @@ loader's tests and benchmarks. Run with Debian's /usr/bin/python3.
   make_sparse_volumes.py disney OUT.vdb      bbox 993x675x1224, 15 % of its 16^3 blocks occupied in
                                              cloud-like clusters, half-float (Blosc), ~120 M voxels
   make_sparse_volumes.py two OUT.vdb         two active voxels at opposite corners of a 1000^3 box
+  make_sparse_volumes.py series DIR          the sparse series of `host bench --sweep-files`: bboxes
+                                             256^3 and 1/2, 3/4, 1 x the Disney bbox, each with 15 %
+                                             of its 16^3 blocks occupied: DIR/sparse_{256,half,
+                                             three_quarters,disney}.vdb
 
 Deterministic: numpy's generator with a fixed seed.
 """
@@ -50,9 +54,27 @@ def fixture(out):
     vdb.write(out, grids=[g])
 
 
+DISNEY = (993, 675, 1224)
+
+
 def disney(out):
+    clustered(out, DISNEY)
+
+
+def series(directory):
+    import os
+    os.makedirs(directory, exist_ok=True)
+    for name, dims in [("256", (256, 256, 256)),
+                       ("half", tuple(d // 2 for d in DISNEY)),
+                       ("three_quarters", tuple(3 * d // 4 for d in DISNEY)),
+                       ("disney", DISNEY)]:
+        clustered(os.path.join(directory, f"sparse_{name}.vdb"), dims)
+
+
+def clustered(out, dims):
+    """15 % of the 16^3 blocks of a `dims` box occupied, in cloud-like clusters."""
     rng = np.random.default_rng(1224)
-    dims = np.array([993, 675, 1224])
+    dims = np.array(dims)
     blocks = -(-dims // 16)
     field = blur(rng.standard_normal(size=tuple(blocks)), passes=4)
     occupied = field > np.quantile(field, 0.85)
@@ -81,6 +103,7 @@ def two(out):
 
 
 if __name__ == "__main__":
-    if len(sys.argv) != 3 or sys.argv[1] not in ("fixture", "disney", "two"):
+    modes = {"fixture": fixture, "disney": disney, "two": two, "series": series}
+    if len(sys.argv) != 3 or sys.argv[1] not in modes:
         sys.exit(__doc__)
-    {"fixture": fixture, "disney": disney, "two": two}[sys.argv[1]](sys.argv[2])
+    modes[sys.argv[1]](sys.argv[2])

@@ -49,8 +49,11 @@ pub struct BenchOptions {
     pub sweep_resolutions: String,
     /// Comma-separated image sizes of the sweep.
     pub sweep_sizes: String,
-    /// Comma-separated estimators of the sweep.
+    /// Comma-separated estimators of the sweep (and of `sweep_files`).
     pub sweep_estimators: String,
+    /// Volume files timed one by one (the sparse-volume series): load time, peak memory,
+    /// pool and ns/ray of each, with the image and camera of `--width` and `--height`.
+    pub sweep_files: Vec<PathBuf>,
     /// Plot of the sweep.
     pub plot: PathBuf,
     pub json: Option<PathBuf>,
@@ -113,6 +116,15 @@ pub struct SweepPoint {
     pub bricks: usize,
     pub occupied_bricks: usize,
     pub pool_bytes: u64,
+    /// The volume (a file of `--sweep-files`, else the embedded volume's name) and its grid.
+    pub volume: String,
+    pub dims: [u32; 3],
+    /// For `--sweep-files` (Linux): the process's resident memory before the volume was
+    /// loaded (the renderer, the GPU driver, memory kept from earlier points) and its peak while
+    /// the volume was loaded and packed (VmHWM after resetting it); their difference is what
+    /// loading took.
+    pub rss_before_bytes: Option<u64>,
+    pub peak_rss_bytes: Option<u64>,
 }
 
 /// Everything `host bench` measured.
@@ -131,6 +143,8 @@ pub struct BenchReport {
     pub goals: Vec<Goal>,
     pub sweep_resolution: Vec<SweepPoint>,
     pub sweep_size: Vec<SweepPoint>,
+    /// One point per backend and sweep estimator for each file of `--sweep-files`.
+    pub sweep_files: Vec<SweepPoint>,
 }
 
 /// Parses a comma-separated list of estimator names ("all": every one).
@@ -276,8 +290,16 @@ pub fn run(args: &BenchOptions) -> Result<BenchReport> {
     if let Some(json) = &args.json {
         plan.file("--json", json);
     }
-    plan.input("--volume", std::path::Path::new(&args.scene.volume))
-        .check()?;
+    plan.input("--volume", std::path::Path::new(&args.scene.volume));
+    for f in &args.sweep_files {
+        plan.input("--sweep-files", f);
+    }
+    plan.check()?;
+    let file_specs = if args.sweep_files.is_empty() {
+        Vec::new()
+    } else {
+        estimators(&args.sweep_estimators, "--sweep-estimators")?
+    };
     let scene = crate::commands::prepare_scene(&args.scene, lookup, args.width, args.height)?;
     let backends = backends(args.backend)?;
     let base = RenderParams {
@@ -358,8 +380,11 @@ pub fn run(args: &BenchOptions) -> Result<BenchReport> {
     } else {
         (Vec::new(), Vec::new())
     };
+    let volume = scene.volume.name().to_owned();
+    drop(scene);
+    let sweep_files = sweep_files(args, &backends, base, &file_specs)?;
     let report = BenchReport {
-        volume: scene.volume.name().to_owned(),
+        volume,
         lookup: crate::commands::lookup_name(args.lookup),
         width: args.width,
         height: args.height,
@@ -372,6 +397,7 @@ pub fn run(args: &BenchOptions) -> Result<BenchReport> {
         goals,
         sweep_resolution,
         sweep_size,
+        sweep_files,
     };
     print_report(&report);
     if args.sweep {
@@ -487,56 +513,166 @@ fn sweep(
             height: size,
             ..base
         };
-        let rays = f64::from(size) * f64::from(size) * f64::from(args.spp);
-        for backend in backends {
-            let skipped = backend.cannot_hold(&scene.packed);
-            let resident = match &skipped {
-                None => Some(Resident::new(backend, &scene.packed)?),
-                Some(_) => None,
-            };
-            for spec in &specs {
-                let mut p = params;
-                spec.apply(&mut p);
-                let mut point = SweepPoint {
-                    backend: backend.kind().into(),
-                    estimator: spec.name.into(),
-                    resolution,
-                    size,
-                    frame_ms_median: f64::NAN,
-                    ns_per_ray: f64::NAN,
-                    samples_per_ray: f64::NAN,
-                    skipped: skipped.clone(),
-                    prepare_ms: *prepare_ms,
-                    bricks: scene.packed.bricks.len(),
-                    occupied_bricks: scene.packed.occupied_bricks(),
-                    pool_bytes: std::mem::size_of_val(scene.packed.voxels.as_slice()) as u64,
-                };
-                if let Some(resident) = &resident {
-                    let reps = args.reps.min(3);
-                    let (pixels, wall, _) = frames(resident, backend, &p, 1, reps)?;
-                    point.frame_ms_median = median(&wall);
-                    point.ns_per_ray = point.frame_ms_median * 1e6 / rays;
-                    point.samples_per_ray = quality(&pixels, args.spp).1;
-                }
-                if !args.quiet {
-                    tracing::info!(
-                        "  {:<4} {:<14} {resolution:>4}^3 {size:>5}^2 {:9.1} ms {:8.1} ns/ray {}",
-                        point.backend,
-                        point.estimator,
-                        point.frame_ms_median,
-                        point.ns_per_ray,
-                        point.skipped.as_deref().unwrap_or("")
-                    );
-                }
-                if is_resolution {
-                    by_resolution.push(point);
-                } else {
-                    by_size.push(point);
-                }
-            }
+        let points = time_points(
+            args,
+            backends,
+            &specs,
+            scene,
+            &params,
+            *prepare_ms,
+            [None; 2],
+        )?;
+        if is_resolution {
+            by_resolution.extend(points);
+        } else {
+            by_size.extend(points);
         }
     }
     Ok((by_resolution, by_size))
+}
+
+/// Times the sweep estimators on each file of `--sweep-files` (the image of `--width` x
+/// `--height`, the camera framing each volume): one volume in memory at a time, its peak
+/// resident memory measured from a reset high-water mark.
+fn sweep_files(
+    args: &BenchOptions,
+    backends: &[Backend],
+    base: RenderParams,
+    specs: &[&'static EstimatorSpec],
+) -> Result<Vec<SweepPoint>> {
+    let mut points = Vec::new();
+    for file in &args.sweep_files {
+        let mut scene_args = args.scene.clone();
+        scene_args.volume = file.display().to_string();
+        let rss_before_bytes = reset_peak_rss().then(|| memory_line("VmRSS:")).flatten();
+        let t = Instant::now();
+        let scene =
+            crate::commands::prepare_scene(&scene_args, args.lookup, args.width, args.height)
+                .with_context(|| format!("--sweep-files {}", file.display()))?;
+        let prepare_ms = t.elapsed().as_secs_f64() * 1e3;
+        let peak_rss_bytes = rss_before_bytes.and_then(|_| memory_line("VmHWM:"));
+        let d = scene.volume.dims();
+        if !args.quiet {
+            tracing::info!(
+                "sweep-files: {} {}x{}x{} prepared in {:.1} s (RSS {} before, peak {}; {} of {} \
+                 bricks occupied, {:.1} MiB of voxels)",
+                file.display(),
+                d[0],
+                d[1],
+                d[2],
+                prepare_ms / 1e3,
+                mib(rss_before_bytes),
+                mib(peak_rss_bytes),
+                scene.packed.occupied_bricks(),
+                scene.packed.bricks.len(),
+                std::mem::size_of_val(scene.packed.voxels.as_slice()) as f64 / f64::from(1 << 20)
+            );
+        }
+        let params = RenderParams {
+            camera: scene.camera,
+            world_to_index: scene.world_to_index,
+            ..base
+        };
+        points.extend(time_points(
+            args,
+            backends,
+            specs,
+            &scene,
+            &params,
+            prepare_ms,
+            [rss_before_bytes, peak_rss_bytes],
+        )?);
+    }
+    Ok(points)
+}
+
+/// Times each of `specs` with `params` (its image size, the camera) on each backend that can
+/// hold `scene`'s volume (the others get a point that says why not): one sweep point each.
+fn time_points(
+    args: &BenchOptions,
+    backends: &[Backend],
+    specs: &[&'static EstimatorSpec],
+    scene: &crate::commands::Scene,
+    params: &RenderParams,
+    prepare_ms: f64,
+    [rss_before_bytes, peak_rss_bytes]: [Option<u64>; 2],
+) -> Result<Vec<SweepPoint>> {
+    let (w, h) = (params.width, params.height);
+    let rays = f64::from(w) * f64::from(h) * f64::from(args.spp);
+    let dims = scene.volume.dims();
+    let mut points = Vec::new();
+    for backend in backends {
+        let skipped = backend.cannot_hold(&scene.packed);
+        let resident = match &skipped {
+            None => Some(Resident::new(backend, &scene.packed)?),
+            Some(_) => None,
+        };
+        for spec in specs {
+            let mut p = *params;
+            spec.apply(&mut p);
+            let mut point = SweepPoint {
+                backend: backend.kind().into(),
+                estimator: spec.name.into(),
+                resolution: dims.into_iter().max().unwrap_or(0),
+                size: w,
+                frame_ms_median: f64::NAN,
+                ns_per_ray: f64::NAN,
+                samples_per_ray: f64::NAN,
+                skipped: skipped.clone(),
+                prepare_ms,
+                bricks: scene.packed.bricks.len(),
+                occupied_bricks: scene.packed.occupied_bricks(),
+                pool_bytes: std::mem::size_of_val(scene.packed.voxels.as_slice()) as u64,
+                volume: scene.volume.name().to_owned(),
+                dims,
+                rss_before_bytes,
+                peak_rss_bytes,
+            };
+            if let Some(resident) = &resident {
+                let (pixels, wall, _) = frames(resident, backend, &p, 1, args.reps.min(3))?;
+                point.frame_ms_median = median(&wall);
+                point.ns_per_ray = point.frame_ms_median * 1e6 / rays;
+                point.samples_per_ray = quality(&pixels, args.spp).1;
+            }
+            if !args.quiet {
+                tracing::info!(
+                    "  {:<4} {:<14} {}x{}x{} {w:>5}x{h} {:9.1} ms {:8.1} ns/ray {}",
+                    point.backend,
+                    point.estimator,
+                    dims[0],
+                    dims[1],
+                    dims[2],
+                    point.frame_ms_median,
+                    point.ns_per_ray,
+                    point.skipped.as_deref().unwrap_or("")
+                );
+            }
+            points.push(point);
+        }
+    }
+    Ok(points)
+}
+
+/// Resets the process's peak resident memory (Linux: `5` to /proc/self/clear_refs); false where
+/// that is not possible.
+fn reset_peak_rss() -> bool {
+    std::fs::write("/proc/self/clear_refs", "5").is_ok()
+}
+
+/// A memory line of /proc/self/status (e.g. "VmHWM:", the peak resident memory since the last
+/// reset) in bytes, if known.
+fn memory_line(key: &str) -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with(key))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+/// "N MiB" or "-".
+fn mib(bytes: Option<u64>) -> String {
+    bytes.map_or("-".into(), |b| {
+        format!("{:.0} MiB", b as f64 / f64::from(1 << 20))
+    })
 }
 
 /// Prints the table, the goals and the sweep's flatness.
@@ -572,6 +708,23 @@ fn print_report(r: &BenchReport) {
             g.ratio,
             g.target,
             if g.met { "met" } else { "MISSED" }
+        );
+    }
+    for p in &r.sweep_files {
+        println!(
+            "sweep-files {:<4} {:<14} {}x{}x{}: prepared {:.0} ms, RSS {} before, peak {}, pool \
+             {:.1} MiB, {:.1} ns/ray {}",
+            p.backend,
+            p.estimator,
+            p.dims[0],
+            p.dims[1],
+            p.dims[2],
+            p.prepare_ms,
+            mib(p.rss_before_bytes),
+            mib(p.peak_rss_bytes),
+            p.pool_bytes as f64 / f64::from(1 << 20),
+            p.ns_per_ray,
+            p.skipped.as_deref().unwrap_or("")
         );
     }
     for backend in ["cpu", "gpu"] {

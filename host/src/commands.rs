@@ -329,6 +329,8 @@ pub struct RenderSummary {
     pub backend: String,
     pub device: String,
     pub volume: String,
+    /// Voxel counts of the grid (the file's active bounding box) along x, y, z.
+    pub dims: [u32; 3],
     /// The transmittance estimator, or for an integrator render the integrator's name.
     pub estimator: String,
     pub lookup: String,
@@ -375,6 +377,14 @@ pub struct RenderSummary {
     pub occupied_bricks: usize,
     pub pool_bytes: u64,
     pub brick_table_bytes: u64,
+    /// 128 MiB pages of the voxel pool (a GPU binds up to 8).
+    pub pool_pages: usize,
+    /// How the loaded voxels were held before packing: "dense" (the bounding box as f32) or
+    /// "sparse" (an OpenVDB file's leaves and tiles only), and their bytes.
+    pub volume_storage: String,
+    pub volume_bytes: u64,
+    /// Wall time to load (or generate) and pack the volume.
+    pub prepare_ms: f64,
     /// The host version and the command line, to reproduce the image.
     pub host_version: String,
     pub command_line: Vec<String>,
@@ -832,6 +842,7 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         backend: backend.kind().into(),
         device: backend.device(),
         volume: vol.name().to_owned(),
+        dims: vol.dims(),
         estimator: match args.integrator {
             Some(i) => crate::integrators::integrator_name(i).into(),
             None => args.estimator.name.into(),
@@ -884,6 +895,10 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         occupied_bricks: packed.occupied_bricks(),
         pool_bytes: std::mem::size_of_val(packed.voxels.as_slice()) as u64,
         brick_table_bytes: std::mem::size_of_val(packed.bricks.as_slice()) as u64,
+        pool_pages: packed.pages().count(),
+        volume_storage: vol.storage().into(),
+        volume_bytes: vol.stored_bytes(),
+        prepare_ms: load_ms,
         host_version: env!("CARGO_PKG_VERSION").into(),
         command_line: std::env::args().collect(),
     };
@@ -990,11 +1005,28 @@ pub fn prepare_scene(args: &SceneOptions, lookup: Lookup, w: u32, h: u32) -> Res
         "--fov must be in (0, 180) degrees (got {})",
         args.fov
     );
-    let (mut volume, default_scale, grid) = load_volume(args)?;
-    let turned = args.up.apply(volume.index_to_world());
-    volume.set_index_to_world(turned);
-    let density_scale = args.density_scale.unwrap_or(default_scale);
-    let packed = pack(&volume, density_scale, args.brick_size, lookup)?;
+    // A spinner while loading and packing (seconds for production-size files); drawn only when
+    // stderr is a terminal.
+    let bar =
+        indicatif::ProgressBar::new_spinner().with_message(format!("loading {}", args.volume));
+    bar.enable_steady_tick(std::time::Duration::from_millis(120));
+    let prepared = (|| -> Result<_> {
+        let (mut volume, default_scale, grid) = load_volume(args)?;
+        let turned = args.up.apply(volume.index_to_world());
+        volume.set_index_to_world(turned);
+        let density_scale = args.density_scale.unwrap_or(default_scale);
+        bar.set_message(format!(
+            "packing {} ({} voxels held {})",
+            args.volume,
+            volume.dims().iter().map(|&d| u64::from(d)).product::<u64>(),
+            volume.storage()
+        ));
+        let packed = pack(&volume, density_scale, args.brick_size, lookup)?;
+        Ok((volume, grid, density_scale, packed))
+    })();
+    // Cleared on errors too, so the spinner never stays above an error message.
+    bar.finish_and_clear();
+    let (volume, grid, density_scale, packed) = prepared?;
     report_underflow(&volume, &packed.underflow, density_scale)?;
     let spec = CameraSpec {
         position: args.camera,

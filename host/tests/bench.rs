@@ -114,3 +114,86 @@ fn bench_refuses_a_sweep_of_a_file_before_working() {
         "worked before refusing: {stderr}"
     );
 }
+
+/// `--sweep-files`: one point per file, backend and sweep estimator, with the volume's grid,
+/// preparation time, peak resident memory (Linux), pool and ns/ray; a missing file is refused
+/// before any work.
+#[test]
+fn bench_times_a_series_of_volume_files() {
+    let fixtures = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/fixtures");
+    let files = [
+        fixtures.join("sparse_patches.vdb"),
+        fixtures.join("density_zip.vdb"),
+    ];
+    let list = files
+        .iter()
+        .map(|f| f.display().to_string())
+        .collect::<Vec<_>>()
+        .join(",");
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("bench.json");
+    let run = |list: &str| {
+        Command::new(env!("CARGO_BIN_EXE_host"))
+            .args([
+                "bench",
+                "--backend",
+                "cpu",
+                "--resolution",
+                "16",
+                "--width",
+                "8",
+                "--height",
+                "8",
+                "--spp",
+                "2",
+                "--reps",
+                "1",
+                "--warmup",
+                "0",
+                "--estimators",
+                "jackknife",
+                "--sweep-estimators",
+                "jackknife,ratio",
+                "--quiet",
+                "--sweep-files",
+                list,
+            ])
+            .arg("--json")
+            .arg(&json)
+            .output()
+            .unwrap()
+    };
+    let out = run(&list);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let points = r["sweep_files"].as_array().unwrap();
+    // 2 files x 1 backend x 2 estimators.
+    assert_eq!(points.len(), 4, "{points:?}");
+    let sparse = &points[0];
+    assert!(sparse["volume"]
+        .as_str()
+        .unwrap()
+        .ends_with("sparse_patches.vdb"));
+    assert_eq!(sparse["dims"], serde_json::json!([131, 101, 82]));
+    for p in points {
+        assert!(p["prepare_ms"].as_f64().unwrap() > 0.0, "{p}");
+        assert!(p["ns_per_ray"].as_f64().unwrap() > 0.0, "{p}");
+        assert!(p["pool_bytes"].as_u64().unwrap() > 0, "{p}");
+        if cfg!(target_os = "linux") {
+            let before = p["rss_before_bytes"].as_u64().unwrap();
+            assert!(before > 1 << 20, "{p}");
+            assert!(p["peak_rss_bytes"].as_u64().unwrap() >= before, "{p}");
+        }
+    }
+    // A missing file: refused, naming the flag, before the first frame.
+    let missing = dir.path().join("missing.vdb");
+    let out = run(&format!("{list},{}", missing.display()));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("--sweep-files") && stderr.contains("missing.vdb"),
+        "{stderr}"
+    );
+}

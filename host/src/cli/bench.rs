@@ -56,6 +56,11 @@ pub struct BenchArgs {
     /// Estimators of the sweep.
     #[arg(long, default_value = "jackknife,track-length,ratio,unbiased-rm")]
     pub sweep_estimators: String,
+    /// Volume files (.vdb, .nvdb) timed one by one, e.g. a sparse series of growing bounding
+    /// boxes: load + pack time, peak resident memory, pool size and ns/ray per backend and
+    /// sweep estimator (JSON `sweep_files`); comma-separated.
+    #[arg(long, value_delimiter = ',')]
+    pub sweep_files: Vec<PathBuf>,
     /// Plot of the sweep (.png or .svg).
     #[arg(long, default_value = "out/bench_sweep.png")]
     pub plot: PathBuf,
@@ -86,6 +91,7 @@ impl BenchArgs {
             sweep_resolutions: self.sweep_resolutions.clone(),
             sweep_sizes: self.sweep_sizes.clone(),
             sweep_estimators: self.sweep_estimators.clone(),
+            sweep_files: self.sweep_files.clone(),
             plot: self.plot.clone(),
             json: self.json.clone(),
             quiet: self.quiet,
