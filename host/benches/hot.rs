@@ -74,7 +74,8 @@ fn scene() -> (host::bricks::PackedVolume, RenderParams, Vec<Ray>) {
     let scale = host::procedural::default_density_scale("cloud");
     let packed = pack(&vol, scale, 16, Lookup::Stochastic).expect("packs");
     let params = RenderParams {
-        world_to_index: world_to_index(&vol.index_to_world).expect("invertible"),
+        world_to_index: world_to_index(host::volume::VolumeData::index_to_world(&vol))
+            .expect("invertible"),
         n: 10,
         rm_scale: 1.0,
         f_delta: 0.3,

@@ -249,11 +249,7 @@ pub fn load_volume(scene: &SceneOptions) -> Result<(Volume, f32, Option<String>)
         return Ok((loaded.volume, 1.0, Some(loaded.grid)));
     }
     match crate::procedural::by_name(spec, scene.resolution) {
-        Some(v) => Ok((
-            v.into(),
-            crate::procedural::default_density_scale(spec),
-            None,
-        )),
+        Some(v) => Ok((v, crate::procedural::default_density_scale(spec), None)),
         None => bail!(
             "--volume {spec:?} is neither a file nor an embedded volume; embedded volumes: {}",
             crate::procedural::NAMES.join(", ")

@@ -8,7 +8,7 @@
 //! Every volume spans `[-1, 1]^3` in world units (voxel size `2 / n`) and holds values in `[0, 1]`;
 //! the renderer multiplies them by a density scale, see [`default_density_scale`].
 
-use crate::volume::{Affine, DenseVolume};
+use crate::volume::{Affine, DenseVolume, SparseVolume, Volume};
 use rayon::prelude::*;
 
 /// Names accepted by [`by_name`] (besides the alias "disney" for "constant").
@@ -17,13 +17,16 @@ pub const NAMES: &[&str] = &["cloud", "explosion", "constant"];
 /// The default grid size of the embedded volumes along each axis.
 pub const DEFAULT_N: u32 = 256;
 
-/// The embedded volume called `name` (case-insensitive; "disney" = "constant") at `n`^3 voxels.
-pub fn by_name(name: &str, n: u32) -> Option<DenseVolume> {
-    match canonical_name(name)? {
-        "cloud" => Some(cloud(n)),
-        "explosion" => Some(explosion(n)),
-        _ => Some(constant_interior(n)),
-    }
+/// The embedded volume called `name` (case-insensitive; "disney" = "constant") at `n`^3 voxels,
+/// generated sparse, 8^3 cell by cell (the same voxels as [`cloud`], [`explosion`] and
+/// [`constant_interior`] give densely).
+pub fn by_name(name: &str, n: u32) -> Option<Volume> {
+    let v = match canonical_name(name)? {
+        "cloud" => generate_sparse("cloud", n, cloud_density, cloud_uniform),
+        "explosion" => generate_sparse("explosion", n, explosion_density, explosion_uniform),
+        _ => generate_sparse("constant", n, constant_density, constant_uniform),
+    };
+    Some(Volume::Sparse(v))
 }
 
 /// Maps a user-facing volume name or alias to its entry in [`NAMES`].
@@ -93,6 +96,54 @@ pub fn constant_box(n: u32, density: f32) -> DenseVolume {
 /// Tile edge (voxels, in x and y) for the whole-tile shortcut in [`generate`].
 const TILE: usize = 8;
 
+/// Voxel centres of an `n`^3 grid spanning `[-1, 1]^3` along one axis, and the affine map.
+fn centres(n: u32) -> (Vec<f32>, Affine) {
+    let s = 2.0 / n as f32;
+    let coord = (0..n).map(|i| (i as f32 + 0.5) * s - 1.0).collect();
+    (coord, Affine::scale_translate([s; 3], [-1.0; 3]))
+}
+
+/// [`generate`] as a sparse volume, 8^3 cell by cell in parallel: a cell whose voxel centres
+/// lie within a ball where `uniform` knows the value is stored as that constant (nothing if 0),
+/// every other cell voxel by voxel. The same voxels as [`generate`], never a dense array.
+fn generate_sparse(
+    name: &str,
+    n: u32,
+    density: impl Fn([f32; 3]) -> f32 + Sync,
+    uniform: impl Fn([f32; 3], f32) -> Option<f32> + Sync,
+) -> SparseVolume {
+    assert!(n >= 1, "procedural volume {name}: n must be >= 1");
+    let (coord, affine) = centres(n);
+    let range = |c: u32| (c as usize * 8)..((c as usize + 1) * 8).min(n as usize);
+    let constant = |c: [u32; 3]| {
+        let r = c.map(range);
+        let centre = r.clone().map(|r| 0.5 * (coord[r.start] + coord[r.end - 1]));
+        let half = r.map(|r| 0.5 * (coord[r.end - 1] - coord[r.start]));
+        uniform(
+            centre,
+            (half[0] * half[0] + half[1] * half[1] + half[2] * half[2]).sqrt(),
+        )
+    };
+    let values = |c: [u32; 3], out: &mut [f32]| {
+        let [rx, ry, rz] = c.map(range);
+        for x in rx {
+            for y in ry.clone() {
+                for z in rz.clone() {
+                    let at = SparseVolume::cell_index(x % 8, y % 8, z % 8);
+                    out[at] = density([coord[x], coord[y], coord[z]]);
+                }
+            }
+        }
+    };
+    SparseVolume::generate(
+        format!("{name} (procedural {n}^3)"),
+        [n; 3],
+        affine,
+        constant,
+        values,
+    )
+}
+
 /// Fills an `n`^3 grid spanning `[-1, 1]^3` with `density(voxel centre)`, in parallel by z-slice.
 ///
 /// Each slice goes in `TILE` x `TILE` tiles; `uniform(centre, radius)` may return the value that
@@ -105,8 +156,7 @@ fn generate(
     uniform: impl Fn([f32; 3], f32) -> Option<f32> + Sync,
 ) -> DenseVolume {
     assert!(n >= 1, "procedural volume {name}: n must be >= 1");
-    let s = 2.0 / n as f32;
-    let coord: Vec<f32> = (0..n).map(|i| (i as f32 + 0.5) * s - 1.0).collect();
+    let (coord, affine) = centres(n);
     let nu = n as usize;
     let mut values = vec![0.0f32; nu * nu * nu];
     values
@@ -134,7 +184,6 @@ fn generate(
                 }
             }
         });
-    let affine = Affine::scale_translate([s; 3], [-1.0; 3]);
     DenseVolume::new(format!("{name} (procedural {n}^3)"), [n; 3], values, affine)
         .expect("procedural densities are finite and non-negative")
 }

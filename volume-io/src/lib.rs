@@ -378,7 +378,7 @@ impl Loaded {
                     name: name.clone(),
                     dims,
                     index_to_world: self.map.dense_affine(min),
-                    file_origin: min,
+                    file_origin: Some(min),
                     cells,
                 };
                 if clamp_negative {

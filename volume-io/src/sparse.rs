@@ -155,8 +155,8 @@ pub struct SparseVolume {
     pub dims: [u32; 3],
     /// Voxel index space to world space.
     pub index_to_world: Affine,
-    /// File index of local voxel (0, 0, 0).
-    pub file_origin: [i32; 3],
+    /// For a file: the file index of local voxel (0, 0, 0) (None for generated volumes).
+    pub file_origin: Option<[i32; 3]>,
     pub(crate) cells: Cells,
 }
 
@@ -171,10 +171,73 @@ struct Piece {
 }
 
 impl SparseVolume {
+    /// A volume of `dims` voxels generated 8^3 cell by 8^3 cell, in parallel. Cell `c` holds
+    /// voxels `8 c .. 8 c + 8` per axis (those beyond `dims` are ignored); `constant(c)` may say
+    /// that every voxel of it has one value (0: nothing is stored), else `values(c, out)` writes
+    /// its densities (finite, >= 0) at [`SparseVolume::cell_index`]. The constant cells are
+    /// found first, then the others are written straight into their place: memory is the
+    /// non-constant cells' values and a table of the cells, never a dense array.
+    pub fn generate(
+        name: impl Into<String>,
+        dims: [u32; 3],
+        index_to_world: Affine,
+        constant: impl Fn([u32; 3]) -> Option<f32> + Sync,
+        values: impl Fn([u32; 3], &mut [f32]) + Sync,
+    ) -> Self {
+        use rayon::prelude::*;
+        let hi = dims.map(|d| i64::from(d.max(1)) - 1);
+        let mut cells = Cells::new([0; 3], hi).expect("a generated grid's cell table fits");
+        let [cx, cy, _] = cells.dims.map(|d| d as usize);
+        let coords = |at: usize| {
+            [
+                (at % cx) as u32,
+                (at / cx % cy) as u32,
+                (at / (cx * cy)) as u32,
+            ]
+        };
+        let kinds: Vec<Option<f32>> = (0..cells.table.len())
+            .into_par_iter()
+            .map(|at| constant(coords(at)))
+            .collect();
+        let mut leaf_cells = Vec::new();
+        for (at, kind) in kinds.iter().enumerate() {
+            match kind {
+                Some(v) if v.to_bits() == 0 => {}
+                Some(v) => {
+                    cells.table[at] = TILE | cells.tiles.len() as u32;
+                    cells.tiles.push(*v);
+                }
+                None => {
+                    cells.table[at] = leaf_cells.len() as u32;
+                    leaf_cells.push(at);
+                }
+            }
+        }
+        cells.leaves = vec![0.0; leaf_cells.len() * CELL_VALUES];
+        cells
+            .leaves
+            .par_chunks_mut(CELL_VALUES)
+            .zip(leaf_cells.par_iter())
+            .for_each(|(out, &at)| values(coords(at), out));
+        SparseVolume {
+            name: name.into(),
+            dims,
+            index_to_world,
+            file_origin: None,
+            cells,
+        }
+    }
+
+    /// Index of local voxel (x, y, z) (each 0..8) in a cell's values: OpenVDB's leaf order.
+    pub const fn cell_index(x: usize, y: usize, z: usize) -> usize {
+        (x << 6) | (y << 3) | z
+    }
+
     /// The cells meeting the local voxel box [lo, hi), with their parts of it, in table order.
     fn pieces(&self, lo: [u32; 3], hi: [u32; 3], mut f: impl FnMut(Piece)) {
         let c = &self.cells;
-        let shift: [i64; 3] = std::array::from_fn(|a| i64::from(self.file_origin[a]) - c.origin[a]);
+        let origin = self.file_origin.unwrap_or([0; 3]);
+        let shift: [i64; 3] = std::array::from_fn(|a| i64::from(origin[a]) - c.origin[a]);
         let c_lo: [i64; 3] = std::array::from_fn(|a| (i64::from(lo[a]) + shift[a]) / CELL);
         let c_hi: [i64; 3] = std::array::from_fn(|a| (i64::from(hi[a]) - 1 + shift[a]) / CELL + 1);
         if (0..3).any(|a| lo[a] >= hi[a]) {

@@ -43,7 +43,8 @@ pub trait VolumeData: Sync {
     }
 }
 
-/// A loaded volume: dense (embedded volumes, NanoVDB files) or sparse (OpenVDB files).
+/// A loaded volume: dense (NanoVDB files, test shapes) or sparse (OpenVDB files, the embedded
+/// volumes).
 #[derive(Clone, Debug)]
 pub enum Volume {
     Dense(DenseVolume),
@@ -161,7 +162,7 @@ impl VolumeData for SparseVolume {
         &self.index_to_world
     }
     fn file_origin(&self) -> Option<[i32; 3]> {
-        Some(self.file_origin)
+        self.file_origin
     }
     fn fill(&self, lo: [u32; 3], hi: [u32; 3], out: &mut Vec<f32>) -> bool {
         SparseVolume::fill(self, lo, hi, out)
