@@ -28,6 +28,43 @@ fn patchy() -> DenseVolume {
     )
 }
 
+/// Jackknife (N = 10) render parameters of a `w` x `h` image of `vol`, for `integrator` (None:
+/// transmittance).
+fn jackknife_params(
+    vol: &DenseVolume,
+    w: u32,
+    h: u32,
+    integrator: Option<Integrator>,
+) -> RenderParams {
+    RenderParams {
+        n: 10,
+        estimator: Estimator::Jackknife as u32,
+        rm_scale: 1.0,
+        f_delta: 0.6,
+        pixel_jitter: 1,
+        integrator: integrator.map_or(0, |i| i as u32),
+        ..camera_params(vol, w, h)
+    }
+}
+
+/// A delta sun straight overhead (radiance 1) and albedo 0.8: the lights of `direct` and `path`.
+fn overhead_sun() -> host::lighting::SceneLights {
+    host::lighting::SceneLights {
+        lighting: shared::sampling::lighting::Lighting {
+            sun: shared::sampling::sun::Sun {
+                dir: shared::geometry::V3::new(0.0, 1.0, 0.0),
+                one_minus_cos: 0.0,
+                radiance: shared::rgb::Rgb::splat(1.0),
+                present: 1,
+            },
+            albedo: shared::rgb::Rgb::splat(0.8),
+            p_sun: 1.0,
+            ..Default::default()
+        },
+        ..host::lighting::SceneLights::points_only(&[])
+    }
+}
+
 #[test]
 fn pool_holds_the_occupied_bricks_only_and_reads_back_every_voxel() {
     let vol = patchy();
@@ -104,28 +141,9 @@ fn a_sparse_volume_renders_identically_on_gpu_and_cpu() {
         let params = RenderParams {
             spp: 4,
             seed: 9,
-            n: 10,
-            estimator: Estimator::Jackknife as u32,
-            rm_scale: 1.0,
-            f_delta: 0.6,
-            pixel_jitter: 1,
-            integrator: integrator.map_or(0, |i| i as u32),
-            ..camera_params(&vol, 96, 12)
+            ..jackknife_params(&vol, 96, 12, integrator)
         };
-        let lights = host::lighting::SceneLights {
-            lighting: shared::sampling::lighting::Lighting {
-                sun: shared::sampling::sun::Sun {
-                    dir: shared::geometry::V3::new(0.0, 1.0, 0.0),
-                    one_minus_cos: 0.0,
-                    radiance: shared::rgb::Rgb::splat(1.0),
-                    present: 1,
-                },
-                albedo: shared::rgb::Rgb::splat(0.8),
-                p_sun: 1.0,
-                ..Default::default()
-            },
-            ..host::lighting::SceneLights::points_only(&[])
-        };
+        let lights = overhead_sun();
         let c = host::render::render_lit(&Backend::Cpu, &p, &params, &lights, false).unwrap();
         let g = host::render::render_lit(&gpu, &p, &params, &lights, false).unwrap();
         let ids: Vec<u32> = (0..c.len() as u32).collect();
@@ -154,12 +172,7 @@ fn long_grids_beyond_the_gpu_loop_budget_render_on_the_cpu() {
     let params = RenderParams {
         spp: 2,
         seed: 1,
-        n: 10,
-        estimator: Estimator::Jackknife as u32,
-        rm_scale: 1.0,
-        f_delta: 0.6,
-        pixel_jitter: 1,
-        ..camera_params(&vol, 8, 4)
+        ..jackknife_params(&vol, 8, 4, None)
     };
     assert!(host::render::loop_iterations_per_ray(&params, &p.desc) > host::render::LOOP_BUDGET);
     let c = host::render::render(&Backend::Cpu, &p, &params, false).unwrap();
@@ -234,29 +247,10 @@ fn paged_pools_render_identically_on_gpu_and_cpu() {
         let params = RenderParams {
             spp: 3,
             seed: 4,
-            n: 10,
-            estimator: Estimator::Jackknife as u32,
-            rm_scale: 1.0,
-            f_delta: 0.6,
-            pixel_jitter: 1,
             max_depth: 4,
-            integrator: integrator.map_or(0, |i| i as u32),
-            ..camera_params(&vol, 24, 16)
+            ..jackknife_params(&vol, 24, 16, integrator)
         };
-        let lights = host::lighting::SceneLights {
-            lighting: shared::sampling::lighting::Lighting {
-                sun: shared::sampling::sun::Sun {
-                    dir: shared::geometry::V3::new(0.0, 1.0, 0.0),
-                    one_minus_cos: 0.0,
-                    radiance: shared::rgb::Rgb::splat(1.0),
-                    present: 1,
-                },
-                albedo: shared::rgb::Rgb::splat(0.8),
-                p_sun: 1.0,
-                ..Default::default()
-            },
-            ..host::lighting::SceneLights::points_only(&[])
-        };
+        let lights = overhead_sun();
         let render = |backend: &Backend, p: &host::bricks::PackedVolume| {
             host::render::render_lit(backend, p, &params, &lights, false).unwrap()
         };
@@ -289,12 +283,7 @@ fn pools_beyond_the_bound_pages_are_refused_on_the_gpu() {
     let params = RenderParams {
         spp: 1,
         seed: 4,
-        n: 10,
-        estimator: Estimator::Jackknife as u32,
-        rm_scale: 1.0,
-        f_delta: 0.6,
-        pixel_jitter: 1,
-        ..camera_params(&vol, 8, 8)
+        ..jackknife_params(&vol, 8, 8, None)
     };
     let c = host::render::render(&Backend::Cpu, &paged, &params, false).unwrap();
     assert!(c.iter().all(|px| px.t_mean.is_finite()));
