@@ -206,7 +206,7 @@ fn read_grid(r: &mut ByteReader, d: &Descriptor, cap: u64, sparse: bool) -> Resu
     let mut survey = Survey::default();
     let background = read_topology(r, storage, &mut survey).context("reading the tree topology")?;
     let mut voxels = if sparse && survey.fits_cells(background) {
-        survey.allocate_cells(cap)?
+        survey.allocate_cells(cap, storage.half)?
     } else {
         Voxels::Dense(survey.bounds.allocate(background, cap)?)
     };
@@ -301,18 +301,20 @@ impl Survey {
 
     /// Empty cells over the bounding box, with room for the leaves; refuses boxes above `cap`
     /// voxels (as a dense grid would be refused) and tables or leaves that do not fit memory.
-    fn allocate_cells(&self, cap: u64) -> Result<Voxels> {
+    fn allocate_cells(&self, cap: u64, half: bool) -> Result<Voxels> {
         let (lo, hi) = self
             .bounds
             .bounds
             .context("the grid has no active voxels (it is empty); pick another grid")?;
         let dims = super::dense_dims(lo, hi, cap)?;
         let leaves = self.leaves.len();
-        // The leaves' f32 values, later the f16 pool of at most as many voxels, and the table.
+        // The leaves' values (f16 from a half-float file, else f32), later the f16 pool of at
+        // most as many voxels, and the table.
         let table: u64 = dims.iter().map(|&d| u64::from(d / 8 + 2)).product();
-        let bytes = leaves as u64 * sparse::CELL_VALUES as u64 * (4 + 2) + table * 4;
+        let value_bytes = if half { 2 } else { 4 };
+        let bytes = leaves as u64 * sparse::CELL_VALUES as u64 * (value_bytes + 2) + table * 4;
         super::check_bytes(bytes, "its leaves", super::available_memory())?;
-        let mut cells = sparse::Cells::new(lo, hi)
+        let mut cells = sparse::Cells::new(lo, hi, half)
             .context("the grid's cell table does not fit memory; crop the volume")?;
         ensure!(
             cells.reserve_leaves(leaves),

@@ -30,13 +30,94 @@ pub(crate) struct Cells {
     /// Tile values.
     tiles: Vec<f32>,
     /// Leaf values, [`CELL_VALUES`] per leaf, value `x << 6 | y << 3 | z` (OpenVDB's order).
-    leaves: Vec<f32>,
+    leaves: Store,
+}
+
+/// Leaf values: as f16 bits while every value is a half exactly (a half-float file), else f32.
+#[derive(Clone, Debug)]
+enum Store {
+    F16(Vec<u16>),
+    F32(Vec<f32>),
+}
+
+/// `v` as f16 bits if that is exact (the same f32 bits back).
+fn exact_half(v: f32) -> Option<u16> {
+    let h = half::f16::from_f32(v);
+    (h.to_f32().to_bits() == v.to_bits()).then_some(h.to_bits())
+}
+
+impl Store {
+    fn len(&self) -> usize {
+        match self {
+            Store::F16(v) => v.len(),
+            Store::F32(v) => v.len(),
+        }
+    }
+
+    fn bytes(&self) -> usize {
+        match self {
+            Store::F16(v) => v.len() * 2,
+            Store::F32(v) => v.len() * 4,
+        }
+    }
+
+    fn get(&self, i: usize) -> f32 {
+        match self {
+            Store::F16(v) => half::f16::from_bits(v[i]).to_f32(),
+            Store::F32(v) => v[i],
+        }
+    }
+
+    /// Widens f16 storage to f32 (for a value no half holds).
+    fn widen(&mut self) -> &mut Vec<f32> {
+        if let Store::F16(v) = self {
+            *self = Store::F32(
+                v.iter()
+                    .map(|&h| half::f16::from_bits(h).to_f32())
+                    .collect(),
+            );
+        }
+        match self {
+            Store::F32(v) => v,
+            Store::F16(_) => unreachable!("just widened"),
+        }
+    }
+
+    fn set(&mut self, i: usize, value: f32) {
+        match (&mut *self, exact_half(value)) {
+            (Store::F16(v), Some(h)) => v[i] = h,
+            _ => self.widen()[i] = value,
+        }
+    }
+
+    /// Appends one leaf of `fill`.
+    fn push_leaf(&mut self, fill: f32) {
+        match (&mut *self, exact_half(fill)) {
+            (Store::F16(v), Some(h)) => v.resize(v.len() + CELL_VALUES, h),
+            _ => {
+                let v = self.widen();
+                v.resize(v.len() + CELL_VALUES, fill);
+            }
+        }
+    }
+
+    /// Sets every value `v` to `g(v)`.
+    fn map(&mut self, g: impl Fn(f32) -> f32) {
+        for i in 0..self.len() {
+            let v = self.get(i);
+            let w = g(v);
+            if w.to_bits() != v.to_bits() {
+                self.set(i, w);
+            }
+        }
+    }
 }
 
 impl Cells {
-    /// Empty cells covering the inclusive file index box `lo..=hi`; `None` if the table would
+    /// Empty cells covering the inclusive file index box `lo..=hi`, their leaf values held as
+    /// f16 while they are halves (`half`: a half-float file) else f32; `None` if the table would
     /// not fit memory indices.
-    pub(crate) fn new(lo: [i64; 3], hi: [i64; 3]) -> Option<Self> {
+    pub(crate) fn new(lo: [i64; 3], hi: [i64; 3], half: bool) -> Option<Self> {
         let origin = lo.map(|v| v.div_euclid(CELL) * CELL);
         let dims: [u32; 3] = std::array::from_fn(|a| {
             u32::try_from((hi[a] - origin[a]).div_euclid(CELL) + 1).unwrap_or(u32::MAX)
@@ -52,13 +133,17 @@ impl Cells {
             dims,
             table,
             tiles: Vec::new(),
-            leaves: Vec::new(),
+            leaves: if half {
+                Store::F16(Vec::new())
+            } else {
+                Store::F32(Vec::new())
+            },
         })
     }
 
     /// Bytes held: the table and the values.
     pub(crate) fn bytes(&self) -> u64 {
-        (self.table.len() * 4 + self.tiles.len() * 4 + self.leaves.len() * 4) as u64
+        (self.table.len() * 4 + self.tiles.len() * 4 + self.leaves.bytes()) as u64
     }
 
     /// Leaves stored.
@@ -122,17 +207,16 @@ impl Cells {
                 self.tiles[(entry & !TILE) as usize]
             };
             let n = self.leaf_count();
-            self.leaves.resize(self.leaves.len() + CELL_VALUES, fill);
+            self.leaves.push_leaf(fill);
             self.table[cell] = n as u32;
             n
         };
-        let leaf = &mut self.leaves[n * CELL_VALUES..(n + 1) * CELL_VALUES];
         for (w, &word) in mask.iter().enumerate() {
             let mut bits = word;
             while bits != 0 {
                 let i = w * 64 + bits.trailing_zeros() as usize;
                 bits &= bits - 1;
-                leaf[i] = values[i];
+                self.leaves.set(n * CELL_VALUES + i, values[i]);
             }
         }
     }
@@ -141,7 +225,10 @@ impl Cells {
     pub(crate) fn reserve_leaves(&mut self, leaves: usize) -> bool {
         leaves
             .checked_mul(CELL_VALUES)
-            .is_some_and(|n| self.leaves.try_reserve_exact(n).is_ok())
+            .is_some_and(|n| match &mut self.leaves {
+                Store::F16(v) => v.try_reserve_exact(n).is_ok(),
+                Store::F32(v) => v.try_reserve_exact(n).is_ok(),
+            })
     }
 }
 
@@ -186,7 +273,7 @@ impl SparseVolume {
     ) -> Self {
         use rayon::prelude::*;
         let hi = dims.map(|d| i64::from(d.max(1)) - 1);
-        let mut cells = Cells::new([0; 3], hi).expect("a generated grid's cell table fits");
+        let mut cells = Cells::new([0; 3], hi, false).expect("a generated grid's cell table fits");
         let [cx, cy, _] = cells.dims.map(|d| d as usize);
         let coords = |at: usize| {
             [
@@ -213,12 +300,12 @@ impl SparseVolume {
                 }
             }
         }
-        cells.leaves = vec![0.0; leaf_cells.len() * CELL_VALUES];
-        cells
-            .leaves
+        let mut leaves = vec![0.0; leaf_cells.len() * CELL_VALUES];
+        leaves
             .par_chunks_mut(CELL_VALUES)
             .zip(leaf_cells.par_iter())
             .for_each(|(out, &at)| values(coords(at), out));
+        cells.leaves = Store::F32(leaves);
         SparseVolume {
             name: name.into(),
             dims,
@@ -279,7 +366,7 @@ impl SparseVolume {
                         let i = ((l[0] - p.cell_lo[0]) << 6)
                             | ((l[1] - p.cell_lo[1]) << 3)
                             | (l[2] - p.cell_lo[2]);
-                        c.leaves[p.entry as usize * CELL_VALUES + i as usize]
+                        c.leaves.get(p.entry as usize * CELL_VALUES + i as usize)
                     };
                     f([x, y, z], v);
                 }
@@ -302,14 +389,10 @@ impl SparseVolume {
                 changed += 1;
             }
         });
-        for v in self
-            .cells
-            .tiles
-            .iter_mut()
-            .chain(self.cells.leaves.iter_mut())
-        {
+        for v in self.cells.tiles.iter_mut() {
             *v = g(*v);
         }
+        self.cells.leaves.map(g);
         changed
     }
 
@@ -353,5 +436,29 @@ impl SparseVolume {
     /// Leaves stored (8^3 blocks of values).
     pub fn leaf_count(&self) -> usize {
         self.cells.leaf_count()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn half_storage_widens_for_a_value_no_half_holds_and_keeps_every_bit() {
+        let mut s = Store::F16(Vec::new());
+        s.push_leaf(0.5);
+        s.set(3, 1.25);
+        assert!(matches!(s, Store::F16(_)));
+        assert_eq!(s.bytes(), CELL_VALUES * 2);
+        // 0.1 is no half: the store turns f32, the halves already held keep their values.
+        s.set(4, 0.1);
+        assert!(matches!(s, Store::F32(_)));
+        assert_eq!((s.get(0), s.get(3), s.get(4)), (0.5, 1.25, 0.1));
+        s.map(|v| if v > 1.0 { 0.0 } else { v });
+        assert_eq!(s.get(3), 0.0);
+        // A NaN's bits survive too (validation reports it later).
+        let mut n = Store::F16(vec![0; 4]);
+        n.set(1, f32::from_bits(0x7fc0_0123));
+        assert_eq!(n.get(1).to_bits(), 0x7fc0_0123);
     }
 }
