@@ -1,6 +1,7 @@
-//! A sparse extinction volume: the active voxels of a file's 8^3 leaves and its active tiles,
-//! stored once each, addressed by a table of 8^3 cells over the active bounding box. No dense
-//! array of the bounding box is ever built; voxels outside every leaf and tile read as 0.
+//! A sparse extinction volume: the active voxels of a file's 8^3 leaves and its active tiles
+//! (or a generated volume's non-empty 8^3 cells), stored once each, addressed by a table of 8^3
+//! cells over the bounding box. No dense array of the bounding box is ever built; voxels outside
+//! every leaf and tile read as 0.
 //!
 //! Local index conventions are those of [`crate::dense::DenseVolume`]: local voxel `p` is file
 //! voxel `file_origin + p`, and a sparse volume reads exactly as the dense volume of the same
