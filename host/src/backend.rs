@@ -71,17 +71,8 @@ impl Backend {
         };
         let limit = gpu.max_buffer_bytes();
         let d = volume.desc.dims;
-        if volume.paged_desc().is_none() {
-            return Some(format!(
-                "the {}x{}x{} volume's voxel pool ({:.0} MiB) needs more than the {} pages of \
-                 {} MiB the kernels bind",
-                d[0],
-                d[1],
-                d[2],
-                std::mem::size_of_val(volume.voxels.as_slice()) as f64 / (1 << 20) as f64,
-                shared::volume::pages::MAX_PAGES,
-                (4u64 << volume.page_log2) >> 20
-            ));
+        if let Some(why) = crate::bricks::too_many_pages(volume) {
+            return Some(why);
         }
         let largest = volume
             .pages()

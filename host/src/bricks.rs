@@ -25,6 +25,24 @@ pub fn pack(
         .map_err(|e| explain(vol, e))
 }
 
+/// Why the kernels cannot bind `packed`'s voxel pool (more pages than they have bindings), or
+/// `None` if they can: the one refusal of the GPU backend's page limit.
+pub fn too_many_pages(packed: &PackedVolume) -> Option<String> {
+    let d = packed.desc.dims;
+    packed.paged_desc().is_none().then(|| {
+        format!(
+            "the {}x{}x{} volume's voxel pool ({:.0} MiB) needs more than the {} pages of {} MiB \
+             the kernels bind",
+            d[0],
+            d[1],
+            d[2],
+            std::mem::size_of_val(packed.voxels.as_slice()) as f64 / f64::from(1 << 20),
+            shared::volume::pages::MAX_PAGES,
+            (4u64 << packed.page_log2) >> 20
+        )
+    })
+}
+
 /// Longest chord through the grid in world units, bounded by the sum of its axes' world lengths.
 fn world_chord(vol: &dyn VolumeData) -> f64 {
     let m = vol.index_to_world().0;

@@ -36,14 +36,12 @@ pub struct GpuVolume<'a> {
 impl<'a> GpuVolume<'a> {
     /// Uploads the voxels (page by page), bricks and grid description of `vol`.
     pub fn upload(gpu: &'a Gpu, vol: &PackedVolume) -> Result<Self> {
-        let desc = vol.paged_desc().with_context(|| {
-            format!(
-                "the voxel pool ({:.0} MiB) needs more than the {MAX_PAGES} pages of {} MiB the \
-                 kernels bind; use --backend cpu, or crop or resample the volume",
-                std::mem::size_of_val(vol.voxels.as_slice()) as f64 / (1 << 20) as f64,
-                (4u64 << vol.page_log2) >> 20
-            )
-        })?;
+        if let Some(why) = crate::bricks::too_many_pages(vol) {
+            anyhow::bail!("{why}; use --backend cpu, or crop or resample the volume");
+        }
+        let desc = vol
+            .paged_desc()
+            .context("internal: the pages were just checked")?;
         let pages = vol
             .pages()
             .map(|page| gpu.upload(bytemuck::cast_slice(page)))
