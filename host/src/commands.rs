@@ -102,6 +102,9 @@ pub struct RenderOptions {
     /// Single scattering with this integrator instead of primary-ray transmittance.
     pub integrator: Option<Integrator>,
     pub lights: Vec<PointLight>,
+    /// `--lights random:N[,seed]`: point lights scattered in and around the volume (`direct`,
+    /// `path`), added to `lights`.
+    pub random_lights: Option<crate::lighting::random::RandomLights>,
     /// Albedo per channel (the single-scattering integrators need equal channels).
     pub albedo: [f32; 3],
     /// Environment light of `direct` (None: the sky unless --sun or --light are given).
@@ -112,6 +115,8 @@ pub struct RenderOptions {
     pub sun: Option<crate::lighting::SunSpec>,
     /// `direct`, `path`: shadow rays toward the sun or its moment shadow map.
     pub shadows: crate::shadow_map::ShadowOptions,
+    /// `restir`: candidates, target, its N and floor.
+    pub restir: crate::restir::RestirOptions,
     /// `path`: vertices before Russian roulette.
     pub rr_depth: u32,
     /// `path`: most vertices of a path.
@@ -144,6 +149,12 @@ pub struct EvalOptions {
     pub integrators: Option<String>,
     pub t_hat: TransmittanceHat,
     pub lights: Vec<PointLight>,
+    /// `--lights random:N[,seed]` (`--integrators direct|path|restir`).
+    pub random_lights: Option<crate::lighting::random::RandomLights>,
+    /// `--integrators restir`: candidates, target, its N and floor.
+    pub restir: crate::restir::RestirOptions,
+    /// `--integrators direct|path|restir`: every entry gets the first entry's render time.
+    pub equal_time: bool,
     pub albedo: f32,
     /// `--integrators direct`: the environment light (None: the sky unless --sun or --light).
     pub env: Option<crate::lighting::EnvSource>,
@@ -182,6 +193,9 @@ impl Default for EvalOptions {
             integrators: None,
             t_hat: TransmittanceHat::Jackknife,
             lights: Vec::new(),
+            random_lights: None,
+            restir: Default::default(),
+            equal_time: false,
             albedo: defaults::ALBEDO,
             env: None,
             env_scale: 1.0,
@@ -308,14 +322,8 @@ fn lights_or_default(
     let size = ((hi[0] - lo[0]) + (hi[1] - lo[1]) + (hi[2] - lo[2])) as f32 / 3.0;
     // Intensity scales with size^2 so images look alike at any world scale.
     Ok(vec![
-        PointLight {
-            position: at([0.35, 0.55, 0.45]),
-            intensity: 1.5 * size * size,
-        },
-        PointLight {
-            position: at([0.68, 0.4, 0.55]),
-            intensity: 0.8 * size * size,
-        },
+        PointLight::new(at([0.35, 0.55, 0.45]), 1.5 * size * size),
+        PointLight::new(at([0.68, 0.4, 0.55]), 0.8 * size * size),
     ])
 }
 
@@ -401,8 +409,15 @@ pub struct IntegratorSettings {
     /// The transmittance estimator of the shadow rays (the jackknife for the single-scattering
     /// integrators; `--estimator` for `direct`).
     pub shadow_rays: String,
-    /// Every light as [x, y, z, intensity] in world units (the `--light` syntax).
+    /// Every `--light` (or default) light as [x, y, z, intensity] in world units (the `--light`
+    /// syntax); the lights of `--lights random:N` are in `random_lights`.
     pub lights: Vec<[f32; 4]>,
+    /// `direct`, `path`: the `--lights random:N,seed` scatter (reproducible from it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub random_lights: Option<String>,
+    /// `direct`, `path`: all point lights (`--light` and random), drawn by power.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub point_lights: Option<usize>,
     /// One number, or [r, g, b] for an RGB albedo.
     pub albedo: Albedo,
     /// `direct`: the environment light (`sky`, a file, or `none`).
@@ -422,6 +437,9 @@ pub struct IntegratorSettings {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub collision_cap: Option<u32>,
     /// `path`: vertices before Russian roulette, and the most vertices of a path.
+    /// `restir`: candidates, target, its N and floor.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub restir: Option<crate::restir::RestirSettings>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub rr_depth: Option<u32>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -473,6 +491,7 @@ const INTEGRATOR_ONLY: &[(&str, &str)] = &[
 
 /// Options only `--integrator direct` reads.
 const DIRECT_ONLY: &[(&str, &str)] = &[
+    ("random_lights", "--lights"),
     ("env", "--env"),
     ("env_scale", "--env-scale"),
     ("env_rotate", "--env-rotate"),
@@ -493,6 +512,14 @@ const MSM_ONLY: &[(&str, &str)] = &[
 /// Options only `--integrator path` reads.
 const PATH_ONLY: &[(&str, &str)] = &[("rr_depth", "--rr-depth"), ("max_depth", "--max-depth")];
 
+/// Options only `--integrator restir` reads.
+const RESTIR_ONLY: &[(&str, &str)] = &[
+    ("restir_candidates", "--restir-candidates"),
+    ("restir_target", "--restir-target"),
+    ("restir_n", "--restir-n"),
+    ("restir_floor", "--restir-floor"),
+];
+
 /// Options `--integrator direct` does not read.
 const NOT_DIRECT: &[(&str, &str)] = &[("t_hat", "--t-hat")];
 
@@ -503,11 +530,16 @@ const TRANSMITTANCE_ONLY: &[(&str, &str)] =
 /// Refuses flag combinations whose flags would be ignored, so no output is mislabelled.
 pub fn check_render_flags(args: &RenderOptions) -> Result<()> {
     let given = |id: &str| args.given.iter().any(|g| g == id);
-    let lit = matches!(args.integrator, Some(Integrator::Direct | Integrator::Path));
+    let lit = args.integrator.is_some_and(Integrator::is_lit);
     if args.integrator != Some(Integrator::Path) {
         if let Some((_, flag)) = PATH_ONLY.iter().find(|(id, _)| given(id)) {
             bail!("{flag} only applies to --integrator path; add it or drop {flag}");
         }
+    }
+    if args.integrator == Some(Integrator::Restir) {
+        args.restir.check()?;
+    } else if let Some((_, flag)) = RESTIR_ONLY.iter().find(|(id, _)| given(id)) {
+        bail!("{flag} only applies to --integrator restir; add it or drop {flag}");
     }
     if lit {
         if let Some((_, flag)) = NOT_DIRECT.iter().find(|(id, _)| given(id)) {
@@ -518,7 +550,7 @@ pub fn check_render_flags(args: &RenderOptions) -> Result<()> {
         }
     } else if let Some((_, flag)) = DIRECT_ONLY.iter().find(|(id, _)| given(id)) {
         bail!(
-            "{flag} only applies to --integrator direct or path (the single-scattering \
+            "{flag} only applies to --integrator direct, path or restir (the single-scattering \
              integrators are lit by point lights, --light); add --integrator direct or drop {flag}"
         );
     } else if args.integrator.is_some() {
@@ -542,7 +574,7 @@ pub fn check_render_flags(args: &RenderOptions) -> Result<()> {
     }
     args.shadows.check()?;
     let uses_ratio = match args.integrator {
-        Some(Integrator::Direct | Integrator::Path) => {
+        Some(i) if i.is_lit() => {
             args.estimator.estimator == shared::params::Estimator::RatioTracking
         }
         Some(_) => args.t_hat == TransmittanceHat::Ratio,
@@ -596,6 +628,9 @@ fn integrator_settings(
             .iter()
             .map(|l| [l.position.x, l.position.y, l.position.z, l.intensity])
             .collect(),
+        random_lights: None,
+        point_lights: None,
+        restir: None,
         albedo: args.albedo.into(),
         env: None,
         sun: None,
@@ -622,18 +657,16 @@ fn direct_lights(
         "--hg-g must be in (-1, 1) (got {})",
         args.hg_g
     );
-    anyhow::ensure!(
-        args.lights.len() <= shared::sampling::lights::MAX_LIGHTS as usize,
-        "--light: at most {} lights (got {})",
-        shared::sampling::lights::MAX_LIGHTS,
-        args.lights.len()
-    );
+    let (lo, hi) = crate::render::occupied_world_bounds(vol);
+    let mut points = args.lights.clone();
+    if let Some(spec) = args.random_lights {
+        points.extend(crate::lighting::random::random_lights(spec, lo, hi)?);
+    }
     let env = match &args.env {
         Some(e) => e.clone(),
-        None if args.sun.is_some() || !args.lights.is_empty() => EnvSource::None,
+        None if args.sun.is_some() || !points.is_empty() => EnvSource::None,
         None => EnvSource::Sky,
     };
-    let (lo, hi) = crate::render::occupied_world_bounds(vol);
     let center = [0, 1, 2].map(|a| 0.5 * (lo[a] + hi[a]));
     let radius = 0.5 * (0..3).map(|a| (hi[a] - lo[a]).powi(2)).sum::<f64>().sqrt();
     crate::lighting::build(
@@ -642,7 +675,7 @@ fn direct_lights(
             env_scale: args.env_scale,
             env_rotate_deg: args.env_rotate,
             sun: args.sun,
-            points: args.lights.clone(),
+            points,
             albedo: args.albedo,
         },
         center,
@@ -677,17 +710,20 @@ fn direct_settings(
         name: crate::integrators::integrator_name(args.integrator.unwrap_or(Integrator::Direct))
             .into(),
         shadow_rays: args.estimator.name.into(),
-        lights: lights
-            .points
+        lights: args
+            .lights
             .iter()
             .map(|l| [l.position.x, l.position.y, l.position.z, l.intensity])
             .collect(),
+        random_lights: args.random_lights.map(|r| r.to_string()),
+        point_lights: Some(lights.points.len()),
         albedo: args.albedo.into(),
         env: Some(env),
         sun,
         shadows: Some(shadows),
         light_pmf: Some([l.p_sun, l.p_env, l.p_points]),
         collision_cap: Some(collision_cap),
+        restir: (args.integrator == Some(Integrator::Restir)).then(|| args.restir.settings()),
         rr_depth: (args.integrator == Some(Integrator::Path)).then_some(args.rr_depth),
         max_depth: (args.integrator == Some(Integrator::Path)).then_some(args.max_depth),
         hg_g: args.hg_g,
@@ -737,9 +773,13 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         ..Default::default()
     };
     args.estimator.apply(&mut params);
-    let direct = matches!(args.integrator, Some(Integrator::Direct | Integrator::Path));
+    let direct = args.integrator.is_some_and(Integrator::is_lit);
     let scene_lights = if direct {
-        direct_lights(args, vol)?
+        let mut l = direct_lights(args, vol)?;
+        if args.integrator == Some(Integrator::Restir) {
+            l.resample_points();
+        }
+        l
     } else {
         crate::lighting::SceneLights::points_only(&scene_lights(args, vol)?)
     };
@@ -752,6 +792,7 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         params.t_hat = args.t_hat as u32;
         params.rr_depth = args.rr_depth;
         params.max_depth = args.max_depth;
+        args.restir.apply(&mut params);
     }
     if direct {
         // A safeguard: lower the tracking loops' collision cap if one invocation would not fit.
@@ -877,7 +918,7 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         },
         mean_l: radiance.then_some(mean),
         integrator: match args.integrator {
-            Some(Integrator::Direct | Integrator::Path) => Some(direct_settings(
+            Some(i) if i.is_lit() => Some(direct_settings(
                 args,
                 &scene_lights,
                 crate::render::collision_cap(&params),
@@ -1074,13 +1115,14 @@ pub fn run_eval(args: &EvalOptions) -> Result<()> {
             .filter_map(|n| match *n {
                 "direct" => Some(Integrator::Direct),
                 "path" => Some(Integrator::Path),
+                "restir" => Some(Integrator::Restir),
                 _ => None,
             })
             .collect();
         if !lit.is_empty() {
             anyhow::ensure!(
                 lit.len() == names.len(),
-                "--integrators {list}: direct and path are evaluated together or alone (their \
+                "--integrators {list}: direct, path and restir are evaluated together or alone (their \
                  entries are shadow-ray estimators under the same lights); evaluate the \
                  single-scattering integrators in a separate run"
             );
@@ -1093,6 +1135,20 @@ pub fn run_eval(args: &EvalOptions) -> Result<()> {
             return run_eval_direct(args, &unique);
         }
     }
+    anyhow::ensure!(
+        !args.equal_time,
+        "--equal-time applies to --integrators direct, path or restir; add one or drop it"
+    );
+    anyhow::ensure!(
+        args.random_lights.is_none(),
+        "--lights random:N applies to --integrators direct, path or restir (the \
+         single-scattering integrators take at most {} lights, by --light); drop --lights",
+        shared::sampling::lights::MAX_LIGHTS
+    );
+    anyhow::ensure!(
+        args.restir == crate::restir::RestirOptions::default(),
+        "the --restir-* flags apply to --integrators restir; add it or drop them"
+    );
     let given_direct = args.env.is_some() || args.sun.is_some();
     anyhow::ensure!(
         !given_direct,
@@ -1243,12 +1299,14 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
         ratio_roulette: args.ratio_roulette,
         integrator: Some(integrators[0]),
         lights: args.lights.clone(),
+        random_lights: args.random_lights,
         albedo: [args.albedo; 3],
         env: args.env.clone(),
         env_scale: args.env_scale,
         env_rotate: args.env_rotate,
         sun: args.sun,
         shadows: Default::default(),
+        restir: args.restir,
         rr_depth: args.rr_depth,
         max_depth: args.max_depth,
         hg_g: 0.0,
@@ -1290,6 +1348,16 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
         max_depth: args.max_depth,
         ..Default::default()
     };
+    if integrators.contains(&Integrator::Restir) {
+        args.restir.check()?;
+    } else {
+        anyhow::ensure!(
+            args.restir == crate::restir::RestirOptions::default(),
+            "the --restir-* flags apply to --integrators restir; add it or drop them"
+        );
+    }
+    let mut params = params;
+    args.restir.apply(&mut params);
     let setup = crate::eval::EvalSetup {
         backend: &backend,
         volume: packed,
@@ -1309,6 +1377,7 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
         &entries,
         occupied_world_bounds(vol),
         args.exposure,
+        args.equal_time,
     )?;
     crate::output::write_json(&json, &report)?;
     println!("wrote {}", json.display());

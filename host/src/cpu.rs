@@ -7,7 +7,8 @@ use anyhow::Result;
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 use shared::kernels::render::{
-    direct_pixel_pass, path_pixel_pass, render_pixel_pass, tile_order_pixel, PixelSums,
+    direct_pixel_pass, path_pixel_pass, render_pixel_pass, restir_pixel_pass, tile_order_pixel,
+    PixelSums,
 };
 use shared::kernels::shadow_map::{msm_raw_texel, msm_store_texel, MsmPass};
 use shared::params::Integrator;
@@ -60,6 +61,7 @@ impl RenderBackend for CpuVolume<'_> {
         let scene = lights.view();
         let direct = params.integrator == Integrator::Direct as u32;
         let path = params.integrator == Integrator::Path as u32;
+        let restir = params.integrator == Integrator::Restir as u32;
         let count = params.width * params.height;
         let chunk = schedule.chunk;
         let mut sums = vec![PixelSums::default(); count as usize];
@@ -68,7 +70,9 @@ impl RenderBackend for CpuVolume<'_> {
                 let base = c as u32 * chunk;
                 block.par_iter_mut().enumerate().for_each(|(i, acc)| {
                     let pixel = tile_order_pixel(base + i as u32, params.width, params.height);
-                    *acc = if path {
+                    *acc = if restir {
+                        restir_pixel_pass(&view, params, &scene, pixel, s0, s1, *acc)
+                    } else if path {
                         path_pixel_pass(&view, params, &scene, pixel, s0, s1, *acc)
                     } else if direct {
                         direct_pixel_pass(&view, params, &scene, pixel, s0, s1, *acc)

@@ -102,7 +102,9 @@ pub fn capped_advice(params: &RenderParams) -> String {
             params.max_depth
         );
     }
-    if params.integrator == shared::params::Integrator::Direct as u32 {
+    if params.integrator == shared::params::Integrator::Direct as u32
+        || params.integrator == shared::params::Integrator::Restir as u32
+    {
         return format!("free-flight sampling or a tracking estimate {tracking}");
     }
     if params.integrator != 0 {

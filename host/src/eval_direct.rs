@@ -44,6 +44,12 @@ pub struct DirectEntry {
     pub mean_std: f64,
     pub mean_radiance: f64,
     pub elapsed_ms: f64,
+    /// Samples per pixel of this entry (`--spp`, or with `--equal-time` the calibrated count).
+    #[serde(default)]
+    pub spp: u32,
+    /// `--equal-time`: the short timing run that set `spp` (its spp and milliseconds).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub calibration: Option<Calibration>,
     /// Lookups of the camera ray's free flight and of the three transmittance estimates, per
     /// camera ray.
     pub lookups_per_ray: f64,
@@ -63,6 +69,32 @@ pub struct DirectEntry {
     pub paired_mean: Option<f64>,
     pub exr: String,
     pub png: String,
+}
+
+/// `--equal-time`: an entry's timing run and the budget it was fitted to.
+#[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
+pub struct Calibration {
+    /// Samples per pixel of the timing run.
+    pub spp: u32,
+    /// Its render time.
+    pub ms: f64,
+    /// The budget: the first entry's render time at `--spp`.
+    pub budget_ms: f64,
+}
+
+/// Samples per pixel of the timing run of `--equal-time` (an eighth of --spp, at least 1).
+fn calibration_spp(spp: u32) -> u32 {
+    (spp / 8).max(1)
+}
+
+/// Samples per pixel that fit `budget_ms` at `ms_per_spp`, in 1..=2^20.
+pub fn equal_time_spp(budget_ms: f64, ms_per_spp: f64) -> u32 {
+    if !(ms_per_spp > 0.0 && budget_ms.is_finite()) {
+        return 1;
+    }
+    (budget_ms / ms_per_spp)
+        .round()
+        .clamp(1.0, (1u32 << 20) as f64) as u32
 }
 
 /// How one entry's shadow rays toward the sun get their transmittance.
@@ -188,7 +220,14 @@ pub fn direct_files(out_dir: &Path, integrators: &[&str], names: &[&str]) -> Vec
             files.push(out_dir.join(format!("{}.png", stem(integrator, name))));
         }
         files.push(out_dir.join(format!("{}.png", stem(integrator, "insets"))));
+        if *integrator == "restir" {
+            // Its reference is `direct`'s.
+            files.push(out_dir.join(format!("{}.exr", stem("direct", "reference"))));
+            files.push(out_dir.join(format!("{}.png", stem("direct", "reference"))));
+        }
     }
+    files.sort();
+    files.dedup();
     files
 }
 
@@ -277,41 +316,93 @@ pub fn evaluate_direct(
     entries_in: &[ShadowEntry],
     bounds: ([f64; 3], [f64; 3]),
     exposure: f32,
+    equal_time: bool,
 ) -> Result<DirectEvalReport> {
+    anyhow::ensure!(
+        !equal_time
+            || !entries_in
+                .iter()
+                .any(|e| matches!(e, ShadowEntry::Map { .. })),
+        "--equal-time gives entries different sample counts, but a moment-shadow-map entry is \
+         compared sample by sample with an exact-shadow image of --spp samples; drop \
+         --equal-time or the msm entries"
+    );
+    let mut budget_ms: Option<f64> = None;
     std::fs::create_dir_all(setup.out_dir)
         .with_context(|| format!("creating {}", setup.out_dir.display()))?;
     let resident = Resident::new(setup.backend, setup.volume)?;
     let any_map = entries_in
         .iter()
         .any(|e| matches!(e, ShadowEntry::Map { .. }));
-    let mut references = Vec::new();
+    let mut references: Vec<ReferenceImage> = Vec::new();
     let mut entries = Vec::new();
-    let total = integrators.len() * (entries_in.len() + 1 + any_map as usize);
+    // `restir` estimates the same integral as `direct`: its reference is `direct`'s (rendered
+    // once when both are evaluated).
+    let reference_of = |i: Integrator| {
+        if i == Integrator::Restir {
+            Integrator::Direct
+        } else {
+            i
+        }
+    };
+    let mut distinct: Vec<Integrator> = integrators.iter().map(|&i| reference_of(i)).collect();
+    distinct.sort_by_key(|&i| i as u32);
+    distinct.dedup();
+    let total = distinct.len() + integrators.len() * (entries_in.len() + any_map as usize);
     let mut done = 0;
+    type Reference = (
+        Vec<(f64, f64)>,
+        shared::params::RenderParams,
+        String,
+        String,
+    );
+    let mut direct_reference: Option<Reference> = None;
     for &integrator in integrators {
         let mut base = setup.params;
         base.integrator = integrator as u32;
         base.light_count = lights.points.len() as u32;
         let label = crate::integrators::integrator_name(integrator);
-        let reference = crate::estimators::by_name("ratio").expect("registered");
-        let mut ref_params = base;
-        reference.apply(&mut ref_params);
-        ref_params.roulette = 0;
-        ref_params.spp = setup.reference_spp;
-        ref_params.seed = base.seed ^ 0x5eed_0001;
-        let ref_params = crate::render::fit_collision_cap(&ref_params, &setup.volume.desc);
-        let what = format!("the {label} reference");
-        crate::eval::step(setup, done, total, &what, ref_params.spp);
-        done += 1;
-        let (ref_px, _, exr, png) = render_one(
-            setup,
-            &resident,
-            &ref_params,
-            lights,
-            &stem(label, "reference"),
-            exposure,
-        )?;
-        let ref_m = moments(&ref_px);
+        // `restir` resamples the point lights on their own: they leave the pmf over kinds.
+        let mut scene = lights.clone();
+        if integrator == Integrator::Restir {
+            scene.resample_points();
+        }
+        let ref_integrator = reference_of(integrator);
+        let ref_label = crate::integrators::integrator_name(ref_integrator);
+        let cached = match (&direct_reference, ref_integrator) {
+            (Some(r), Integrator::Direct) => Some(r.clone()),
+            _ => None,
+        };
+        let (ref_m, ref_params, exr, png) = match cached {
+            Some(r) => r,
+            None => {
+                let reference = crate::estimators::by_name("ratio").expect("registered");
+                let mut ref_params = base;
+                ref_params.integrator = ref_integrator as u32;
+                reference.apply(&mut ref_params);
+                ref_params.roulette = 0;
+                ref_params.spp = setup.reference_spp;
+                ref_params.seed = base.seed ^ 0x5eed_0001;
+                let ref_params = crate::render::fit_collision_cap(&ref_params, &setup.volume.desc);
+                let what = format!("the {ref_label} reference");
+                crate::eval::step(setup, done, total, &what, ref_params.spp);
+                done += 1;
+                let (ref_px, _, exr, png) = render_one(
+                    setup,
+                    &resident,
+                    &ref_params,
+                    lights,
+                    &stem(ref_label, "reference"),
+                    exposure,
+                )?;
+                let r = (moments(&ref_px), ref_params, exr, png);
+                if ref_integrator == Integrator::Direct {
+                    direct_reference = Some(r.clone());
+                }
+                r
+            }
+        };
+        let lights = &scene;
         // Exact shadows with the entries' camera samples, for the paired errors.
         let exact = if any_map {
             let mut p = base;
@@ -345,8 +436,29 @@ pub fn evaluate_direct(
                 }
             };
             spec.apply(&mut params);
-            let params = crate::render::fit_collision_cap(&params, &setup.volume.desc);
+            let mut params = crate::render::fit_collision_cap(&params, &setup.volume.desc);
             let name = format!("{label}/{}", entry.name());
+            // `--equal-time`: every entry after the first gets the first one's time, its spp
+            // from a short timing run.
+            let calibration = match (equal_time, budget_ms) {
+                (true, Some(budget)) => {
+                    let spp = calibration_spp(params.spp);
+                    let timing = shared::params::RenderParams { spp, ..params };
+                    let what = format!("{name} (timing run)");
+                    crate::eval::step(setup, done, total, &what, spp);
+                    let start = Instant::now();
+                    crate::render::render_resident_lit(&resident, &timing, &entry_lights, false)
+                        .with_context(|| format!("timing {name}"))?;
+                    let ms = start.elapsed().as_secs_f64() * 1e3;
+                    params.spp = equal_time_spp(budget, ms / spp as f64);
+                    Some(Calibration {
+                        spp,
+                        ms,
+                        budget_ms: budget,
+                    })
+                }
+                _ => None,
+            };
             crate::eval::step(setup, done, total, &name, params.spp);
             done += 1;
             let map = match entry {
@@ -376,6 +488,10 @@ pub fn evaluate_direct(
             if let Some(m) = &map {
                 e.elapsed_ms += m.build_ms;
             }
+            e.calibration = calibration;
+            if equal_time && budget_ms.is_none() {
+                budget_ms = Some(e.elapsed_ms);
+            }
             e.shadow_map = map;
             pngs.push(e.png.clone());
             entries.push(e);
@@ -384,7 +500,7 @@ pub fn evaluate_direct(
         write_insets(&pngs, &insets)?;
         references.push(ReferenceImage {
             integrator: label.into(),
-            reference: format!("{label}/ratio at {} spp", ref_params.spp),
+            reference: format!("{ref_label}/ratio at {} spp", ref_params.spp),
             spp: ref_params.spp,
             exr,
             png,
@@ -453,6 +569,8 @@ fn measure(
         mean_std: m.iter().map(|(_, v)| v.sqrt()).sum::<f64>() / n,
         mean_radiance: m.iter().map(|(a, _)| a).sum::<f64>() / n,
         elapsed_ms,
+        spp: params.spp,
+        calibration: None,
         lookups_per_ray: px.iter().map(|p| p.samples as f64).sum::<f64>() / (n * params.spp as f64),
         flags: crate::diagnostics::RayFlags::of(&px, params.spp),
         collision_cap: crate::render::collision_cap(params),

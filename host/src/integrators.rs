@@ -18,13 +18,14 @@ pub const INTEGRATORS: &[(&str, Integrator)] = {
         ("mis-power", I::MisPowerJackknife),
         ("direct", I::Direct),
         ("path", I::Path),
+        ("restir", I::Restir),
     ]
 };
 
 /// True for the integrators `host eval --integrators` compares (single scattering from point
 /// lights; `direct` renders are not evaluated there yet).
 fn evaluated(i: Integrator) -> bool {
-    i != Integrator::Direct && i != Integrator::Path
+    !i.is_lit()
 }
 
 /// Parses an integrator name.
@@ -97,8 +98,8 @@ pub fn parse_light(s: &str) -> Result<PointLight, String> {
             "expected x,y,z,intensity (finite, intensity >= 0), got {s:?}"
         ));
     }
-    Ok(PointLight {
-        position: shared::geometry::V3::new(v[0], v[1], v[2]),
-        intensity: v[3],
-    })
+    Ok(PointLight::new(
+        shared::geometry::V3::new(v[0], v[1], v[2]),
+        v[3],
+    ))
 }

@@ -24,6 +24,7 @@ pub mod eval_direct;
 pub mod output;
 pub mod render;
 pub mod report;
+pub mod restir;
 pub mod schedule;
 pub mod shadow_map;
 pub mod study;

@@ -230,9 +230,13 @@ pub fn loop_iterations_per_ray(
         estimate.integrator = 0;
         return fixed + tracking + loop_iterations_per_ray(&estimate, desc) + 32;
     }
-    if params.integrator == shared::params::Integrator::Direct as u32 {
-        // A wavefront (`direct_cs`): one invocation runs either the camera ray's free flight and
-        // two CDF searches, or one transmittance estimate by the chosen estimator.
+    if params.integrator == shared::params::Integrator::Direct as u32
+        || params.integrator == shared::params::Integrator::Restir as u32
+    {
+        // A wavefront (`direct_cs`, `restir_cs`): one invocation runs either the camera ray's
+        // free flight and two CDF searches, or one transmittance estimate by the chosen
+        // estimator (restir: or one candidate's target estimate, of at most as many loops: a
+        // jackknife of restir_n <= n samples or ratio tracking under the same cap).
         let mut estimate = *params;
         estimate.integrator = 0;
         return fixed + tracking.max(loop_iterations_per_ray(&estimate, desc)) + 2 * 32;
@@ -429,9 +433,12 @@ pub fn render_resident_lit(
     progress: bool,
 ) -> Result<Vec<PixelOut>> {
     let vol = resident.vol;
+    // The single-scattering integrators weigh every light per segment; `direct` and `path`
+    // draw by power from the alias table (any number).
+    let lit = shared::params::Integrator::from_u32(params.integrator).is_lit();
     anyhow::ensure!(
         params.light_count as usize <= lights.points.len()
-            && params.light_count <= shared::sampling::lights::MAX_LIGHTS,
+            && (lit || params.light_count <= shared::sampling::lights::MAX_LIGHTS),
         "at most {} lights",
         shared::sampling::lights::MAX_LIGHTS
     );

@@ -1,7 +1,8 @@
 //! The lights of `--integrator direct` on the host: `EnvMap::load` of valid and hostile light
 //! probes (written by the tests into a temporary directory), `lighting::build` edge cases and
 //! its pmf over light kinds, and end-to-end runs of `host render --integrator direct` with good
-//! and bad light flags.
+//! and bad light flags; `--integrator restir`, `--lights random:N` and `host eval --equal-time`
+//! end to end.
 
 use host::lighting::env::{EnvMap, MAX_SIDE};
 use host::lighting::{build, EnvSource, LightingOptions, SceneLights, SunSpec};
@@ -493,10 +494,10 @@ fn zero_intensity_sun_gets_no_probability() {
         assert_eq!([r.r, r.g, r.b], [0.0; 3], "radius {radius}");
         let l = lights(&LightingOptions {
             sun: sun([0.0, 1.0, 0.0], Some(0.0), radius),
-            points: vec![PointLight {
-                position: shared::geometry::V3::new(0.0, 3.0, 0.0),
-                intensity: 5.0,
-            }],
+            points: vec![PointLight::new(
+                shared::geometry::V3::new(0.0, 3.0, 0.0),
+                5.0,
+            )],
             ..dark()
         })
         .unwrap();
@@ -568,10 +569,7 @@ fn pmf_sums_to_one_whenever_a_light_exists() {
     let dir = tempfile::tempdir().unwrap();
     let probe: PathBuf = dir.path().join("g.exr");
     write_exr(&probe, 8, 4, |x, y| [x as f32, y as f32 + 0.5, 1.0]);
-    let point = |i: f32| PointLight {
-        position: shared::geometry::V3::new(0.5, 2.0, -1.0),
-        intensity: i,
-    };
+    let point = |i: f32| PointLight::new(shared::geometry::V3::new(0.5, 2.0, -1.0), i);
     let cases = [
         (
             "points",
@@ -1348,4 +1346,232 @@ fn eval_of_shadow_maps_reports_maps_and_paired_errors() {
         &eval("msm4", &["--env", "none", "--light", "0,0,0,1"]),
         &["--estimators msm4-512", "--sun"],
     );
+}
+
+fn ok(out: &Output) {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+fn read_json(p: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+}
+
+/// A `restir` render of 300 random lights writes a non-black RGB image and records the
+/// integrator's settings, the scatter and the light count.
+#[test]
+fn restir_render_records_its_settings() {
+    let dir = tempfile::tempdir().unwrap();
+    let (exr, json) = (dir.path().join("r.exr"), dir.path().join("r.json"));
+    let out = render(
+        &exr,
+        &[
+            "--integrator",
+            "restir",
+            "--lights",
+            "random:300,4",
+            "--restir-candidates",
+            "6",
+            "--json",
+            s(&json),
+        ],
+    );
+    ok(&out);
+    let j = read_json(&json);
+    let i = &j["integrator"];
+    assert_eq!(i["name"], "restir");
+    assert_eq!(i["random_lights"], "random:300,4");
+    assert_eq!(i["point_lights"], 300);
+    assert_eq!(i["restir"]["candidates"], 6);
+    assert_eq!(i["restir"]["target"], "jackknife");
+    assert_eq!(i["restir"]["target_n"], 4);
+    assert!(i["restir"]["target_floor"].as_f64().unwrap() > 0.0);
+    // The point lights are resampled on their own: no share of the kinds' pmf.
+    assert_eq!(i["light_pmf"][2], 0.0);
+    assert!(j["mean_L"].as_f64().unwrap() > 0.0);
+    // `direct` with the same lights records them too (and gives them the whole pmf).
+    let out = render(
+        &exr,
+        &[
+            "--integrator",
+            "direct",
+            "--lights",
+            "random:300,4",
+            "--json",
+            s(&json),
+        ],
+    );
+    ok(&out);
+    let j = read_json(&json);
+    assert_eq!(j["integrator"]["point_lights"], 300);
+    assert_eq!(j["integrator"]["light_pmf"][2], 1.0);
+    assert!(j["integrator"].get("restir").is_none());
+}
+
+/// `host eval --integrators direct,restir --equal-time`: one `direct` reference for both, the
+/// entries in order, the second with a timing run and a calibrated spp.
+#[test]
+fn eval_of_direct_and_restir_at_equal_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_dir = dir.path().join("eval");
+    let json = dir.path().join("eval.json");
+    let out = host()
+        .args([
+            "eval",
+            "--integrators",
+            "direct,restir",
+            "--estimators",
+            "ratio",
+            "--lights",
+            "random:64",
+            "--equal-time",
+            "--resolution",
+            "16",
+            "--width",
+            "12",
+            "--height",
+            "9",
+            "--spp",
+            "16",
+            "--reference-spp",
+            "32",
+            "--backend",
+            "cpu",
+            "--quiet",
+            "--out-dir",
+            s(&out_dir),
+            "--json",
+            s(&json),
+        ])
+        .output()
+        .unwrap();
+    ok(&out);
+    let r = read_json(&json);
+    let entries = r["entries"].as_array().unwrap();
+    let names: Vec<&str> = entries
+        .iter()
+        .map(|e| e["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["direct/ratio", "restir/ratio"]);
+    assert_eq!(entries[0]["spp"], 16);
+    assert!(entries[0].get("calibration").is_none());
+    let c = &entries[1]["calibration"];
+    assert_eq!(c["spp"], 2, "a timing run at --spp / 8");
+    assert!(c["ms"].as_f64().unwrap() > 0.0);
+    assert_eq!(c["budget_ms"], entries[0]["elapsed_ms"]);
+    assert!(entries[1]["spp"].as_u64().unwrap() >= 1);
+    for e in entries {
+        for f in ["smape", "mean_bias", "mean_bias_se", "mean_std"] {
+            assert!(e[f].as_f64().unwrap().is_finite(), "{f}: {e}");
+        }
+    }
+    let refs = r["references"].as_array().unwrap();
+    assert_eq!(refs.len(), 2);
+    for rf in refs {
+        assert_eq!(rf["reference"], "direct/ratio at 32 spp");
+        assert_eq!(rf["exr"], refs[0]["exr"], "one reference image for both");
+    }
+    assert!(out_dir.join("direct-reference.exr").exists());
+    assert!(!out_dir.join("restir-reference.exr").exists());
+    assert!(out_dir.join("restir-ratio.exr").exists());
+}
+
+/// Bad `restir`, `--lights` and `--equal-time` flags exit with code 1, name the flag, and write
+/// nothing.
+#[test]
+fn bad_restir_and_many_light_flags_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let exr = dir.path().join("r.exr");
+    let restir = |v: &[&'static str]| {
+        let mut a = vec!["--integrator", "restir"];
+        a.extend(v);
+        a
+    };
+    let cases: Vec<(Vec<&str>, Vec<&str>)> = vec![
+        (
+            restir(&["--restir-candidates", "0"]),
+            vec!["--restir-candidates", "1..=1024"],
+        ),
+        (
+            restir(&["--restir-candidates", "5000"]),
+            vec!["--restir-candidates"],
+        ),
+        (restir(&["--restir-n", "0"]), vec!["--restir-n"]),
+        (
+            restir(&["--restir-floor", "0"]),
+            vec!["--restir-floor", "(0, 1]"],
+        ),
+        (restir(&["--restir-floor", "-1"]), vec!["--restir-floor"]),
+        (restir(&["--restir-floor", "nan"]), vec!["--restir-floor"]),
+        (
+            restir(&["--restir-target", "exact"]),
+            vec!["--restir-target", "unshadowed"],
+        ),
+        (
+            restir(&["--lights", "random:0"]),
+            vec!["--lights", "random:N"],
+        ),
+        (
+            restir(&["--lights", "random:12,x"]),
+            vec!["--lights", "random:N"],
+        ),
+        (
+            vec!["--integrator", "direct", "--restir-candidates", "4"],
+            vec!["--restir-candidates", "--integrator restir"],
+        ),
+        (
+            vec!["--lights", "random:8"],
+            vec!["--lights", "--integrator direct"],
+        ),
+        (
+            vec!["--integrator", "mis-jackknife", "--lights", "random:8"],
+            vec!["--lights"],
+        ),
+    ];
+    for (flags, words) in cases {
+        let out = render(&exr, &flags);
+        assert_refused(&out, &words);
+        assert!(!exr.exists(), "{flags:?}: an image was written");
+    }
+    let eval = |extra: &[&str]| {
+        host()
+            .args([
+                "eval",
+                "--resolution",
+                "16",
+                "--width",
+                "8",
+                "--height",
+                "8",
+                "--spp",
+                "2",
+            ])
+            .args(["--backend", "cpu", "--quiet", "--out-dir"])
+            .arg(dir.path().join("e"))
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    assert_refused(&eval(&["--equal-time"]), &["--equal-time", "--integrators"]);
+    assert_refused(&eval(&["--lights", "random:5"]), &["--lights"]);
+    assert_refused(
+        &eval(&["--integrators", "direct", "--restir-n", "3"]),
+        &["--restir-*", "--integrators restir"],
+    );
+    assert_refused(
+        &eval(&[
+            "--integrators",
+            "direct,restir",
+            "--estimators",
+            "jackknife,msm4",
+            "--sun",
+            "0,1,0",
+            "--equal-time",
+        ]),
+        &["--equal-time", "msm"],
+    );
+    assert!(!dir.path().join("e").join("eval.json").exists());
 }

@@ -8,6 +8,7 @@
 
 use shared::integrators::direct::DirectState;
 use shared::integrators::path::PathState;
+use shared::integrators::restir::RestirState;
 use shared::kernels::launch::Launch;
 use shared::kernels::probe::{self, DepthPair, MathValues, RngDraws, TransmittancePair};
 use shared::kernels::render::{self, PathPass, PixelSums, RenderPass};
@@ -274,6 +275,24 @@ wave_kernel!(
     direct_paged_cs,
     DirectState,
     render::direct_step,
+    false
+);
+
+wave_kernel!(
+    /// One stage of a `restir` image (direct illumination with resampled point lights,
+    /// wavefront): start each pixel's sample (mode 0), stream one light candidate, resolve the
+    /// reservoir, or estimate one transmittance query.
+    restir_cs,
+    RestirState,
+    render::restir_step,
+    true
+);
+
+wave_kernel!(
+    /// `restir_cs` with the voxel pool in up to eight pages.
+    restir_paged_cs,
+    RestirState,
+    render::restir_step,
     false
 );
 

@@ -118,6 +118,36 @@ pub enum Integrator {
     /// Multiple scattering (RGB): a volumetric path tracer with next-event estimation at every
     /// vertex, shadow rays by the chosen estimator.
     Path = 10,
+    /// `direct` whose point lights are resampled (RIS over M candidates drawn by power, target
+    /// p̂ = I phase T̂ / d^2 with a cheap transmittance estimate T̂), shadow rays by the chosen
+    /// estimator.
+    Restir = 11,
+}
+
+/// The transmittance factor of `restir`'s target function p̂.
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RestirTarget {
+    /// A jackknife estimate with `restir_n` samples (Eq. 4), clamped to [floor, 1].
+    Jackknife = 0,
+    /// None: T̂ = 1 (the unshadowed contribution).
+    Unshadowed = 1,
+    /// Ratio tracking (unbiased, costlier), clamped to [floor, 1].
+    Ratio = 2,
+}
+
+impl RestirTarget {
+    /// From the stored u32 (unknown values read as the jackknife).
+    #[inline]
+    pub fn from_u32(v: u32) -> Self {
+        if v == RestirTarget::Unshadowed as u32 {
+            RestirTarget::Unshadowed
+        } else if v == RestirTarget::Ratio as u32 {
+            RestirTarget::Ratio
+        } else {
+            RestirTarget::Jackknife
+        }
+    }
 }
 
 impl Integrator {
@@ -135,8 +165,19 @@ impl Integrator {
             8 => Integrator::MisPowerJackknife,
             9 => Integrator::Direct,
             10 => Integrator::Path,
+            11 => Integrator::Restir,
             _ => Integrator::Transmittance,
         }
+    }
+
+    /// The RGB light-transport integrators (`direct`, `path`, `restir`): lit by the scene's
+    /// map, sun and point lights, rendered as wavefronts on the GPU.
+    #[inline]
+    pub fn is_lit(self) -> bool {
+        matches!(
+            self,
+            Integrator::Direct | Integrator::Path | Integrator::Restir
+        )
     }
 }
 
@@ -196,8 +237,14 @@ pub struct RenderParams {
     pub rr_depth: u32,
     /// `path`: most vertices (scattering events) of a path, at least 1.
     pub max_depth: u32,
-    pub _pad0: u32,
-    pub _pad1: u32,
+    /// `restir`: light candidates per camera sample, M (streaming RIS, GRIS Sec. 6.2).
+    pub restir_candidates: u32,
+    /// `restir`: [`RestirTarget`] as u32: the transmittance factor of the target p̂.
+    pub restir_target: u32,
+    /// `restir`: samples per optical depth estimate of the target's T̂ (jackknife: m N lookups).
+    pub restir_n: u32,
+    /// `restir`: the target's floor on T̂ (defensive: p̂ > 0 wherever the integrand is).
+    pub restir_floor: f32,
 }
 
 /// The enums of [`RenderParams`] (and the volume's lookup), decoded once per pixel pass.

@@ -75,14 +75,8 @@ pub fn test_lights() -> Vec<shared::sampling::lights::PointLight> {
     use shared::geometry::V3;
     use shared::sampling::lights::PointLight;
     vec![
-        PointLight {
-            position: V3::new(-0.3, 0.1, 0.0),
-            intensity: 1.0,
-        },
-        PointLight {
-            position: V3::new(0.4, -0.2, 0.3),
-            intensity: 0.5,
-        },
+        PointLight::new(V3::new(-0.3, 0.1, 0.0), 1.0),
+        PointLight::new(V3::new(0.4, -0.2, 0.3), 0.5),
     ]
 }
 

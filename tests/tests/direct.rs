@@ -86,14 +86,8 @@ fn setups() -> Vec<(&'static str, LightingOptions)> {
             "points",
             LightingOptions {
                 points: vec![
-                    PointLight {
-                        position: shared::geometry::V3::new(0.2, 0.1, -0.3),
-                        intensity: 3.0,
-                    },
-                    PointLight {
-                        position: shared::geometry::V3::new(-1.5, 1.0, 0.5),
-                        intensity: 10.0,
-                    },
+                    PointLight::new(shared::geometry::V3::new(0.2, 0.1, -0.3), 3.0),
+                    PointLight::new(shared::geometry::V3::new(-1.5, 1.0, 0.5), 10.0),
                 ],
                 ..base.clone()
             },
@@ -248,24 +242,60 @@ fn gauss_legendre(n: usize, a: f64, b: f64) -> Vec<(f64, f64)> {
 /// Seed 11; the quadrature's own error is below 1e-4 relative (texel borders on cell borders).
 #[test]
 fn direct_is_unbiased_against_a_quadrature_of_single_scattering() {
-    single_scattering_against_quadrature(Integrator::Direct, Estimator::RegularTracking);
+    single_scattering_against_quadrature(Integrator::Direct, Estimator::RegularTracking, ONE, 0);
+}
+
+/// One point light of the quadrature tests: position, intensity.
+type Point = ([f64; 3], f64);
+/// The quadrature scene's point light.
+const ONE: &[Point] = &[([0.5, -0.3, 0.2], 2.0)];
+/// Three point lights (one outside the cube) of intensities over a factor 20.
+const THREE: &[Point] = &[
+    ([0.5, -0.3, 0.2], 2.0),
+    ([-1.4, 0.6, 0.3], 6.0),
+    ([0.1, 0.2, -0.4], 0.3),
+];
+
+/// `restir` (M = 4, jackknife targets of N = 4, floor 0.05) lit by the map, the sun and three
+/// point lights is unbiased against the same quadrature: z < 4 (2^17 samples, seed 11; regular
+/// tracking shadow rays).
+#[test]
+fn restir_is_unbiased_against_the_quadrature() {
+    single_scattering_against_quadrature(Integrator::Restir, Estimator::RegularTracking, THREE, 4);
+}
+
+/// The same with one candidate and ratio-tracking shadow rays (the unbiased setting).
+#[test]
+fn restir_of_one_candidate_with_ratio_shadow_rays_is_unbiased() {
+    single_scattering_against_quadrature(Integrator::Restir, Estimator::RatioTracking, THREE, 1);
+}
+
+/// `direct` with the three lights (drawn by power): z < 4.
+#[test]
+fn direct_with_three_point_lights_is_unbiased_against_the_quadrature() {
+    single_scattering_against_quadrature(Integrator::Direct, Estimator::RegularTracking, THREE, 0);
 }
 
 /// The same with ratio-tracking shadow rays (unbiased, noisier): z < 4.
 #[test]
 fn direct_with_ratio_shadow_rays_is_unbiased_against_the_quadrature() {
-    single_scattering_against_quadrature(Integrator::Direct, Estimator::RatioTracking);
+    single_scattering_against_quadrature(Integrator::Direct, Estimator::RatioTracking, ONE, 0);
 }
 
 /// `path` with `--max-depth 1` (one vertex; the ray leaving it still meets the lights) is the
 /// same estimate in expectation: the same quadrature, z < 4 (2^17 samples, seed 11).
 #[test]
 fn path_of_depth_one_is_unbiased_against_the_same_quadrature() {
-    single_scattering_against_quadrature(Integrator::Path, Estimator::RegularTracking);
+    single_scattering_against_quadrature(Integrator::Path, Estimator::RegularTracking, ONE, 0);
 }
 
 /// The body of the two quadrature tests.
-fn single_scattering_against_quadrature(integrator: Integrator, shadow: Estimator) {
+fn single_scattering_against_quadrature(
+    integrator: Integrator,
+    shadow: Estimator,
+    points: &[Point],
+    candidates: u32,
+) {
     let n = 16u32;
     let mu = 0.9f64;
     let vol = DenseVolume::new(
@@ -290,7 +320,6 @@ fn single_scattering_against_quadrature(integrator: Integrator, shadow: Estimato
         d.map(|v| v / l)
     };
     let (sun_e, sun_radius_deg) = (3.0f64, 4.0f64);
-    let point = ([0.5f64, -0.3, 0.2], 2.0f64);
     let mut lights = build(
         &LightingOptions {
             env: EnvSource::None,
@@ -301,14 +330,15 @@ fn single_scattering_against_quadrature(integrator: Integrator, shadow: Estimato
                 irradiance: Some(sun_e as f32),
                 radius_deg: sun_radius_deg as f32,
             }),
-            points: vec![PointLight {
-                position: shared::geometry::V3::new(
-                    point.0[0] as f32,
-                    point.0[1] as f32,
-                    point.0[2] as f32,
-                ),
-                intensity: point.1 as f32,
-            }],
+            points: points
+                .iter()
+                .map(|(x, i)| {
+                    PointLight::new(
+                        shared::geometry::V3::new(x[0] as f32, x[1] as f32, x[2] as f32),
+                        *i as f32,
+                    )
+                })
+                .collect(),
             albedo: [0.8; 3],
         },
         [0.0; 3],
@@ -328,6 +358,9 @@ fn single_scattering_against_quadrature(integrator: Integrator, shadow: Estimato
         lights.lighting.p_env,
         lights.lighting.p_points,
     ) = (0.3, 0.5, 0.2);
+    if integrator == Integrator::Restir {
+        lights.resample_points();
+    }
     let spec = CameraSpec {
         position: Some([0.0, 0.0, -3.0]),
         look_at: Some([0.0, 0.0, 0.0]),
@@ -347,7 +380,11 @@ fn single_scattering_against_quadrature(integrator: Integrator, shadow: Estimato
         pixel_jitter: 0,
         integrator: integrator as u32,
         hg_g: g as f32,
-        light_count: 1,
+        light_count: points.len() as u32,
+        restir_candidates: candidates,
+        restir_target: shared::params::RestirTarget::Jackknife as u32,
+        restir_n: 4,
+        restir_floor: 0.05,
         rr_depth: 5,
         max_depth: 1,
         ..Default::default()
@@ -421,13 +458,16 @@ fn single_scattering_against_quadrature(integrator: Integrator, shadow: Estimato
                 total += wc * (2.0 * std::f64::consts::PI / 96.0) * hg(cos, g) * sun_l * t(x, w);
             }
         }
-        let to = [point.0[0] - x[0], point.0[1] - x[1], point.0[2] - x[2]];
-        let d2 = to[0] * to[0] + to[1] * to[1] + to[2] * to[2];
-        let d = d2.sqrt();
-        let w = to.map(|v| v / d);
-        let cos = wo[0] * w[0] + wo[1] * w[1] + wo[2] * w[2];
-        let tp = (-mu * d.min(exit_distance(x, w))).exp();
-        total + point.1 * hg(cos, g) * tp / d2
+        for point in points {
+            let to = [point.0[0] - x[0], point.0[1] - x[1], point.0[2] - x[2]];
+            let d2 = to[0] * to[0] + to[1] * to[1] + to[2] * to[2];
+            let d = d2.sqrt();
+            let w = to.map(|v| v / d);
+            let cos = wo[0] * w[0] + wo[1] * w[1] + wo[2] * w[2];
+            let tp = (-mu * d.min(exit_distance(x, w))).exp();
+            total += point.1 * hg(cos, g) * tp / d2;
+        }
+        total
     };
     let mut scattered = 0.0;
     for (s, ws) in gauss_legendre(32, 0.0, 2.0) {
@@ -442,7 +482,7 @@ fn single_scattering_against_quadrature(integrator: Integrator, shadow: Estimato
         z.abs() < 4.0,
         "{integrator:?} with {shadow:?}: mean {mean:.6} +- {se:.6} vs quadrature {exact:.6}: z = {z:.2}"
     );
-    if integrator == Integrator::Direct {
+    if integrator != Integrator::Path {
         // No loop bound changed the estimate.
         assert_eq!(px.capped, 0);
     } else {

@@ -63,10 +63,10 @@ fn path_is_bit_identical_on_gpu_and_cpu_for_its_lights_and_estimators() {
             irradiance: Some(3.0),
             radius_deg: 6.0,
         }),
-        points: vec![PointLight {
-            position: shared::geometry::V3::new(0.3, 0.2, -0.2),
-            intensity: 2.0,
-        }],
+        points: vec![PointLight::new(
+            shared::geometry::V3::new(0.3, 0.2, -0.2),
+            2.0,
+        )],
         ..no_lights()
     });
     // Every light setup under every estimator (one estimate per bounce fits, unbiased ray

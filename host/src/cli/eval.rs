@@ -32,6 +32,18 @@ pub struct EvalArgs {
     /// A point light "x,y,z,intensity" (repeatable; default: two lights inside the volume).
     #[arg(long = "light", value_parser = crate::integrators::parse_light, allow_hyphen_values = true)]
     pub lights: Vec<shared::sampling::lights::PointLight>,
+    /// `--integrators direct|path`: `random:N[,seed]` adds N point lights scattered in and around the
+    /// volume, of random colour and intensities over three orders of magnitude (seed default 1;
+    /// selected by power).
+    #[arg(long = "lights", value_parser = crate::lighting::random::parse_random_lights)]
+    pub random_lights: Option<crate::lighting::random::RandomLights>,
+    #[command(flatten)]
+    pub restir: super::restir::RestirArgs,
+    /// `--integrators direct|path|restir`: give every entry the render time of the first one
+    /// (each entry's spp from a timing run at --spp / 8, recorded in the JSON as `spp` and
+    /// `calibration`).
+    #[arg(long)]
+    pub equal_time: bool,
     /// Single-scattering albedo, in [0, 1].
     #[arg(long, default_value_t = defaults::ALBEDO, allow_hyphen_values = true, value_parser = f32_in(0.0, 1.0))]
     pub albedo: f32,
@@ -112,6 +124,9 @@ impl EvalArgs {
             integrators: self.integrators.clone(),
             t_hat: self.t_hat.into(),
             lights: self.lights.clone(),
+            random_lights: self.random_lights,
+            restir: self.restir.options(),
+            equal_time: self.equal_time,
             albedo: self.albedo,
             env: self.env.clone(),
             env_scale: self.env_scale,

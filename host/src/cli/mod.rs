@@ -7,6 +7,7 @@ pub mod parsers;
 pub mod probe;
 pub mod render;
 pub mod report;
+pub mod restir;
 pub mod study;
 
 pub use bench::BenchArgs;

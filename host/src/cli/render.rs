@@ -100,6 +100,13 @@ pub struct RenderArgs {
     /// inside the volume; with `direct`, none).
     #[arg(long = "light", value_parser = crate::integrators::parse_light, allow_hyphen_values = true)]
     pub lights: Vec<shared::sampling::lights::PointLight>,
+    /// `direct`, `path`: `random:N[,seed]` adds N point lights scattered in and around the
+    /// volume, of random colour and intensities over three orders of magnitude (seed default 1;
+    /// selected by power).
+    #[arg(long = "lights", value_parser = crate::lighting::random::parse_random_lights)]
+    pub random_lights: Option<crate::lighting::random::RandomLights>,
+    #[command(flatten)]
+    pub restir: super::restir::RestirArgs,
     /// Single-scattering albedo: one value or r,g,b (RGB: `direct` only), each in [0, 1].
     #[arg(long, default_value = "0.8", allow_hyphen_values = true, value_parser = parse_albedo)]
     pub albedo: [f32; 3],
@@ -193,6 +200,8 @@ impl RenderArgs {
             ratio_roulette: self.ratio_roulette,
             integrator: self.integrator,
             lights: self.lights.clone(),
+            restir: self.restir.options(),
+            random_lights: self.random_lights,
             albedo: self.albedo,
             env: self.env.clone(),
             env_scale: self.env_scale,

@@ -6,6 +6,7 @@ use super::Buffer;
 use bytemuck::Pod;
 use shared::integrators::direct::DirectState;
 use shared::integrators::path::PathState;
+use shared::integrators::restir::RestirState;
 use shared::kernels::launch::bindings::{
     direct, map, msm_build, msm_store, path, render, rng_draws,
 };
@@ -170,6 +171,18 @@ pub const DIRECT: KernelDef<PathPass, { direct::COUNT }> =
 /// `direct_paged_cs`.
 pub const DIRECT_PAGED: KernelDef<PathPass, { direct::COUNT }> =
     KernelDef::checked(Kernel::DirectPagedCs, DIRECT_SIZES);
+/// `restir_cs`: `direct_cs`'s layout with `RestirState`s.
+const RESTIR_SIZES: [usize; direct::COUNT] = {
+    let mut s = DIRECT_SIZES;
+    s[direct::STATES] = size_of::<RestirState>();
+    s
+};
+/// `restir_cs` (one page).
+pub const RESTIR: KernelDef<PathPass, { direct::COUNT }> =
+    KernelDef::checked(Kernel::RestirCs, RESTIR_SIZES);
+/// `restir_paged_cs`.
+pub const RESTIR_PAGED: KernelDef<PathPass, { direct::COUNT }> =
+    KernelDef::checked(Kernel::RestirPagedCs, RESTIR_SIZES);
 /// Element sizes of the bindings of `path_cs` and `path_paged_cs`.
 const PATH_SIZES: [usize; path::COUNT] = {
     let mut s = [0; path::COUNT];

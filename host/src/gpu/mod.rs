@@ -18,8 +18,8 @@ pub use error::GpuError;
 pub use kernels::{
     Kernel, KernelDef, LitBuffers, MapBuffers, MsmBuildBuffers, MsmStoreBuffers, PushConstants,
     RenderBuffers, DIRECT, DIRECT_PAGED, EQUIANGULAR, MATH_VALUES, MSM_BUILD, MSM_BUILD_PAGED,
-    MSM_LOOKUP, MSM_STORE, PATH, PATH_PAGED, PHASE, RENDER, RENDER_PAGED, RNG_DRAWS,
-    TRANSMITTANCE_PAIR,
+    MSM_LOOKUP, MSM_STORE, PATH, PATH_PAGED, PHASE, RENDER, RENDER_PAGED, RESTIR, RESTIR_PAGED,
+    RNG_DRAWS, TRANSMITTANCE_PAIR,
 };
 pub use plan::{plan, Command, Step};
 pub use resources::Buffer;

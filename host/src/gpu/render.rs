@@ -3,6 +3,7 @@
 use super::{
     Buffer, Gpu, LitBuffers, MsmBuildBuffers, MsmStoreBuffers, RenderBuffers, Step, Work, DIRECT,
     DIRECT_PAGED, MSM_BUILD, MSM_BUILD_PAGED, MSM_STORE, PATH, PATH_PAGED, RENDER, RENDER_PAGED,
+    RESTIR, RESTIR_PAGED,
 };
 use crate::bricks::PackedVolume;
 use crate::lighting::SceneLights;
@@ -11,6 +12,7 @@ use anyhow::{Context, Result};
 use indicatif::ProgressBar;
 use shared::integrators::direct::DirectState;
 use shared::integrators::path::PathState;
+use shared::integrators::restir::{stage_count, RestirState};
 use shared::kernels::launch::bindings::path;
 use shared::kernels::launch::Launch;
 use shared::kernels::render::{PathPass, PixelSums, RenderPass};
@@ -181,10 +183,10 @@ fn render_tiles(
     let p = gpu.buffer(std::mem::size_of::<RenderParams>() as u64)?;
     // Storage buffers may not be empty: without point lights, one zeroed light is bound.
     let points: &[PointLight] = if lights.points.is_empty() {
-        &[PointLight {
-            position: shared::geometry::V3::new(0.0, 0.0, 0.0),
-            intensity: 0.0,
-        }]
+        &[PointLight::new(
+            shared::geometry::V3::new(0.0, 0.0, 0.0),
+            0.0,
+        )]
     } else {
         &lights.points
     };
@@ -194,6 +196,7 @@ fn render_tiles(
     let wave = match Integrator::from_u32(params.integrator) {
         Integrator::Direct => Some(Wave::Direct),
         Integrator::Path => Some(Wave::Path),
+        Integrator::Restir => Some(Wave::Restir),
         _ => None,
     };
     let direct = wave.is_some();
@@ -307,6 +310,8 @@ enum Wave {
     Direct,
     /// `path_cs`: a start and `max_depth + 1` bounces.
     Path,
+    /// `restir_cs`: a start, M candidates, the resolve and four estimates.
+    Restir,
 }
 
 impl Wave {
@@ -315,6 +320,7 @@ impl Wave {
         match self {
             Wave::Direct => std::mem::size_of::<DirectState>() as u64,
             Wave::Path => std::mem::size_of::<PathState>() as u64,
+            Wave::Restir => std::mem::size_of::<RestirState>() as u64,
         }
     }
 
@@ -325,6 +331,7 @@ impl Wave {
             Wave::Path => std::iter::once(0)
                 .chain(std::iter::repeat_n(1, params.max_depth as usize + 1))
                 .collect(),
+            Wave::Restir => (0..stage_count(params.restir_candidates)).collect(),
         }
     }
 
@@ -335,6 +342,8 @@ impl Wave {
             (Wave::Direct, true) => &DIRECT_PAGED,
             (Wave::Path, false) => &PATH,
             (Wave::Path, true) => &PATH_PAGED,
+            (Wave::Restir, false) => &RESTIR,
+            (Wave::Restir, true) => &RESTIR_PAGED,
         }
     }
 }

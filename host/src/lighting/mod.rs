@@ -3,6 +3,8 @@
 //! RGB albedo, and the pmf over the three kinds of light.
 
 pub mod env;
+pub mod power;
+pub mod random;
 pub mod sky;
 
 use anyhow::{ensure, Result};
@@ -74,12 +76,26 @@ pub struct SceneLights {
 impl SceneLights {
     /// Point lights only (the single-scattering integrators and transmittance renders).
     pub fn points_only(points: &[PointLight]) -> Self {
+        let mut points = points.to_vec();
+        power::build_power_table(&mut points);
         SceneLights {
             lighting: Lighting::default(),
-            points: points.to_vec(),
+            points,
             env: vec![0.0],
             shadow_map: vec![0],
         }
+    }
+
+    /// `restir`: the point lights leave the pmf over light kinds (they are resampled on their
+    /// own), the sun's and the map's shares are renormalised.
+    pub fn resample_points(&mut self) {
+        let l = &mut self.lighting;
+        let rest = l.p_sun + l.p_env;
+        if rest > 0.0 {
+            l.p_sun /= rest;
+            l.p_env /= rest;
+        }
+        l.p_points = 0.0;
     }
 
     /// The view the `shared` integrators take.
@@ -131,6 +147,12 @@ fn lum(c: [f64; 3]) -> f64 {
 /// Builds the lights of a `direct` render; `center` and `radius` bound the volume (for the
 /// point lights' share of the pmf).
 pub fn build(opts: &LightingOptions, center: [f64; 3], radius: f64) -> Result<SceneLights> {
+    ensure!(
+        opts.points.len() <= random::MAX_POINT_LIGHTS,
+        "at most {} point lights (got {})",
+        random::MAX_POINT_LIGHTS,
+        opts.points.len()
+    );
     ensure!(
         opts.env_scale.is_finite() && opts.env_scale >= 0.0,
         "--env-scale must be finite and >= 0"
@@ -239,9 +261,11 @@ pub fn build(opts: &LightingOptions, center: [f64; 3], radius: f64) -> Result<Sc
     lighting.p_sun = p[0] as f32;
     lighting.p_env = p[1] as f32;
     lighting.p_points = p[2] as f32;
+    let mut points = opts.points.clone();
+    power::build_power_table(&mut points);
     Ok(SceneLights {
         lighting,
-        points: opts.points.clone(),
+        points,
         env: env_data,
         shadow_map: vec![0],
     })

@@ -24,6 +24,7 @@ use crate::params::{Config, RenderParams};
 use crate::rgb::Rgb;
 use crate::rng::HashRng;
 use crate::sampling::lighting::{LightKind, Scene};
+use crate::sampling::lights::sample_power;
 use crate::sampling::phase::{phase_hg, sample_hg};
 use crate::shadows::map::{map_transmittance, Shadows};
 use crate::tally::Tally;
@@ -80,7 +81,7 @@ impl DirectState {
 
     /// Stores a tally.
     #[inline]
-    fn set_tally(&mut self, t: Tally) {
+    pub(super) fn set_tally(&mut self, t: Tally) {
         self.lookups = t.lookups;
         self.capped = t.capped;
         self.outside = t.outside;
@@ -127,6 +128,18 @@ pub fn direct_start(
     world: &Ray,
     rng: HashRng,
 ) -> DirectState {
+    start_at_vertex(vol, cfg, params, scene, world, rng).0
+}
+
+/// [`direct_start`], and whether the free flight collided and where (the scattering vertex).
+pub(super) fn start_at_vertex(
+    vol: &VolumeView,
+    cfg: &Config,
+    params: &RenderParams,
+    scene: &Scene,
+    world: &Ray,
+    rng: HashRng,
+) -> (DirectState, bool, V3) {
     let background = scene.directional_radiance(world.d);
     let ray = to_index_space(world, &params.world_to_index);
     let (ta, tb) = clip_to_box(&ray, grid_hi(vol), 0.0, f32::INFINITY);
@@ -136,7 +149,7 @@ pub fn direct_start(
     };
     if !(ta < tb) {
         st.total = background;
-        return st;
+        return (st, false, V3::new(0.0, 0.0, 0.0));
     }
     let (ff, rng) = delta_tracking_capped(
         vol,
@@ -156,8 +169,8 @@ pub fn direct_start(
         weight: background,
     };
     let mut rng = rng;
+    let x = world.at(ff.t);
     if ff.found {
-        let x = world.at(ff.t);
         let wo = world.d * -1.0;
         let albedo = scene.lighting.albedo;
         let (light, to_sun, r) = light_sample(scene, params.hg_g, x, wo, rng);
@@ -174,7 +187,7 @@ pub fn direct_start(
         };
     }
     st.rng = rng.state;
-    st
+    (st, ff.found, x)
 }
 
 /// Stage 2 + k of a camera sample: the transmittance of query k (if it carries weight), added
@@ -242,7 +255,7 @@ pub(super) fn map_shadow(scene: &Scene, q: &ShadowQuery, rng: HashRng) -> (f32, 
 }
 
 /// Strategy 1 at x (per unit albedo, before T): a light drawn by the pmf over kinds, then a
-/// direction (or point) on it; true if the light is the sun.
+/// direction (or a point light by power) on it; true if the light is the sun.
 pub(super) fn light_sample(
     scene: &Scene,
     g: f32,
@@ -258,9 +271,7 @@ pub(super) fn light_sample(
     let query = match kind {
         LightKind::None => ShadowQuery::NONE,
         LightKind::Points => {
-            let n = scene.point_count;
-            let k = (u0 * n as f32) as u32;
-            let k = if k >= n { n - 1 } else { k };
+            let (k, inv_pmf) = sample_power(scene.points, scene.point_count, u0, u1);
             let light = scene.points[k as usize];
             let to = light.position - x;
             let d2 = to.dot(to);
@@ -269,13 +280,13 @@ pub(super) fn light_sample(
             } else {
                 let dist = sqrt(d2);
                 let w = to * (1.0 / dist);
-                let p = l.p_points / n as f32;
+                let p = l.p_points / inv_pmf;
                 let v = phase_hg(wo.dot(w), g) * light.intensity / d2 / p;
                 ShadowQuery {
                     o: x,
                     w,
                     dist,
-                    weight: Rgb::splat(v),
+                    weight: light.tint * v,
                 }
             }
         }
@@ -316,7 +327,13 @@ pub(super) fn light_sample(
 
 /// Strategy 2 at x (per unit albedo, before T): a direction drawn from the phase function; it
 /// reaches the map and a sun disk.
-fn phase_sample(scene: &Scene, g: f32, x: V3, wo: V3, rng: HashRng) -> (ShadowQuery, HashRng) {
+pub(super) fn phase_sample(
+    scene: &Scene,
+    g: f32,
+    x: V3,
+    wo: V3,
+    rng: HashRng,
+) -> (ShadowQuery, HashRng) {
     let (u0, rng) = rng.next_f32();
     let (u1, rng) = rng.next_f32();
     let (w, p_phase) = sample_hg(wo, g, u0, u1);

@@ -11,6 +11,7 @@ mod equiangular;
 mod free_flight;
 mod lighting;
 pub mod path;
+pub mod restir;
 mod weights;
 
 use crate::geometry::{to_index_space, Ray};

@@ -145,4 +145,10 @@ pub mod bindings {
     pub mod path {
         pub use super::direct::*;
     }
+
+    /// `restir_cs`: one stage of a `restir` image: the same layout as `direct_cs`, with
+    /// `RestirState`s as the states.
+    pub mod restir {
+        pub use super::direct::*;
+    }
 }

@@ -5,6 +5,9 @@ use crate::estimators::estimate;
 use crate::geometry::{to_index_space, Ray, V3};
 use crate::integrators::direct::{direct_estimate, direct_radiance, direct_start, DirectState};
 use crate::integrators::path::{path_bounce, path_radiance, path_start, PathState};
+use crate::integrators::restir::{
+    restir_radiance, restir_stage, restir_start, stage_count, RestirState,
+};
 use crate::params::{Config, RenderParams};
 use crate::rgb::Rgb;
 use crate::rng::HashRng;
@@ -175,11 +178,37 @@ pub fn direct_pixel_pass(
     prev: PixelSums,
 ) -> PixelSums {
     let cfg = Config::decode(params, vol.desc);
+    radiance_pass(params, id, s_begin, s_end, prev, |_, world, rng| {
+        direct_radiance(vol, &cfg, params, scene, world, rng)
+    })
+}
+
+/// The sums of a wavefront pixel when sample `sample` starts: zero at the first sample (the
+/// buffer holds the previous render's), else `sums`.
+#[inline]
+fn sums_before(sample: u32, sums: PixelSums) -> PixelSums {
+    if sample == 0 {
+        PixelSums::default()
+    } else {
+        sums
+    }
+}
+
+/// Adds samples s_begin..s_end of pixel `id` to `prev`, each sample's RGB radiance from
+/// `radiance(s, camera ray, generator)` (the CPU passes of the RGB integrators).
+fn radiance_pass(
+    params: &RenderParams,
+    id: u32,
+    s_begin: u32,
+    s_end: u32,
+    prev: PixelSums,
+    radiance: impl Fn(u32, &Ray, HashRng) -> (Rgb, Tally, HashRng),
+) -> PixelSums {
     let mut acc = prev;
     let mut s = s_begin;
     while s < s_end {
         let (world, rng) = camera_ray(params, id, s);
-        let (l, tally, _) = direct_radiance(vol, &cfg, params, scene, &world, rng);
+        let (l, tally, _) = radiance(s, &world, rng);
         acc = acc.add(l, l.luminance(), tally);
         s += 1;
     }
@@ -218,12 +247,7 @@ pub fn path_step(
 ) -> (PathState, PixelSums) {
     if start {
         let (world, rng) = camera_ray(params, id, sample);
-        let sums = if sample == 0 {
-            PixelSums::default()
-        } else {
-            sums
-        };
-        return (path_start(&world, rng), sums);
+        return (path_start(&world, rng), sums_before(sample, sums));
     }
     if st.alive == 0 {
         return (st, sums);
@@ -254,12 +278,10 @@ pub fn direct_step(
     let cfg = Config::decode(params, vol.desc);
     if stage == 0 {
         let (world, rng) = camera_ray(params, id, sample);
-        let sums = if sample == 0 {
-            PixelSums::default()
-        } else {
-            sums
-        };
-        return (direct_start(vol, &cfg, params, scene, &world, rng), sums);
+        return (
+            direct_start(vol, &cfg, params, scene, &world, rng),
+            sums_before(sample, sums),
+        );
     }
     let next = direct_estimate(vol, &cfg, params, scene, st, stage - 1);
     if stage < 3 {
@@ -267,6 +289,53 @@ pub fn direct_step(
     }
     let l = next.total;
     (next, sums.add(l, l.luminance(), next.tally()))
+}
+
+/// [`render_pixel_pass`] of the `restir` integrator on the CPU (the GPU runs the same stages as
+/// dispatches, [`restir_step`]).
+pub fn restir_pixel_pass(
+    vol: &VolumeView,
+    params: &RenderParams,
+    scene: &Scene,
+    id: u32,
+    s_begin: u32,
+    s_end: u32,
+    prev: PixelSums,
+) -> PixelSums {
+    let cfg = Config::decode(params, vol.desc);
+    radiance_pass(params, id, s_begin, s_end, prev, |s, world, rng| {
+        restir_radiance(vol, &cfg, params, scene, id, s, world, rng)
+    })
+}
+
+/// One stage of the wavefront `restir` render of pixel `id` (`restir_cs`): stage 0 starts sample
+/// `sample` at the camera, then the candidates, the resolve and the four estimates
+/// ([`restir_stage`]); after the last the radiance is added to the pixel's sums.
+#[allow(clippy::too_many_arguments)]
+pub fn restir_step(
+    vol: &VolumeView,
+    params: &RenderParams,
+    scene: &Scene,
+    id: u32,
+    sample: u32,
+    stage: u32,
+    st: RestirState,
+    sums: PixelSums,
+) -> (RestirState, PixelSums) {
+    let cfg = Config::decode(params, vol.desc);
+    if stage == 0 {
+        let (world, rng) = camera_ray(params, id, sample);
+        return (
+            restir_start(vol, &cfg, params, scene, &world, rng),
+            sums_before(sample, sums),
+        );
+    }
+    let next = restir_stage(vol, &cfg, params, scene, id, sample, st, stage);
+    if stage + 1 < stage_count(params.restir_candidates) {
+        return (next, sums);
+    }
+    let l = next.direct.total;
+    (next, sums.add(l, l.luminance(), next.direct.tally()))
 }
 
 /// [`path_step`] with the wavefront's stage number (0: start, else bounce), the signature the

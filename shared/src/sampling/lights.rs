@@ -1,17 +1,69 @@
-//! Point lights and their selection by importance (REFERENCE.md: intensity / d_min * subtended
-//! angle, 30% uniform): a pmf over the lights per ray segment.
+//! Point lights and their selection: by importance per ray segment for single scattering
+//! (REFERENCE.md: intensity / d_min * subtended angle, 30% uniform), and by power through an
+//! alias table for the light-transport integrators (any number of lights, O(1) per draw).
 
 use crate::geometry::V3;
 use crate::math;
+use crate::rgb::Rgb;
 use crate::sampling::equiangular::Equiangular;
 use bytemuck::{Pod, Zeroable};
 
-/// An isotropic point light in world space with radiant intensity `intensity`.
+/// An isotropic point light in world space with radiant intensity `intensity` (luminance) and
+/// colour `tint` (luminance 1), and its entry of the power alias table (48 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct PointLight {
     pub position: V3,
     pub intensity: f32,
+    /// Colour of the intensity, normalised to luminance 1 (white: 1, 1, 1).
+    pub tint: Rgb,
+    /// 1 / P(this light) under power selection: total intensity / own intensity (set by the
+    /// host's table builder; equal intensities give exactly the light count).
+    pub inv_pmf: f32,
+    /// Walker/Vose alias table: probability of keeping this column's light...
+    pub alias_prob: f32,
+    /// ...else the light taken instead.
+    pub alias: u32,
+    pub _pad: [u32; 2],
+}
+
+impl PointLight {
+    /// A white light, alone in its alias column (the host builds the table over all lights).
+    pub const fn new(position: V3, intensity: f32) -> Self {
+        PointLight {
+            position,
+            intensity,
+            tint: Rgb::splat(1.0),
+            inv_pmf: 1.0,
+            alias_prob: 1.0,
+            alias: 0,
+            _pad: [0; 2],
+        }
+    }
+
+    /// Radiant intensity per channel.
+    #[inline]
+    pub fn rgb_intensity(&self) -> Rgb {
+        self.tint * self.intensity
+    }
+}
+
+/// Draws one of `n` lights by power from the alias table (Walker 1977, Vose 1991): column
+/// floor(u0 n), kept with its probability by u1, else its alias. Returns (index, 1 / pmf).
+/// Equal intensities give column floor(u0 n) and 1 / pmf = n exactly.
+#[inline]
+pub fn sample_power(lights: &[PointLight], n: u32, u0: f32, u1: f32) -> (u32, f32) {
+    let k = (u0 * n as f32) as u32;
+    let k = if k >= n { n - 1 } else { k };
+    let column = lights[k as usize];
+    let chosen = if u1 < column.alias_prob {
+        k
+    } else if column.alias < n {
+        column.alias
+    } else {
+        k
+    };
+    (chosen, lights[chosen as usize].inv_pmf)
 }
 
 /// Most lights a scene may hold (selection runs over all of them per sample).

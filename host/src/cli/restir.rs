@@ -1,0 +1,34 @@
+//! The `--restir-*` flags of `host render` and `host eval`.
+
+use crate::restir::RestirOptions;
+
+/// `--integrator restir` (render) / `--integrators restir` (eval) options.
+#[derive(clap::Args, Debug, Clone)]
+pub struct RestirArgs {
+    /// `restir`: light candidates per sample (M, drawn by power; 1..=1024).
+    #[arg(long, default_value_t = 32)]
+    pub restir_candidates: u32,
+    /// `restir`: transmittance factor of the target p̂: `jackknife` (N = --restir-n), `unshadowed`
+    /// (T̂ = 1) or `ratio` (ratio tracking).
+    #[arg(long, default_value = "jackknife", value_parser = crate::restir::parse_target)]
+    pub restir_target: shared::params::RestirTarget,
+    /// `restir`: samples per optical depth estimate of the target's jackknife (1..=4096).
+    #[arg(long, default_value_t = 4)]
+    pub restir_n: u32,
+    /// `restir`: floor on the target's T̂, in (0, 1] (T̂ is clamped to [floor, 1] so that p̂ > 0
+    /// wherever the integrand is).
+    #[arg(long, default_value_t = 0.05, allow_hyphen_values = true)]
+    pub restir_floor: f32,
+}
+
+impl RestirArgs {
+    /// The library's options.
+    pub fn options(&self) -> RestirOptions {
+        RestirOptions {
+            candidates: self.restir_candidates,
+            target: self.restir_target,
+            n: self.restir_n,
+            floor: self.restir_floor,
+        }
+    }
+}

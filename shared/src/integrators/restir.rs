@@ -1,0 +1,310 @@
+//! Resampled point-light sampling at the free-flight vertex (`restir`; GRIS, Lin et al. 2022,
+//! with a jackknife-estimated target function, beyond the paper).
+//!
+//! `direct` estimates the in-scattered light at its vertex x with one light sample drawn by the
+//! pmf over the map, the sun and the point lights, plus one phase sample. Point lights are delta
+//! lights that phase sampling never reaches, so their integral separates:
+//! L_s(x) = L_dir(x) + sum_k f_k(x), f_k = I_k tint_k phase(wo, w_k) T(x, y_k) / d_k^2.
+//! `restir` keeps `direct`'s estimate of L_dir (the host gives the point lights no share of the
+//! kinds' pmf) and estimates the point-light sum by resampled importance sampling:
+//! M candidates X_i from the power pmf p, each with resampling weight w_i = p̂(X_i) / (M p(X_i))
+//! (GRIS Eq. 5.2 with m_i = 1 / M), one kept by a streaming weighted reservoir (Sec. 6.2) and
+//! contributing f(Y) W with the unbiased contribution weight W = (sum_i w_i) / p̂(Y).
+//!
+//! The target p̂(k) = I_k phase / d_k^2 * clamp(T̂_k, floor, 1) with T̂_k a jackknife (Eq. 4)
+//! of small N, ratio tracking, or 1: p̂ > 0 wherever f_k > 0 (the floor; the jackknife may be
+//! <= 0 or > 1), so the estimate is unbiased for any T̂. T̂_k's random numbers are keyed by
+//! (pixel, sample, light): p̂ is a fixed function of the light and those numbers, the same each
+//! time it is evaluated (spatial reuse re-evaluates it in other pixels' domains). f(Y) takes its
+//! transmittance from the render's `--estimator`, independent of the candidates.
+
+use super::direct::{grid_hi, shadow, start_at_vertex, DirectState, ShadowQuery};
+use crate::estimators::estimate;
+use crate::geometry::{to_index_space, Ray, V3};
+use crate::math::sqrt;
+use crate::params::{Config, Estimator, Importance, Jitter, RenderParams, RestirTarget};
+use crate::rgb::Rgb;
+use crate::rng::{pcg_hash, HashRng};
+use crate::sampling::lighting::Scene;
+use crate::sampling::lights::sample_power;
+use crate::sampling::phase::phase_hg;
+use crate::tally::Tally;
+use crate::volume::dda::clip_to_box;
+use crate::volume::grid::VolumeView;
+use bytemuck::{Pod, Zeroable};
+
+/// Salt of the target's per-light random numbers.
+const TARGET_SALT: u32 = 0x2b7e_1516;
+
+/// A streaming weighted reservoir over point lights (GRIS Sec. 6.2): the kept light Y, the sum
+/// of the resampling weights, p̂(Y) and the number of candidates seen.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Reservoir {
+    pub y: u32,
+    pub w_sum: f32,
+    pub p_hat: f32,
+    pub m: u32,
+}
+
+impl Reservoir {
+    /// Streams one candidate with resampling weight w (kept with probability w / w_sum, by u).
+    #[inline]
+    pub fn update(self, k: u32, w: f32, p_hat: f32, u: f32) -> Reservoir {
+        let w_sum = self.w_sum + w;
+        let keep = w > 0.0 && u * w_sum < w;
+        Reservoir {
+            y: if keep { k } else { self.y },
+            w_sum,
+            p_hat: if keep { p_hat } else { self.p_hat },
+            m: self.m + 1,
+        }
+    }
+
+    /// The unbiased contribution weight W = w_sum / p̂(Y) (GRIS Eq. 5.3; 0 if nothing was kept).
+    #[inline]
+    pub fn contribution_weight(&self) -> f32 {
+        if self.p_hat > 0.0 && self.w_sum > 0.0 {
+            self.w_sum / self.p_hat
+        } else {
+            0.0
+        }
+    }
+}
+
+/// One camera sample of `restir` between its stages (256 bytes): `direct`'s state (background,
+/// map/sun light sample, phase sample), the vertex, the reservoir and the resampled light's
+/// query. The GPU runs the start, each candidate, the resolve and each estimate as a dispatch.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RestirState {
+    pub direct: DirectState,
+    /// The resampled point light's shadow query (weight f(Y) W / T, albedo included).
+    pub query: ShadowQuery,
+    /// The scattering vertex and the direction toward the camera.
+    pub x: V3,
+    pub wo: V3,
+    /// 1 if the free flight collided (there is a vertex).
+    pub found: u32,
+    pub reservoir: Reservoir,
+    pub _pad: [u32; 3],
+}
+
+/// The stages of one sample for M candidates: start, M candidates, resolve, four estimates.
+#[inline]
+pub fn stage_count(candidates: u32) -> u32 {
+    candidates + 6
+}
+
+/// Radiance along one camera ray (RGB), its tally and the generator: every stage in one call
+/// (the CPU backend).
+#[allow(clippy::too_many_arguments)]
+pub fn restir_radiance(
+    vol: &VolumeView,
+    cfg: &Config,
+    params: &RenderParams,
+    scene: &Scene,
+    id: u32,
+    sample: u32,
+    world: &Ray,
+    rng: HashRng,
+) -> (Rgb, Tally, HashRng) {
+    let mut st = restir_start(vol, cfg, params, scene, world, rng);
+    let mut stage = 1;
+    while stage < stage_count(params.restir_candidates) {
+        st = restir_stage(vol, cfg, params, scene, id, sample, st, stage);
+        stage += 1;
+    }
+    let d = &st.direct;
+    (d.total, d.tally(), HashRng { state: d.rng })
+}
+
+/// Stage 0: `direct`'s start (free flight, map/sun light sample, phase sample) and the vertex.
+pub fn restir_start(
+    vol: &VolumeView,
+    cfg: &Config,
+    params: &RenderParams,
+    scene: &Scene,
+    world: &Ray,
+    rng: HashRng,
+) -> RestirState {
+    let (direct, found, x) = start_at_vertex(vol, cfg, params, scene, world, rng);
+    RestirState {
+        direct,
+        query: ShadowQuery::NONE,
+        x,
+        wo: world.d * -1.0,
+        found: found as u32,
+        ..Default::default()
+    }
+}
+
+/// Stage `stage` >= 1: candidate stage - 1 (stages 1..=M), the resolve (M + 1), or the
+/// transmittance of query stage - M - 2 (0..2 `direct`'s, 3 the resampled light's).
+#[allow(clippy::too_many_arguments)]
+pub fn restir_stage(
+    vol: &VolumeView,
+    cfg: &Config,
+    params: &RenderParams,
+    scene: &Scene,
+    id: u32,
+    sample: u32,
+    st: RestirState,
+    stage: u32,
+) -> RestirState {
+    let m = params.restir_candidates;
+    if stage <= m {
+        candidate(vol, cfg, params, scene, id, sample, st)
+    } else if stage == m + 1 {
+        resolve(scene, params, st)
+    } else {
+        estimate_query(vol, cfg, params, scene, st, stage - m - 2)
+    }
+}
+
+/// One candidate: a light by power, its target p̂ and resampling weight p̂ / (M p), streamed
+/// into the reservoir.
+fn candidate(
+    vol: &VolumeView,
+    cfg: &Config,
+    params: &RenderParams,
+    scene: &Scene,
+    id: u32,
+    sample: u32,
+    st: RestirState,
+) -> RestirState {
+    if st.found == 0 || scene.point_count == 0 {
+        return st;
+    }
+    let mut st = st;
+    let rng = HashRng {
+        state: st.direct.rng,
+    };
+    let (u0, rng) = rng.next_f32();
+    let (u1, rng) = rng.next_f32();
+    let (u2, rng) = rng.next_f32();
+    st.direct.rng = rng.state;
+    let (k, inv_pmf) = sample_power(scene.points, scene.point_count, u0, u1);
+    let (p_hat, tally) = p_hat(vol, cfg, params, scene, id, sample, st.x, st.wo, k);
+    let w = p_hat * inv_pmf / params.restir_candidates as f32;
+    st.reservoir = st.reservoir.update(k, w, p_hat, u2);
+    // The target's lookups are cost; its regime and cap flags are not: p̂ only shapes the
+    // variance, never the estimate's expectation.
+    st.direct
+        .set_tally(st.direct.tally().merge(Tally::lookups(tally.lookups)));
+    st
+}
+
+/// The target p̂ of light k at vertex x (luminance): I phase / d^2 times the clamped T̂, whose
+/// random numbers depend on (pixel, sample, light) only. Returns (p̂, the tally of T̂).
+#[allow(clippy::too_many_arguments)]
+pub fn p_hat(
+    vol: &VolumeView,
+    cfg: &Config,
+    params: &RenderParams,
+    scene: &Scene,
+    id: u32,
+    sample: u32,
+    x: V3,
+    wo: V3,
+    k: u32,
+) -> (f32, Tally) {
+    let light = scene.points[k as usize];
+    let to = light.position - x;
+    let d2 = to.dot(to);
+    if !(d2 > 0.0) {
+        return (0.0, Tally::default());
+    }
+    let dist = sqrt(d2);
+    let w = to * (1.0 / dist);
+    let unshadowed = phase_hg(wo.dot(w), params.hg_g) * light.intensity / d2;
+    let target = RestirTarget::from_u32(params.restir_target);
+    if target == RestirTarget::Unshadowed {
+        return (unshadowed, Tally::default());
+    }
+    let world = Ray { o: x, d: w };
+    let ray = to_index_space(&world, &params.world_to_index);
+    let (t0, t1) = clip_to_box(&ray, grid_hi(vol), 0.0, dist);
+    if !(t0 < t1) {
+        return (unshadowed, Tally::default());
+    }
+    let est = Config {
+        estimator: if target == RestirTarget::Ratio {
+            Estimator::RatioTracking
+        } else {
+            Estimator::Jackknife
+        },
+        importance: Importance::VarianceAware,
+        jitter: Jitter::Stratified,
+        roulette: false,
+        ..*cfg
+    };
+    let small = RenderParams {
+        n: params.restir_n,
+        ..*params
+    };
+    let rng = HashRng::for_sample(id, sample, params.seed ^ pcg_hash(k ^ TARGET_SALT));
+    let (t_hat, tally, _) = estimate::transmittance(vol, &est, &small, &ray, t0, t1, rng);
+    let clamped = if t_hat > 1.0 {
+        1.0
+    } else if t_hat > params.restir_floor {
+        t_hat
+    } else {
+        params.restir_floor
+    };
+    (unshadowed * clamped, tally)
+}
+
+/// Stage M + 1: the kept light's query with weight albedo tint I phase / d^2 W (its T to come).
+fn resolve(scene: &Scene, params: &RenderParams, st: RestirState) -> RestirState {
+    let big_w = st.reservoir.contribution_weight();
+    if st.found == 0 || !(big_w > 0.0) {
+        return st;
+    }
+    let light = scene.points[st.reservoir.y as usize];
+    let to = light.position - st.x;
+    let d2 = to.dot(to);
+    if !(d2 > 0.0) {
+        return st;
+    }
+    let dist = sqrt(d2);
+    let w = to * (1.0 / dist);
+    let v = phase_hg(st.wo.dot(w), params.hg_g) * light.intensity / d2 * big_w;
+    let mut st = st;
+    st.query = ShadowQuery {
+        o: st.x,
+        w,
+        dist,
+        weight: (light.tint * v).mul_rgb(scene.lighting.albedo),
+    };
+    st
+}
+
+/// Stages M + 2 .. M + 5: the transmittance of query q (0..2 `direct`'s, 3 the resampled
+/// light's) added to the radiance.
+fn estimate_query(
+    vol: &VolumeView,
+    cfg: &Config,
+    params: &RenderParams,
+    scene: &Scene,
+    st: RestirState,
+    q: u32,
+) -> RestirState {
+    let mut st = st;
+    if q < 3 {
+        st.direct = super::direct::direct_estimate(vol, cfg, params, scene, st.direct, q);
+        return st;
+    }
+    let query = st.query;
+    if query.weight.is_black() {
+        return st;
+    }
+    let rng = HashRng {
+        state: st.direct.rng,
+    };
+    let (tr, t, rng) = shadow(vol, cfg, params, &query, rng);
+    st.direct.rng = rng.state;
+    st.direct.set_tally(st.direct.tally().merge(t));
+    st.direct.total = st.direct.total + query.weight * tr;
+    st
+}
