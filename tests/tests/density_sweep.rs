@@ -110,6 +110,10 @@ fn every_integrator_is_bit_identical_and_finite_at_every_density() {
                     let mut p = params(&vol);
                     p.integrator = *integrator as u32;
                     p.t_hat = t_hat as u32;
+                    // restir: three candidates with jackknife targets (the others ignore it).
+                    p.restir_candidates = 3;
+                    p.restir_n = 4;
+                    p.restir_floor = 0.05;
                     let what = format!("{integrator:?} {t_hat:?} {lookup:?} scale {scale:e}");
                     let c = both(&gpu, &packed, &p, &what);
                     if scale == 0.0 {

@@ -292,10 +292,11 @@ fn gpu_and_cpu_render_identical_images_for_every_integrator() {
     let vol = lumpy(32);
     for lookup in [Lookup::Nearest, Lookup::Stochastic] {
         let packed = pack(&vol, 2.0, 8, lookup).unwrap();
-        // The integrators lit by point lights (direct and path: tests/tests/direct.rs).
+        // The integrators lit by point lights (direct, path, restir: tests/tests/direct.rs,
+        // path.rs, restir.rs).
         let point_lit = host::integrators::INTEGRATORS
             .iter()
-            .filter(|(_, i)| !matches!(i, Integrator::Direct | Integrator::Path));
+            .filter(|(_, i)| !i.is_lit());
         for (_, integrator) in point_lit {
             for t_hat in [TransmittanceHat::Jackknife, TransmittanceHat::Ratio] {
                 let mut p = params(&vol, 12, 10, 6, *integrator, t_hat);
