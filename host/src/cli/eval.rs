@@ -18,9 +18,9 @@ pub struct EvalArgs {
     /// Comma-separated estimators, or "all" (every one but the reference).
     #[arg(long, default_value = "all")]
     pub estimators: String,
-    /// Evaluate integrators instead of transmittance estimators: `direct` or `path` alone (one
-    /// entry direct/<estimator> per --estimators entry, reference: ratio-tracking shadow rays at
-    /// --reference-spp), or single-scattering integrators, comma-separated or "all" (see `host
+    /// Evaluate integrators instead of transmittance estimators: `direct`, `path` and `restir`
+    /// (one entry direct/<estimator> per --estimators entry, reference: ratio-tracking shadow rays
+    /// at --reference-spp; restir shares direct's), or single-scattering integrators, comma-separated or "all" (see `host
     /// render --integrator`). Reference: mis-jackknife
     /// with ratio-tracking T(t0) at --reference-spp (default 16 x --spp; with the default --spp
     /// of 1024 that is slow, about 25 min at 128^2 on 2 CPU cores: try --spp 16).

@@ -91,7 +91,8 @@ pub struct RenderArgs {
     pub ratio_roulette: bool,
     /// Render radiance with this integrator instead of primary-ray transmittance: `direct`
     /// (RGB direct illumination from --env, --sun and --light, shadow rays by --estimator),
-    /// `path` (RGB multiple scattering, the same lights and shadow rays), or
+    /// `path` (RGB multiple scattering, the same lights and shadow rays), `restir` (`direct` with
+    /// the point lights resampled from --restir-candidates draws by power), or
     /// single scattering from point lights: free-flight, equiangular, mis-jackknife, mis-naive,
     /// combined-jackknife, combined-naive, miller, mis-power (see README).
     #[arg(long, value_parser = crate::integrators::parse_integrator)]
