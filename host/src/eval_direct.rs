@@ -87,14 +87,18 @@ fn calibration_spp(spp: u32) -> u32 {
     (spp / 8).max(1)
 }
 
-/// Samples per pixel that fit `budget_ms` at `ms_per_spp`, in 1..=2^20.
-pub fn equal_time_spp(budget_ms: f64, ms_per_spp: f64) -> u32 {
+/// Most samples per pixel `--equal-time` gives an entry.
+pub const MAX_EQUAL_TIME_SPP: u32 = 1 << 20;
+
+/// Samples per pixel that fit `budget_ms` at `ms_per_spp`, in 1..=[`MAX_EQUAL_TIME_SPP`], and
+/// whether that range clamped it (the entry then misses the budget).
+pub fn equal_time_spp(budget_ms: f64, ms_per_spp: f64) -> (u32, bool) {
     if !(ms_per_spp > 0.0 && budget_ms.is_finite()) {
-        return 1;
+        return (1, true);
     }
-    (budget_ms / ms_per_spp)
-        .round()
-        .clamp(1.0, (1u32 << 20) as f64) as u32
+    let spp = (budget_ms / ms_per_spp).round();
+    let clamped = spp.clamp(1.0, MAX_EQUAL_TIME_SPP as f64);
+    (clamped as u32, clamped != spp)
 }
 
 /// How one entry's shadow rays toward the sun get their transmittance.
@@ -450,7 +454,16 @@ pub fn evaluate_direct(
                     crate::render::render_resident_lit(&resident, &timing, &entry_lights, false)
                         .with_context(|| format!("timing {name}"))?;
                     let ms = start.elapsed().as_secs_f64() * 1e3;
-                    params.spp = equal_time_spp(budget, ms / spp as f64);
+                    let (fitted, clamped) = equal_time_spp(budget, ms / spp as f64);
+                    if clamped {
+                        tracing::warn!(
+                            "--equal-time: {name} takes {:.3} ms per sample against a budget of \
+                             {budget:.1} ms; it runs at {fitted} spp and misses the budget \
+                             (its JSON entry records spp and elapsed_ms)",
+                            ms / spp as f64
+                        );
+                    }
+                    params.spp = fitted;
                     Some(Calibration {
                         spp,
                         ms,
@@ -599,4 +612,22 @@ fn measure(
     }
     entry.flags.warn(params);
     Ok(entry)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn equal_time_spp_fits_the_budget_and_flags_clamps() {
+        assert_eq!(equal_time_spp(1000.0, 10.0), (100, false));
+        assert_eq!(equal_time_spp(1000.0, 3.0), (333, false));
+        // One sample costs more than the budget: 1 spp, over budget, flagged.
+        assert_eq!(equal_time_spp(5.0, 20.0), (1, true));
+        assert_eq!(equal_time_spp(1e12, 1e-3), (MAX_EQUAL_TIME_SPP, true));
+        assert_eq!(equal_time_spp(10.0, 0.0), (1, true));
+        assert_eq!(equal_time_spp(f64::INFINITY, 1.0), (1, true));
+        assert_eq!(calibration_spp(64), 8);
+        assert_eq!(calibration_spp(3), 1);
+    }
 }
