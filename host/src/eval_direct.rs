@@ -367,10 +367,13 @@ pub fn evaluate_direct(
         base.light_count = lights.points.len() as u32;
         let label = crate::integrators::integrator_name(integrator);
         // `restir` resamples the point lights on their own: they leave the pmf over kinds.
-        let mut scene = lights.clone();
-        if integrator == Integrator::Restir {
-            scene.resample_points();
-        }
+        let scene = if integrator == Integrator::Restir {
+            let mut s = lights.clone();
+            s.resample_points();
+            std::borrow::Cow::Owned(s)
+        } else {
+            std::borrow::Cow::Borrowed(lights)
+        };
         let ref_integrator = reference_of(integrator);
         let ref_label = crate::integrators::integrator_name(ref_integrator);
         let cached = match (&direct_reference, ref_integrator) {
@@ -406,7 +409,7 @@ pub fn evaluate_direct(
                 r
             }
         };
-        let lights = &scene;
+        let lights: &SceneLights = &scene;
         // Exact shadows with the entries' camera samples, for the paired errors.
         let exact = if any_map {
             let mut p = base;

@@ -433,8 +433,8 @@ pub fn render_resident_lit(
     progress: bool,
 ) -> Result<Vec<PixelOut>> {
     let vol = resident.vol;
-    // The single-scattering integrators weigh every light per segment; `direct` and `path`
-    // draw by power from the alias table (any number).
+    // The single-scattering integrators weigh every light per segment; `direct`, `path` and
+    // `restir` draw by power from the alias table (any number).
     let lit = shared::params::Integrator::from_u32(params.integrator).is_lit();
     anyhow::ensure!(
         params.light_count as usize <= lights.points.len()

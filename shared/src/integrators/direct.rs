@@ -19,12 +19,11 @@
 use crate::estimators::estimate;
 use crate::estimators::tracking::delta_tracking_capped;
 use crate::geometry::{to_index_space, Ray, V3};
-use crate::math::sqrt;
 use crate::params::{Config, RenderParams};
 use crate::rgb::Rgb;
 use crate::rng::HashRng;
 use crate::sampling::lighting::{LightKind, Scene};
-use crate::sampling::lights::sample_power;
+use crate::sampling::lights::{sample_power, unshadowed};
 use crate::sampling::phase::{phase_hg, sample_hg};
 use crate::shadows::map::{map_transmittance, Shadows};
 use crate::tally::Tally;
@@ -273,15 +272,11 @@ pub(super) fn light_sample(
         LightKind::Points => {
             let (k, inv_pmf) = sample_power(scene.points, scene.point_count, u0, u1);
             let light = scene.points[k as usize];
-            let to = light.position - x;
-            let d2 = to.dot(to);
-            if !(d2 > 0.0) {
+            let (w, dist, f) = unshadowed(&light, x, wo, g);
+            if !(dist > 0.0) {
                 ShadowQuery::NONE
             } else {
-                let dist = sqrt(d2);
-                let w = to * (1.0 / dist);
-                let p = l.p_points / inv_pmf;
-                let v = phase_hg(wo.dot(w), g) * light.intensity / d2 / p;
+                let v = f / (l.p_points / inv_pmf);
                 ShadowQuery {
                     o: x,
                     w,

@@ -18,18 +18,14 @@
 //! time it is evaluated (spatial reuse re-evaluates it in other pixels' domains). f(Y) takes its
 //! transmittance from the render's `--estimator`, independent of the candidates.
 
-use super::direct::{grid_hi, shadow, start_at_vertex, DirectState, ShadowQuery};
-use crate::estimators::estimate;
-use crate::geometry::{to_index_space, Ray, V3};
-use crate::math::sqrt;
+use super::direct::{shadow, start_at_vertex, DirectState, ShadowQuery};
+use crate::geometry::{Ray, V3};
 use crate::params::{Config, Estimator, Importance, Jitter, RenderParams, RestirTarget};
 use crate::rgb::Rgb;
 use crate::rng::{pcg_hash, HashRng};
 use crate::sampling::lighting::Scene;
-use crate::sampling::lights::sample_power;
-use crate::sampling::phase::phase_hg;
+use crate::sampling::lights::{sample_power, unshadowed};
 use crate::tally::Tally;
-use crate::volume::dda::clip_to_box;
 use crate::volume::grid::VolumeView;
 use bytemuck::{Pod, Zeroable};
 
@@ -209,24 +205,10 @@ pub fn p_hat(
     wo: V3,
     k: u32,
 ) -> (f32, Tally) {
-    let light = scene.points[k as usize];
-    let to = light.position - x;
-    let d2 = to.dot(to);
-    if !(d2 > 0.0) {
-        return (0.0, Tally::default());
-    }
-    let dist = sqrt(d2);
-    let w = to * (1.0 / dist);
-    let unshadowed = phase_hg(wo.dot(w), params.hg_g) * light.intensity / d2;
+    let (w, dist, f) = unshadowed(&scene.points[k as usize], x, wo, params.hg_g);
     let target = RestirTarget::from_u32(params.restir_target);
-    if target == RestirTarget::Unshadowed {
-        return (unshadowed, Tally::default());
-    }
-    let world = Ray { o: x, d: w };
-    let ray = to_index_space(&world, &params.world_to_index);
-    let (t0, t1) = clip_to_box(&ray, grid_hi(vol), 0.0, dist);
-    if !(t0 < t1) {
-        return (unshadowed, Tally::default());
+    if target == RestirTarget::Unshadowed || !(dist > 0.0) {
+        return (f, Tally::default());
     }
     let est = Config {
         estimator: if target == RestirTarget::Ratio {
@@ -243,8 +225,14 @@ pub fn p_hat(
         n: params.restir_n,
         ..*params
     };
+    let toward = ShadowQuery {
+        o: x,
+        w,
+        dist,
+        weight: Rgb::ZERO,
+    };
     let rng = HashRng::for_sample(id, sample, params.seed ^ pcg_hash(k ^ TARGET_SALT));
-    let (t_hat, tally, _) = estimate::transmittance(vol, &est, &small, &ray, t0, t1, rng);
+    let (t_hat, tally, _) = shadow(vol, &est, &small, &toward, rng);
     let clamped = if t_hat > 1.0 {
         1.0
     } else if t_hat > params.restir_floor {
@@ -252,7 +240,7 @@ pub fn p_hat(
     } else {
         params.restir_floor
     };
-    (unshadowed * clamped, tally)
+    (f * clamped, tally)
 }
 
 /// Stage M + 1: the kept light's query with weight albedo tint I phase / d^2 W (its T to come).
@@ -262,14 +250,11 @@ fn resolve(scene: &Scene, params: &RenderParams, st: RestirState) -> RestirState
         return st;
     }
     let light = scene.points[st.reservoir.y as usize];
-    let to = light.position - st.x;
-    let d2 = to.dot(to);
-    if !(d2 > 0.0) {
+    let (w, dist, f) = unshadowed(&light, st.x, st.wo, params.hg_g);
+    if !(dist > 0.0) {
         return st;
     }
-    let dist = sqrt(d2);
-    let w = to * (1.0 / dist);
-    let v = phase_hg(st.wo.dot(w), params.hg_g) * light.intensity / d2 * big_w;
+    let v = f * big_w;
     let mut st = st;
     st.query = ShadowQuery {
         o: st.x,

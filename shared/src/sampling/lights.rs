@@ -4,8 +4,10 @@
 
 use crate::geometry::V3;
 use crate::math;
+use crate::math::sqrt;
 use crate::rgb::Rgb;
 use crate::sampling::equiangular::Equiangular;
+use crate::sampling::phase::phase_hg;
 use bytemuck::{Pod, Zeroable};
 
 /// An isotropic point light in world space with radiant intensity `intensity` (luminance) and
@@ -40,12 +42,20 @@ impl PointLight {
             _pad: [0; 2],
         }
     }
+}
 
-    /// Radiant intensity per channel.
-    #[inline]
-    pub fn rgb_intensity(&self) -> Rgb {
-        self.tint * self.intensity
+/// Light arriving at x from a point light, before transmittance: the unit direction toward it,
+/// its distance and phase(wo, w) I / d^2 (luminance; all 0 if x is at the light).
+#[inline]
+pub fn unshadowed(light: &PointLight, x: V3, wo: V3, g: f32) -> (V3, f32, f32) {
+    let to = light.position - x;
+    let d2 = to.dot(to);
+    if !(d2 > 0.0) {
+        return (V3::new(0.0, 0.0, 1.0), 0.0, 0.0);
     }
+    let dist = sqrt(d2);
+    let w = to * (1.0 / dist);
+    (w, dist, phase_hg(wo.dot(w), g) * light.intensity / d2)
 }
 
 /// Draws one of `n` lights by power from the alias table (Walker 1977, Vose 1991): column
