@@ -518,6 +518,11 @@ const RESTIR_ONLY: &[(&str, &str)] = &[
     ("restir_target", "--restir-target"),
     ("restir_n", "--restir-n"),
     ("restir_floor", "--restir-floor"),
+    ("restir_passes", "--restir-passes"),
+    ("restir_neighbours", "--restir-neighbours"),
+    ("restir_radius", "--restir-radius"),
+    ("restir_mis", "--restir-mis"),
+    ("restir_m_cap", "--restir-m-cap"),
 ];
 
 /// Options `--integrator direct` does not read.
@@ -538,6 +543,7 @@ pub fn check_render_flags(args: &RenderOptions) -> Result<()> {
     }
     if args.integrator == Some(Integrator::Restir) {
         args.restir.check()?;
+        args.restir.check_image(args.width, args.height)?;
     } else if let Some((_, flag)) = RESTIR_ONLY.iter().find(|(id, _)| given(id)) {
         bail!("{flag} only applies to --integrator restir; add it or drop {flag}");
     }
@@ -1350,6 +1356,7 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
     };
     if integrators.contains(&Integrator::Restir) {
         args.restir.check()?;
+        args.restir.check_image(args.width, args.height)?;
     } else {
         anyhow::ensure!(
             args.restir == crate::restir::RestirOptions::default(),

@@ -6,15 +6,18 @@ use crate::schedule::{RenderBackend, Schedule};
 use anyhow::Result;
 use indicatif::ProgressBar;
 use rayon::prelude::*;
+use shared::integrators::restir::{stage_count, RestirState};
 use shared::kernels::render::{
-    direct_pixel_pass, path_pixel_pass, render_pixel_pass, restir_pixel_pass, tile_order_pixel,
-    PixelSums,
+    direct_pixel_pass, is_reuse_stage, path_pixel_pass, render_pixel_pass, restir_pixel_pass,
+    restir_reuse_step, restir_step, restir_store_reuse, tile_order_pixel, PixelSums,
 };
 use shared::kernels::shadow_map::{msm_raw_texel, msm_store_texel, MsmPass};
 use shared::params::Integrator;
 use shared::params::RenderParams;
 use shared::sampling::lighting::Lighting;
+use shared::sampling::lighting::Scene;
 use shared::shadows::map::Shadows;
+use shared::volume::grid::VolumeView;
 
 /// Applies `f` to every input on all cores, in id order.
 pub fn map<I, O, F>(inputs: &[I], f: F) -> Vec<O>
@@ -62,6 +65,9 @@ impl RenderBackend for CpuVolume<'_> {
         let direct = params.integrator == Integrator::Direct as u32;
         let path = params.integrator == Integrator::Path as u32;
         let restir = params.integrator == Integrator::Restir as u32;
+        if restir && params.restir_passes > 0 {
+            return Ok(restir_wave(&view, params, &scene, bar));
+        }
         let count = params.width * params.height;
         let chunk = schedule.chunk;
         let mut sums = vec![PixelSums::default(); count as usize];
@@ -111,4 +117,45 @@ impl RenderBackend for CpuVolume<'_> {
         let words = generate(texels, |k| msm_store_texel(lighting, &raw, pass, k));
         Ok(words.into_iter().flat_map(|w| w[..n].to_vec()).collect())
     }
+}
+
+/// `restir` with spatial reuse: the GPU's wavefront over the whole image (row-major states,
+/// every stage of a sample over all pixels before the next; a reuse stage reads a snapshot of
+/// every state and stores what it changed), so the bits match the GPU's.
+fn restir_wave(
+    view: &VolumeView,
+    params: &RenderParams,
+    scene: &Scene,
+    bar: Option<&ProgressBar>,
+) -> Vec<PixelSums> {
+    let count = (params.width * params.height) as usize;
+    let mut states = vec![RestirState::default(); count];
+    let mut sums = vec![PixelSums::default(); count];
+    for s in 0..params.spp {
+        for stage in 0..stage_count(params) {
+            if is_reuse_stage(params, stage) {
+                let next: Vec<RestirState> = (0..count as u32)
+                    .into_par_iter()
+                    .map(|id| restir_reuse_step(view, params, scene, id, s, stage, &states, 0))
+                    .collect();
+                states
+                    .par_iter_mut()
+                    .zip(&next)
+                    .for_each(|(dst, src)| restir_store_reuse(dst, src, params, stage));
+            } else {
+                states
+                    .par_iter_mut()
+                    .zip(sums.par_iter_mut())
+                    .enumerate()
+                    .for_each(|(id, (st, acc))| {
+                        (*st, *acc) =
+                            restir_step(view, params, scene, id as u32, s, stage, *st, *acc);
+                    });
+            }
+        }
+        if let Some(bar) = bar {
+            bar.inc(count as u64);
+        }
+    }
+    sums
 }

@@ -38,7 +38,8 @@ pub struct DirectEntry {
     pub smape: f64,
     /// Mean over pixels of (L - L_ref), luminance.
     pub mean_bias: f64,
-    /// Standard error of `mean_bias` from the per-pixel variances of both images.
+    /// Standard error of `mean_bias` from the per-pixel variances of both images (with spatial
+    /// reuse, whose pixels share samples, a bound: its pixels taken as fully correlated).
     pub mean_bias_se: f64,
     /// Mean over pixels of the standard deviation of one sample's luminance.
     pub mean_std: f64,
@@ -574,9 +575,7 @@ fn measure(
         .sum::<f64>()
         / n;
     let mean_bias = pairs.clone().map(|((a, _), (b, _))| a - b).sum::<f64>() / n;
-    let var_sum: f64 = pairs
-        .map(|((_, va), (_, vb))| va / params.spp as f64 + vb / ref_params.spp as f64)
-        .sum();
+    let var_sum = bias_variance(&m, ref_m, params, ref_params);
     let entry = DirectEntry {
         name,
         smape,
@@ -617,6 +616,28 @@ fn measure(
     Ok(entry)
 }
 
+/// Variance of n x `mean_bias` from the per-pixel (mean, variance) of an entry and of the
+/// reference: the sum of both images' variances of the mean, or, when the entry reuses samples
+/// between pixels (`restir --restir-passes`), its part bounded as fully correlated pixels,
+/// (sum of standard errors)^2 (Cauchy-Schwarz).
+fn bias_variance(
+    m: &[(f64, f64)],
+    ref_m: &[(f64, f64)],
+    params: &shared::params::RenderParams,
+    ref_params: &shared::params::RenderParams,
+) -> f64 {
+    let reference: f64 = ref_m.iter().map(|(_, v)| v / ref_params.spp as f64).sum();
+    let correlated =
+        params.integrator == shared::params::Integrator::Restir as u32 && params.restir_passes > 0;
+    let own = if correlated {
+        let sd: f64 = m.iter().map(|(_, v)| (v / params.spp as f64).sqrt()).sum();
+        sd * sd
+    } else {
+        m.iter().map(|(_, v)| v / params.spp as f64).sum()
+    };
+    own + reference
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -632,5 +653,25 @@ mod tests {
         assert_eq!(equal_time_spp(f64::INFINITY, 1.0), (1, true));
         assert_eq!(calibration_spp(64), 8);
         assert_eq!(calibration_spp(3), 1);
+    }
+
+    /// Independent pixels add variances; pixels correlated by reuse are bounded as fully
+    /// correlated ((sum of standard errors)^2), the reference always adds variances.
+    #[test]
+    fn reuse_bounds_the_bias_variance_as_correlated() {
+        let m = [(0.0, 4.0), (0.0, 9.0)];
+        let reference = [(0.0, 8.0), (0.0, 8.0)];
+        let p = shared::params::RenderParams {
+            spp: 1,
+            integrator: shared::params::Integrator::Restir as u32,
+            ..Default::default()
+        };
+        let r = shared::params::RenderParams { spp: 2, ..p };
+        assert_eq!(bias_variance(&m, &reference, &p, &r), 13.0 + 8.0);
+        let reused = shared::params::RenderParams {
+            restir_passes: 1,
+            ..p
+        };
+        assert_eq!(bias_variance(&m, &reference, &reused, &r), 25.0 + 8.0);
     }
 }

@@ -1,12 +1,20 @@
 //! `--integrator restir`: its options, their checks, and what it records in the JSON.
 
 use anyhow::{ensure, Result};
-use shared::params::{RenderParams, RestirTarget};
+use shared::params::{RenderParams, RestirMis, RestirTarget};
 
 /// Most candidates per sample (each is a dispatch on the GPU).
 pub const MAX_CANDIDATES: u32 = 1024;
 /// Most samples per optical depth estimate of the target (as `--n`).
 pub const MAX_TARGET_N: u32 = 4096;
+/// Most spatial reuse passes (each a dispatch over the image).
+pub const MAX_PASSES: u32 = 16;
+/// Most neighbours per pixel and pass (the balance heuristic costs k^2 target evaluations).
+pub const MAX_NEIGHBOURS: u32 = 64;
+/// Largest reuse window radius in pixels.
+pub const MAX_RADIUS: u32 = 1024;
+/// Most pixels of an image with spatial reuse (every pixel's state is held at once).
+pub const MAX_REUSE_PIXELS: u64 = 1 << 24;
 
 /// The options of `restir` (`--restir-*`).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -19,6 +27,16 @@ pub struct RestirOptions {
     pub n: u32,
     /// Floor on the target's T̂.
     pub floor: f32,
+    /// Spatial reuse passes (0: none).
+    pub passes: u32,
+    /// Neighbours per pixel and pass, k.
+    pub neighbours: u32,
+    /// Neighbours within this many pixels in x and y.
+    pub radius: u32,
+    /// The resampling MIS weights of reuse.
+    pub mis: RestirMis,
+    /// Cap on a reused reservoir's confidence M (0: none).
+    pub m_cap: u32,
 }
 
 impl Default for RestirOptions {
@@ -28,6 +46,11 @@ impl Default for RestirOptions {
             target: RestirTarget::Jackknife,
             n: 4,
             floor: 0.05,
+            passes: 0,
+            neighbours: 3,
+            radius: 16,
+            mis: RestirMis::Pairwise,
+            m_cap: 0,
         }
     }
 }
@@ -48,6 +71,28 @@ pub fn parse_target(s: &str) -> Result<RestirTarget, String> {
         .ok_or_else(|| {
             format!("unknown --restir-target {s:?}; choose one of: jackknife, unshadowed, ratio")
         })
+}
+
+/// Names of `--restir-mis`.
+pub const MIS: &[(&str, RestirMis)] = &[
+    ("pairwise", RestirMis::Pairwise),
+    ("balance", RestirMis::Balance),
+];
+
+/// Parses a `--restir-mis` name.
+pub fn parse_mis(s: &str) -> Result<RestirMis, String> {
+    MIS.iter()
+        .find(|(n, _)| *n == s)
+        .map(|(_, t)| *t)
+        .ok_or_else(|| format!("unknown --restir-mis {s:?}; choose one of: pairwise, balance"))
+}
+
+/// The name of MIS weights.
+pub fn mis_name(m: RestirMis) -> &'static str {
+    MIS.iter()
+        .find(|(_, x)| *x == m)
+        .map(|(n, _)| *n)
+        .unwrap_or("pairwise")
 }
 
 /// The name of a target.
@@ -78,6 +123,43 @@ impl RestirOptions {
              the integrand is, or the estimate would be biased",
             self.floor
         );
+        ensure!(
+            self.passes <= MAX_PASSES,
+            "--restir-passes must be in 0..={MAX_PASSES} (got {})",
+            self.passes
+        );
+        ensure!(
+            (1..=MAX_NEIGHBOURS).contains(&self.neighbours),
+            "--restir-neighbours must be in 1..={MAX_NEIGHBOURS} (got {})",
+            self.neighbours
+        );
+        ensure!(
+            (1..=MAX_RADIUS).contains(&self.radius),
+            "--restir-radius must be in 1..={MAX_RADIUS} pixels (got {})",
+            self.radius
+        );
+        let d = RestirOptions::default();
+        ensure!(
+            self.passes > 0
+                || (self.neighbours, self.radius, self.mis, self.m_cap)
+                    == (d.neighbours, d.radius, d.mis, d.m_cap),
+            "--restir-neighbours, --restir-radius, --restir-mis and --restir-m-cap configure \
+             spatial reuse, which is off: add --restir-passes 1 (or more) or drop them"
+        );
+        Ok(())
+    }
+
+    /// Refuses spatial reuse on an image whose states do not fit at once (reuse reads every
+    /// pixel's state): `width` x `height` pixels.
+    pub fn check_image(&self, width: u32, height: u32) -> Result<()> {
+        let pixels = u64::from(width) * u64::from(height);
+        ensure!(
+            self.passes == 0 || pixels <= MAX_REUSE_PIXELS,
+            "--restir-passes {} keeps every pixel's state in memory at once: {width} x {height} \
+             = {pixels} pixels is above the limit of {MAX_REUSE_PIXELS}; lower --width/--height \
+             or use --restir-passes 0",
+            self.passes
+        );
         Ok(())
     }
 
@@ -87,6 +169,11 @@ impl RestirOptions {
         params.restir_target = self.target as u32;
         params.restir_n = self.n;
         params.restir_floor = self.floor;
+        params.restir_passes = self.passes;
+        params.restir_neighbours = self.neighbours;
+        params.restir_radius = self.radius;
+        params.restir_mis = self.mis as u32;
+        params.restir_m_cap = self.m_cap;
     }
 
     /// The JSON record.
@@ -96,6 +183,11 @@ impl RestirOptions {
             target: target_name(self.target).into(),
             target_n: self.n,
             target_floor: self.floor,
+            passes: self.passes,
+            neighbours: self.neighbours,
+            radius: self.radius,
+            mis: mis_name(self.mis).into(),
+            m_cap: self.m_cap,
         }
     }
 }
@@ -111,4 +203,14 @@ pub struct RestirSettings {
     pub target_n: u32,
     /// Floor on the target's T̂ (clamped to [floor, 1]).
     pub target_floor: f32,
+    /// Spatial reuse passes (0: none).
+    pub passes: u32,
+    /// Neighbours per pixel and pass.
+    pub neighbours: u32,
+    /// Neighbours lie within this many pixels in x and y.
+    pub radius: u32,
+    /// Resampling MIS weights of reuse: `pairwise` or `balance`.
+    pub mis: String,
+    /// Cap on a reused reservoir's confidence M (0: none).
+    pub m_cap: u32,
 }

@@ -1389,6 +1389,7 @@ fn restir_render_records_its_settings() {
     assert_eq!(i["restir"]["target"], "jackknife");
     assert_eq!(i["restir"]["target_n"], 4);
     assert!(i["restir"]["target_floor"].as_f64().unwrap() > 0.0);
+    assert_eq!(i["restir"]["passes"], 0);
     // The point lights are resampled on their own: no share of the kinds' pmf.
     assert_eq!(i["light_pmf"][2], 0.0);
     assert!(j["mean_L"].as_f64().unwrap() > 0.0);
@@ -1409,6 +1410,47 @@ fn restir_render_records_its_settings() {
     assert_eq!(j["integrator"]["point_lights"], 300);
     assert_eq!(j["integrator"]["light_pmf"][2], 1.0);
     assert!(j["integrator"].get("restir").is_none());
+}
+
+/// `restir` with two spatial reuse passes (balance heuristic, capped confidence) renders a
+/// non-black image on the CPU and records the reuse settings.
+#[test]
+fn restir_with_spatial_reuse_records_its_settings() {
+    let dir = tempfile::tempdir().unwrap();
+    let (exr, json) = (dir.path().join("r.exr"), dir.path().join("r.json"));
+    let out = render(
+        &exr,
+        &[
+            "--integrator",
+            "restir",
+            "--lights",
+            "random:64,2",
+            "--restir-candidates",
+            "4",
+            "--restir-passes",
+            "2",
+            "--restir-neighbours",
+            "4",
+            "--restir-radius",
+            "5",
+            "--restir-mis",
+            "balance",
+            "--restir-m-cap",
+            "40",
+            "--json",
+            s(&json),
+        ],
+    );
+    ok(&out);
+    let j = read_json(&json);
+    let r = &j["integrator"]["restir"];
+    assert_eq!(r["passes"], 2);
+    assert_eq!(r["neighbours"], 4);
+    assert_eq!(r["radius"], 5);
+    assert_eq!(r["mis"], "balance");
+    assert_eq!(r["m_cap"], 40);
+    assert!(j["mean_L"].as_f64().unwrap() > 0.0);
+    assert!(exr.exists());
 }
 
 /// `host eval --integrators direct,restir --equal-time`: one `direct` reference for both, the
@@ -1521,6 +1563,41 @@ fn bad_restir_and_many_light_flags_are_refused() {
         (
             vec!["--integrator", "direct", "--restir-candidates", "4"],
             vec!["--restir-candidates", "--integrator restir"],
+        ),
+        (
+            vec!["--integrator", "direct", "--restir-passes", "1"],
+            vec!["--restir-passes", "--integrator restir"],
+        ),
+        (
+            restir(&["--restir-passes", "17"]),
+            vec!["--restir-passes", "0..=16"],
+        ),
+        (
+            restir(&["--restir-passes", "1", "--restir-neighbours", "0"]),
+            vec!["--restir-neighbours", "1..=64"],
+        ),
+        (
+            restir(&["--restir-passes", "1", "--restir-radius", "0"]),
+            vec!["--restir-radius"],
+        ),
+        (
+            restir(&["--restir-passes", "1", "--restir-mis", "talbot"]),
+            vec!["--restir-mis", "pairwise"],
+        ),
+        (
+            restir(&["--restir-neighbours", "5"]),
+            vec!["--restir-neighbours", "--restir-passes 1"],
+        ),
+        (
+            restir(&[
+                "--restir-passes",
+                "1",
+                "--width",
+                "8192",
+                "--height",
+                "4096",
+            ]),
+            vec!["--restir-passes", "pixels"],
         ),
         (
             vec!["--lights", "random:8"],

@@ -175,9 +175,11 @@ render_kernel!(
 
 /// A wavefront kernel (`direct_cs`, `path_cs`): the bindings of `bindings::direct` ==
 /// `bindings::path` with `$state` per pixel, and one call of `$step` per invocation: the stage
-/// `pass.mode` of sample `pass.sample`.
+/// `pass.mode` of sample `pass.sample`. With `reuse = $reuse`, a stage for which `$is_reuse`
+/// holds instead calls `$reuse` with every state and stores what it changed (`$store`).
 macro_rules! wave_kernel {
-    ($(#[$doc:meta])* $name:ident, $state:ty, $step:path, $single:literal) => {
+    ($(#[$doc:meta])* $name:ident, $state:ty, $step:path, $single:literal
+     $(, reuse = $reuse:path, $is_reuse:path, $store:path)?) => {
         $(#[$doc])*
         #[allow(clippy::too_many_arguments)] // one argument per binding
         #[spirv(compute(threads(64)))]
@@ -244,18 +246,38 @@ macro_rules! wave_kernel {
                     env,
                     shadow_map,
                 };
-                let (st, s) = $step(
-                    &vol,
-                    p,
-                    &scene,
-                    i as u32,
-                    pass.sample,
-                    pass.mode,
-                    states[slot],
-                    sums[slot],
-                );
-                states[slot] = st;
-                sums[slot] = s;
+                #[allow(unused_mut)]
+                let mut whole = true;
+                $(
+                    if $is_reuse(p, pass.mode) {
+                        whole = false;
+                        let st = $reuse(
+                            &vol,
+                            p,
+                            &scene,
+                            i as u32,
+                            pass.sample,
+                            pass.mode,
+                            states,
+                            pass.sums_base,
+                        );
+                        $store(&mut states[slot], &st, p, pass.mode);
+                    }
+                )?
+                if whole {
+                    let (st, s) = $step(
+                        &vol,
+                        p,
+                        &scene,
+                        i as u32,
+                        pass.sample,
+                        pass.mode,
+                        states[slot],
+                        sums[slot],
+                    );
+                    states[slot] = st;
+                    sums[slot] = s;
+                }
             }
         }
     };
@@ -280,12 +302,15 @@ wave_kernel!(
 
 wave_kernel!(
     /// One stage of a `restir` image (direct illumination with resampled point lights,
-    /// wavefront): start each pixel's sample (mode 0), stream one light candidate, resolve the
-    /// reservoir, or estimate one transmittance query.
+    /// wavefront): start each pixel's sample (mode 0), stream one light candidate, reuse its
+    /// neighbours' reservoirs, resolve the reservoir, or estimate one transmittance query.
     restir_cs,
     RestirState,
     render::restir_step,
-    true
+    true,
+    reuse = render::restir_reuse_step,
+    render::is_reuse_stage,
+    render::restir_store_reuse
 );
 
 wave_kernel!(
@@ -293,7 +318,10 @@ wave_kernel!(
     restir_paged_cs,
     RestirState,
     render::restir_step,
-    false
+    false,
+    reuse = render::restir_reuse_step,
+    render::is_reuse_stage,
+    render::restir_store_reuse
 );
 
 wave_kernel!(

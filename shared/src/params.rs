@@ -150,6 +150,28 @@ impl RestirTarget {
     }
 }
 
+/// The resampling MIS weights of `restir`'s spatial reuse (GRIS Sec. 5.6).
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RestirMis {
+    /// Generalized pairwise MIS (Eq. 37 with confidence weights): O(k) target evaluations.
+    Pairwise = 0,
+    /// Generalized balance heuristic (Talbot, Eq. 36 with confidence weights): O(k^2).
+    Balance = 1,
+}
+
+impl RestirMis {
+    /// From the stored u32 (unknown values read as pairwise).
+    #[inline]
+    pub fn from_u32(v: u32) -> Self {
+        if v == RestirMis::Balance as u32 {
+            RestirMis::Balance
+        } else {
+            RestirMis::Pairwise
+        }
+    }
+}
+
 impl Integrator {
     /// From the stored u32 (unknown values read as transmittance).
     #[inline]
@@ -245,6 +267,16 @@ pub struct RenderParams {
     pub restir_n: u32,
     /// `restir`: the target's floor on T̂ (defensive: p̂ > 0 wherever the integrand is).
     pub restir_floor: f32,
+    /// `restir`: spatial reuse passes over the image (0: none), each a dispatch.
+    pub restir_passes: u32,
+    /// `restir`: neighbours per pixel and reuse pass, k.
+    pub restir_neighbours: u32,
+    /// `restir`: neighbours lie within this many pixels in x and y (a (2r + 1)^2 window).
+    pub restir_radius: u32,
+    /// `restir`: [`RestirMis`] as u32.
+    pub restir_mis: u32,
+    /// `restir`: cap on a reused reservoir's confidence M (0: none; GRIS Sec. 6.4).
+    pub restir_m_cap: u32,
 }
 
 /// The enums of [`RenderParams`] (and the volume's lookup), decoded once per pixel pass.

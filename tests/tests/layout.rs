@@ -32,7 +32,7 @@ fn shared_struct_layouts() {
     assert_eq!(size_of::<Complex>(), 8);
     assert_eq!(size_of::<GridDesc>(), 48);
     assert_eq!(size_of::<Brick>(), 20);
-    assert_eq!(size_of::<RenderParams>(), 208);
+    assert_eq!(size_of::<RenderParams>(), 228);
     assert_eq!(size_of::<RenderPass>(), 32);
     assert_eq!(size_of::<PixelSums>(), 36);
     assert_eq!(size_of::<PixelOut>(), 36);
@@ -49,7 +49,7 @@ fn shared_struct_layouts() {
     assert_eq!(size_of::<MsmLookupIn>(), 224);
     assert_eq!(size_of::<MsmLookupOut>(), 16);
     assert_eq!(size_of::<shared::integrators::direct::DirectState>(), 160);
-    assert_eq!(size_of::<shared::integrators::restir::RestirState>(), 256);
+    assert_eq!(size_of::<shared::integrators::restir::RestirState>(), 260);
     assert_eq!(size_of::<shared::integrators::restir::Reservoir>(), 16);
     assert_eq!(size_of::<Sun>(), 32);
     assert_eq!(size_of::<EnvDesc>(), 16);

@@ -227,6 +227,15 @@ fn render_tiles(
         .max(64)
         .min(u64::from(count)) as u32;
     let tile_count = count.div_ceil(tile) as usize;
+    if wave == Some(Wave::Restir) && params.restir_passes > 0 && tile < count {
+        anyhow::bail!(
+            "--restir-passes {} needs every pixel's state in one GPU buffer: {count} pixels of \
+             {state_size} bytes exceed the device's largest buffer ({} bytes); lower the \
+             resolution or use --restir-passes 0",
+            params.restir_passes,
+            gpu.max_buffer_bytes()
+        );
+    }
     let tile_bytes = u64::from(tile) * sums_size;
     if tiles.len() != tile_count || tiles.iter().any(|b| b.size() != tile_bytes) {
         tiles.clear();
@@ -331,7 +340,7 @@ impl Wave {
             Wave::Path => std::iter::once(0)
                 .chain(std::iter::repeat_n(1, params.max_depth as usize + 1))
                 .collect(),
-            Wave::Restir => (0..stage_count(params.restir_candidates)).collect(),
+            Wave::Restir => (0..stage_count(params)).collect(),
         }
     }
 

@@ -11,7 +11,9 @@ mod equiangular;
 mod free_flight;
 mod lighting;
 pub mod path;
+pub mod resampling_mis;
 pub mod restir;
+pub mod restir_reuse;
 mod weights;
 
 use crate::geometry::{to_index_space, Ray};

@@ -17,6 +17,9 @@
 //! (pixel, sample, light): p̂ is a fixed function of the light and those numbers, the same each
 //! time it is evaluated (spatial reuse re-evaluates it in other pixels' domains). f(Y) takes its
 //! transmittance from the render's `--estimator`, independent of the candidates.
+//!
+//! Between the candidates and the resolve, `restir_passes` spatial reuse passes resample each
+//! pixel's reservoir with its neighbours' ([`super::restir_reuse`]).
 
 use super::direct::{shadow, start_at_vertex, DirectState, ShadowQuery};
 use crate::geometry::{Ray, V3};
@@ -68,9 +71,10 @@ impl Reservoir {
     }
 }
 
-/// One camera sample of `restir` between its stages (256 bytes): `direct`'s state (background,
-/// map/sun light sample, phase sample), the vertex, the reservoir and the resampled light's
-/// query. The GPU runs the start, each candidate, the resolve and each estimate as a dispatch.
+/// One camera sample of `restir` between its stages (260 bytes): `direct`'s state (background,
+/// map/sun light sample, phase sample), the vertex, two reservoirs and the resampled light's
+/// query. The GPU runs the start, each candidate, each reuse pass, the resolve and each estimate
+/// as a dispatch.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct RestirState {
@@ -82,18 +86,47 @@ pub struct RestirState {
     pub wo: V3,
     /// 1 if the free flight collided (there is a vertex).
     pub found: u32,
+    /// The candidates' reservoir (then the output of odd reuse passes).
     pub reservoir: Reservoir,
-    pub _pad: [u32; 3],
+    /// The output of even reuse passes (0, 2, ...; the input of odd ones).
+    pub reused: Reservoir,
 }
 
-/// The stages of one sample for M candidates: start, M candidates, resolve, four estimates.
+impl RestirState {
+    /// The reservoir that reuse pass `pass` reads: even passes the candidates' reservoir, odd
+    /// passes the reused one; after P passes, `input(P)` is the last pass's output (what the
+    /// resolve reads).
+    #[inline]
+    pub fn input(&self, pass: u32) -> Reservoir {
+        if pass % 2 == 0 {
+            self.reservoir
+        } else {
+            self.reused
+        }
+    }
+}
+
+/// The stages of one sample: start, M candidates, P reuse passes, resolve, four estimates.
 #[inline]
-pub fn stage_count(candidates: u32) -> u32 {
-    candidates + 6
+pub fn stage_count(params: &RenderParams) -> u32 {
+    params.restir_candidates + params.restir_passes + 6
+}
+
+/// Whether stage `stage` is a reuse pass (stages M + 1 ..= M + P), which reads the other
+/// pixels' states ([`super::restir_reuse::reuse`]; [`restir_stage`] leaves it alone).
+#[inline]
+pub fn is_reuse_stage(params: &RenderParams, stage: u32) -> bool {
+    stage > params.restir_candidates && stage <= params.restir_candidates + params.restir_passes
+}
+
+/// The reuse pass of reuse stage `stage` (0-based).
+#[inline]
+pub fn reuse_pass(params: &RenderParams, stage: u32) -> u32 {
+    stage - params.restir_candidates - 1
 }
 
 /// Radiance along one camera ray (RGB), its tally and the generator: every stage in one call
-/// (the CPU backend).
+/// (the CPU backend without reuse; reuse passes need the other pixels and are skipped here).
 #[allow(clippy::too_many_arguments)]
 pub fn restir_radiance(
     vol: &VolumeView,
@@ -107,7 +140,7 @@ pub fn restir_radiance(
 ) -> (Rgb, Tally, HashRng) {
     let mut st = restir_start(vol, cfg, params, scene, world, rng);
     let mut stage = 1;
-    while stage < stage_count(params.restir_candidates) {
+    while stage < stage_count(params) {
         st = restir_stage(vol, cfg, params, scene, id, sample, st, stage);
         stage += 1;
     }
@@ -135,8 +168,9 @@ pub fn restir_start(
     }
 }
 
-/// Stage `stage` >= 1: candidate stage - 1 (stages 1..=M), the resolve (M + 1), or the
-/// transmittance of query stage - M - 2 (0..2 `direct`'s, 3 the resampled light's).
+/// Stage `stage` >= 1: candidate stage - 1 (stages 1..=M), the resolve (M + P + 1), or the
+/// transmittance of query stage - M - P - 2 (0..2 `direct`'s, 3 the resampled light's); a
+/// reuse stage (M + 1 ..= M + P) returns `st` (it needs the image: [`is_reuse_stage`]).
 #[allow(clippy::too_many_arguments)]
 pub fn restir_stage(
     vol: &VolumeView,
@@ -149,12 +183,15 @@ pub fn restir_stage(
     stage: u32,
 ) -> RestirState {
     let m = params.restir_candidates;
+    let p = params.restir_passes;
     if stage <= m {
         candidate(vol, cfg, params, scene, id, sample, st)
-    } else if stage == m + 1 {
+    } else if stage <= m + p {
+        st
+    } else if stage == m + p + 1 {
         resolve(scene, params, st)
     } else {
-        estimate_query(vol, cfg, params, scene, st, stage - m - 2)
+        estimate_query(vol, cfg, params, scene, st, stage - m - p - 2)
     }
 }
 
@@ -243,13 +280,15 @@ pub fn p_hat(
     (f * clamped, tally)
 }
 
-/// Stage M + 1: the kept light's query with weight albedo tint I phase / d^2 W (its T to come).
+/// Stage M + P + 1: the kept light's query with weight albedo tint I phase / d^2 W (its T to
+/// come), from the reservoir of the last reuse pass.
 fn resolve(scene: &Scene, params: &RenderParams, st: RestirState) -> RestirState {
-    let big_w = st.reservoir.contribution_weight();
+    let kept = st.input(params.restir_passes);
+    let big_w = kept.contribution_weight();
     if st.found == 0 || !(big_w > 0.0) {
         return st;
     }
-    let light = scene.points[st.reservoir.y as usize];
+    let light = scene.points[kept.y as usize];
     let (w, dist, f) = unshadowed(&light, st.x, st.wo, params.hg_g);
     if !(dist > 0.0) {
         return st;
@@ -265,7 +304,7 @@ fn resolve(scene: &Scene, params: &RenderParams, st: RestirState) -> RestirState
     st
 }
 
-/// Stages M + 2 .. M + 5: the transmittance of query q (0..2 `direct`'s, 3 the resampled
+/// Stages M + P + 2 .. M + P + 5: the transmittance of query q (0..2 `direct`'s, 3 the resampled
 /// light's) added to the radiance.
 fn estimate_query(
     vol: &VolumeView,

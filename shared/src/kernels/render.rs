@@ -5,9 +5,12 @@ use crate::estimators::estimate;
 use crate::geometry::{to_index_space, Ray, V3};
 use crate::integrators::direct::{direct_estimate, direct_radiance, direct_start, DirectState};
 use crate::integrators::path::{path_bounce, path_radiance, path_start, PathState};
+pub use crate::integrators::restir::is_reuse_stage;
 use crate::integrators::restir::{
-    restir_radiance, restir_stage, restir_start, stage_count, RestirState,
+    restir_radiance, restir_stage, restir_start, reuse_pass, stage_count, RestirState,
 };
+use crate::integrators::restir_reuse::reuse;
+use crate::integrators::restir_reuse::store_reuse;
 use crate::params::{Config, RenderParams};
 use crate::rgb::Rgb;
 use crate::rng::HashRng;
@@ -331,11 +334,42 @@ pub fn restir_step(
         );
     }
     let next = restir_stage(vol, &cfg, params, scene, id, sample, st, stage);
-    if stage + 1 < stage_count(params.restir_candidates) {
+    if stage + 1 < stage_count(params) {
         return (next, sums);
     }
     let l = next.direct.total;
     (next, sums.add(l, l.luminance(), next.direct.tally()))
+}
+
+/// One reuse stage of the wavefront `restir` render of pixel `id` (`restir_cs` when
+/// [`is_reuse_stage`]): its new state from every pixel's (`states[j - base]` is pixel j's);
+/// [`store_reuse`] writes what changed.
+#[allow(clippy::too_many_arguments)]
+pub fn restir_reuse_step(
+    vol: &VolumeView,
+    params: &RenderParams,
+    scene: &Scene,
+    id: u32,
+    sample: u32,
+    stage: u32,
+    states: &[RestirState],
+    base: u32,
+) -> RestirState {
+    let cfg = Config::decode(params, vol.desc);
+    let pass = reuse_pass(params, stage);
+    reuse(vol, &cfg, params, scene, id, sample, pass, states, base)
+}
+
+/// Stores what reuse stage `stage` changed in pixel state `dst` (its output reservoir and
+/// generator; never what other pixels read during the stage).
+#[inline]
+pub fn restir_store_reuse(
+    dst: &mut RestirState,
+    src: &RestirState,
+    params: &RenderParams,
+    stage: u32,
+) {
+    store_reuse(dst, src, reuse_pass(params, stage));
 }
 
 /// [`path_step`] with the wavefront's stage number (0: start, else bounce), the signature the
