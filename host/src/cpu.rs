@@ -119,9 +119,10 @@ impl RenderBackend for CpuVolume<'_> {
     }
 }
 
-/// `restir` with spatial reuse: the GPU's wavefront over the whole image (row-major states,
-/// every stage of a sample over all pixels before the next; a reuse stage reads a snapshot of
-/// every state and stores what it changed), so the bits match the GPU's.
+/// `restir` with spatial reuse: the GPU's wavefront over the whole image (row-major states).
+/// Each reuse stage reads a snapshot of every state and stores what it changed; the stages
+/// between reuse stages run per pixel in one sweep (the same calls in the same order as the
+/// GPU's dispatches, so the same bits, with fewer sweeps over the states).
 fn restir_wave(
     view: &VolumeView,
     params: &RenderParams,
@@ -131,8 +132,10 @@ fn restir_wave(
     let count = (params.width * params.height) as usize;
     let mut states = vec![RestirState::default(); count];
     let mut sums = vec![PixelSums::default(); count];
+    let stages = stage_count(params);
     for s in 0..params.spp {
-        for stage in 0..stage_count(params) {
+        let mut stage = 0;
+        while stage < stages {
             if is_reuse_stage(params, stage) {
                 let next: Vec<RestirState> = (0..count as u32)
                     .into_par_iter()
@@ -142,16 +145,22 @@ fn restir_wave(
                     .par_iter_mut()
                     .zip(&next)
                     .for_each(|(dst, src)| restir_store_reuse(dst, src, params, stage));
-            } else {
-                states
-                    .par_iter_mut()
-                    .zip(sums.par_iter_mut())
-                    .enumerate()
-                    .for_each(|(id, (st, acc))| {
-                        (*st, *acc) =
-                            restir_step(view, params, scene, id as u32, s, stage, *st, *acc);
-                    });
+                stage += 1;
+                continue;
             }
+            let end = (stage..stages)
+                .find(|&t| is_reuse_stage(params, t))
+                .unwrap_or(stages);
+            states
+                .par_iter_mut()
+                .zip(sums.par_iter_mut())
+                .enumerate()
+                .for_each(|(id, (st, acc))| {
+                    for t in stage..end {
+                        (*st, *acc) = restir_step(view, params, scene, id as u32, s, t, *st, *acc);
+                    }
+                });
+            stage = end;
         }
         if let Some(bar) = bar {
             bar.inc(count as u64);

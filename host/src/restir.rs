@@ -214,3 +214,37 @@ pub struct RestirSettings {
     /// Cap on a reused reservoir's confidence M (0: none).
     pub m_cap: u32,
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Reuse holds every pixel's state: images above 2^24 pixels are refused with it, naming the
+    /// flag; without reuse any size passes.
+    #[test]
+    fn reuse_refuses_images_too_large_to_hold() {
+        let reuse = RestirOptions {
+            passes: 1,
+            ..Default::default()
+        };
+        assert!(reuse.check_image(4096, 4096).is_ok());
+        let e = reuse.check_image(8192, 4096).unwrap_err().to_string();
+        assert!(e.contains("--restir-passes") && e.contains("pixels"), "{e}");
+        assert!(RestirOptions::default().check_image(8192, 4096).is_ok());
+    }
+
+    /// The reuse flags are refused while reuse is off, accepted with it.
+    #[test]
+    fn reuse_flags_need_passes() {
+        let off = RestirOptions {
+            neighbours: 5,
+            ..Default::default()
+        };
+        assert!(off
+            .check()
+            .unwrap_err()
+            .to_string()
+            .contains("--restir-passes 1"));
+        assert!(RestirOptions { passes: 2, ..off }.check().is_ok());
+    }
+}

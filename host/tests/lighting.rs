@@ -1589,17 +1589,6 @@ fn bad_restir_and_many_light_flags_are_refused() {
             vec!["--restir-neighbours", "--restir-passes 1"],
         ),
         (
-            restir(&[
-                "--restir-passes",
-                "1",
-                "--width",
-                "8192",
-                "--height",
-                "4096",
-            ]),
-            vec!["--restir-passes", "pixels"],
-        ),
-        (
             vec!["--lights", "random:8"],
             vec!["--lights", "--integrator direct"],
         ),
