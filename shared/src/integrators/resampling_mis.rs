@@ -65,7 +65,7 @@ mod tests {
         let c = (0..=k).map(|_| (1 + r.next_u32() % 64) as f32).collect();
         let p = (0..=k)
             .map(|_| {
-                if r.next_u32() % 4 == 0 {
+                if r.next_u32().is_multiple_of(4) {
                     0.0
                 } else {
                     1e3 * uniform(r) + 1e-6

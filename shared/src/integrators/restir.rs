@@ -98,7 +98,7 @@ impl RestirState {
     /// resolve reads).
     #[inline]
     pub fn input(&self, pass: u32) -> Reservoir {
-        if pass % 2 == 0 {
+        if pass & 1 == 0 {
             self.reservoir
         } else {
             self.reused

@@ -36,7 +36,7 @@ pub const NO_NEIGHBOUR: u32 = u32::MAX;
 #[inline]
 pub fn store_reuse(dst: &mut RestirState, src: &RestirState, pass: u32) {
     dst.direct = src.direct;
-    if pass % 2 == 0 {
+    if pass & 1 == 0 {
         dst.reused = src.reused;
     } else {
         dst.reservoir = src.reservoir;
@@ -211,7 +211,7 @@ pub fn reuse(
 #[inline]
 fn with_output(st: RestirState, pass: u32, r: Reservoir) -> RestirState {
     let mut st = st;
-    if pass % 2 == 0 {
+    if pass & 1 == 0 {
         st.reused = r;
     } else {
         st.reservoir = r;
