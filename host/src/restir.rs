@@ -15,6 +15,9 @@ pub const MAX_NEIGHBOURS: u32 = 64;
 pub const MAX_RADIUS: u32 = 1024;
 /// Most pixels of an image with spatial reuse (every pixel's state is held at once).
 pub const MAX_REUSE_PIXELS: u64 = 1 << 24;
+/// Largest confidence M a reservoir may reach (candidates x (k + 1)^passes, or the cap): exact
+/// in f32 and far from u32's end, so summing confidences never wraps.
+pub const MAX_CONFIDENCE: u64 = 1 << 24;
 
 /// The options of `restir` (`--restir-*`).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -138,6 +141,21 @@ impl RestirOptions {
             "--restir-radius must be in 1..={MAX_RADIUS} pixels (got {})",
             self.radius
         );
+        ensure!(
+            u64::from(self.m_cap) <= MAX_CONFIDENCE,
+            "--restir-m-cap must be at most {MAX_CONFIDENCE} (got {})",
+            self.m_cap
+        );
+        let worst = self.max_confidence();
+        ensure!(
+            self.passes == 0 || self.m_cap > 0 || worst <= MAX_CONFIDENCE as f64,
+            "with --restir-candidates {} --restir-neighbours {} --restir-passes {} a reservoir's \
+             confidence M can reach {worst:.3e}, above {MAX_CONFIDENCE}: set --restir-m-cap (at \
+             most {MAX_CONFIDENCE}), or use fewer passes or neighbours",
+            self.candidates,
+            self.neighbours,
+            self.passes
+        );
         let d = RestirOptions::default();
         ensure!(
             self.passes > 0
@@ -147,6 +165,11 @@ impl RestirOptions {
              spatial reuse, which is off: add --restir-passes 1 (or more) or drop them"
         );
         Ok(())
+    }
+
+    /// The largest confidence M of a reservoir without a cap: M (k + 1)^passes.
+    pub fn max_confidence(&self) -> f64 {
+        f64::from(self.candidates) * f64::from(self.neighbours + 1).powi(self.passes as i32)
     }
 
     /// Refuses spatial reuse on an image whose states do not fit at once (reuse reads every
@@ -231,6 +254,32 @@ mod tests {
         let e = reuse.check_image(8192, 4096).unwrap_err().to_string();
         assert!(e.contains("--restir-passes") && e.contains("pixels"), "{e}");
         assert!(RestirOptions::default().check_image(8192, 4096).is_ok());
+    }
+
+    /// Confidences that could pass 2^24 are refused unless capped; the cap is bounded too.
+    #[test]
+    fn confidence_stays_exact() {
+        let o = RestirOptions {
+            candidates: 1024,
+            neighbours: 63,
+            passes: 2,
+            ..Default::default()
+        };
+        assert!(o.check().is_ok()); // 1024 x 64^2 = 2^22
+        let deep = RestirOptions { passes: 3, ..o };
+        let e = deep.check().unwrap_err().to_string();
+        assert!(e.contains("--restir-m-cap"), "{e}");
+        assert!(RestirOptions {
+            m_cap: 1000,
+            ..deep
+        }
+        .check()
+        .is_ok());
+        let huge = RestirOptions {
+            m_cap: (1 << 24) + 1,
+            ..deep
+        };
+        assert!(huge.check().is_err());
     }
 
     /// The reuse flags are refused while reuse is off, accepted with it.
