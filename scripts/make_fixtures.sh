@@ -23,7 +23,9 @@ out=tests/fixtures
 build=$(mktemp -d)
 trap 'rm -rf "$build"' EXIT
 mkdir -p "$out"
-rm -f "$out"/*.vdb "$out"/*.nvdb "$out"/*.expected
+# The sparse fixture is not written here (scripts/make_sparse_volumes.py): keep it.
+find "$out" -maxdepth 1 \( -name '*.vdb' -o -name '*.nvdb' -o -name '*.expected' \) \
+  ! -name 'sparse_patches.*' -delete
 
 echo "make_fixtures.sh: compiling scripts/make_fixtures.cpp"
 g++ -std=c++17 -O1 -o "$build/make_fixtures" scripts/make_fixtures.cpp -lopenvdb -ltbb -lImath-3_1
@@ -37,5 +39,9 @@ for name in density_blosc scale_translate affine tiles multi vec3 int; do
 done
 nvdb -b "$out/density_blosc.vdb" "$out/density_blosc.nvdb"
 nvdb -z --fp16 "$out/density_blosc.vdb" "$out/density_fp16.nvdb"
+# The sparse fixture (written by scripts/make_sparse_volumes.py fixture) as NanoVDB.
+if [ -f "$out/sparse_patches.vdb" ]; then
+  nvdb -z "$out/sparse_patches.vdb" "$out/sparse_patches.nvdb"
+fi
 
 ls -l "$out"

@@ -1,5 +1,6 @@
-//! Dense extinction volumes (`dense`) and their file loaders: a scalar grid of an OpenVDB (`.vdb`)
-//! or NanoVDB (`.nvdb`) file, made dense over its active voxels' bounding box.
+//! Extinction volumes, dense (`dense`) or sparse (`sparse`), and their file loaders: a scalar
+//! grid of an OpenVDB (`.vdb`) or NanoVDB (`.nvdb`) file, its leaves and tiles kept sparse or
+//! made dense over its active voxels' bounding box.
 //!
 //! Index conventions: OpenVDB and NanoVDB put voxel centers at integer index coordinates (voxel
 //! `c` covers `[c - 0.5, c + 0.5]`), while [`DenseVolume`] voxel `i` covers `[i, i + 1)`. Dense
@@ -15,6 +16,7 @@ pub mod dense;
 mod nanovdb;
 mod openvdb;
 pub mod sparse;
+mod topology;
 pub mod volume;
 
 use anyhow::{anyhow, bail, ensure, Context, Result};
@@ -63,10 +65,11 @@ pub struct LoadOptions<'a> {
     pub max_voxels: u64,
     /// Set negative densities to 0 instead of refusing the file.
     pub clamp_negative: bool,
-    /// Keep an OpenVDB grid sparse (its leaves and tiles only) instead of filling a dense
-    /// array over its bounding box. The two read the same, voxel for voxel; a grid with a
-    /// nonzero background, or nodes off the 8-voxel lattice (corrupt files), loads dense.
-    /// NanoVDB files load dense.
+    /// Keep a grid sparse (its leaves and tiles only) instead of filling a dense array over
+    /// its bounding box. The two read the same, voxel for voxel; a grid with a nonzero
+    /// background, nodes off the 8-voxel lattice (corrupt .vdb files) or, in a .nvdb, active
+    /// voxels outside its stored index bounding box (never written by NanoVDB's tools) loads
+    /// dense.
     pub sparse: bool,
 }
 
@@ -98,7 +101,7 @@ pub fn load_volume_with(path: &Path, options: &LoadOptions) -> Result<LoadedVolu
     let grid = options.grid;
     let loaded = guarded(|| match format {
         Format::OpenVdb => openvdb::load(&read_file(path)?, grid, cap, options.sparse),
-        Format::NanoVdb => nanovdb::load(path, grid, cap),
+        Format::NanoVdb => nanovdb::load(path, grid, cap, options.sparse),
     })
     .with_context(|| format!("cannot load {} file {}", format.name(), path.display()))?;
     loaded.into_volume(path, options.clamp_negative)

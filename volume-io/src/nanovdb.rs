@@ -1,9 +1,16 @@
 //! NanoVDB (`.nvdb`) reader for float grids, on the `nanovdb-rs` crate: uncompressed or ZIP
 //! files, major version 32. The tree's node offsets are validated before any voxel is read.
+//!
+//! A sparse load walks the validated tree's nodes ([`walk`]: root tiles, the 32^3 upper and
+//! 16^3 lower internal nodes, the 8^3 leaves) into the sparse cells, never visiting the
+//! bounding box voxel by voxel; the dense load asks the crate's accessor for every voxel of the
+//! index bounding box. The two read the same voxels (tested on every fixture).
 
-use super::{select_grid, DenseBuilder, GridEntry, LinearMap, Loaded};
+use super::topology::{bit, child_origin, ones, Survey, TopologySink};
+use super::{select_grid, DenseBuilder, GridEntry, LinearMap, Loaded, Voxels};
 use anyhow::{ensure, Context, Result};
-use nanovdb_rs::{GridClass, GridType, NvdbFile, ValidatedFloatTreeCache};
+use nanovdb_rs::{GridClass, GridType, NvdbFile, ValidatedFloatTreeCache, GRID_DATA_SIZE};
+use std::collections::HashSet;
 use std::path::Path;
 
 /// `"NanoVDB0"` as a little-endian u64: the first field of every segment header and grid.
@@ -19,13 +26,14 @@ const META_FIXED_BYTES: u64 = 176;
 const ZLIB_MAX_RATIO: u64 = 1032;
 
 /// Loads grid `grid` (or the default) of the `.nvdb` file at `path`, refusing dense grids of
-/// more than `cap` voxels.
-pub fn load(path: &Path, grid: Option<&str>, cap: u64) -> Result<Loaded> {
+/// more than `cap` voxels; `sparse`: keep it sparse where it can be (see
+/// [`super::LoadOptions::sparse`]).
+pub fn load(path: &Path, grid: Option<&str>, cap: u64, sparse: bool) -> Result<Loaded> {
     preflight(&super::read_file(path)?)?;
     let file = NvdbFile::open(path).map_err(explain)?;
     let entries: Vec<GridEntry> = file.grids().iter().map(entry).collect();
     let chosen = &file.grids()[select_grid(&entries, grid)?];
-    load_grid(chosen, cap).with_context(|| format!("grid '{}'", chosen.name()))
+    load_grid(chosen, cap, sparse).with_context(|| format!("grid '{}'", chosen.name()))
 }
 
 /// Walks the file's segments and grid metadata as `nanovdb-rs` will, refusing what would make it
@@ -126,8 +134,9 @@ fn entry(g: &nanovdb_rs::Grid) -> GridEntry {
     e
 }
 
-/// Reads one float grid into a dense grid over its index bounding box.
-fn load_grid(g: &nanovdb_rs::Grid, cap: u64) -> Result<Loaded> {
+/// Reads one float grid: sparse (see [`load_sparse`]) or into a dense grid over its index
+/// bounding box.
+fn load_grid(g: &nanovdb_rs::Grid, cap: u64, sparse: bool) -> Result<Loaded> {
     let version = g.metadata.version;
     ensure!(
         version.major() == MAJOR_VERSION,
@@ -153,8 +162,17 @@ fn load_grid(g: &nanovdb_rs::Grid, cap: u64) -> Result<Loaded> {
         map.is_finite(),
         "the transform has non-finite entries: the file is corrupt"
     );
-    let mut accessor = g.float_read_accessor().context("not a float grid")?;
     let (lo, hi) = g.index_bbox();
+    if sparse {
+        if let Some(voxels) = load_sparse(bytes, (lo, hi), cap)? {
+            return Ok(Loaded {
+                voxels,
+                map,
+                grid: g.name().to_owned(),
+            });
+        }
+    }
+    let mut accessor = g.float_read_accessor().context("not a float grid")?;
     let mut bounds = DenseBuilder::default();
     if (0..3).all(|a| lo[a] <= hi[a]) {
         bounds.include(lo.map(i64::from), hi.map(i64::from));
@@ -174,4 +192,232 @@ fn load_grid(g: &nanovdb_rs::Grid, cap: u64) -> Result<Loaded> {
         map,
         grid: g.name().to_owned(),
     })
+}
+
+/// The grid's active tiles and leaves as sparse cells, if it can be kept sparse: background 0
+/// and the active voxels' bounds equal to the index bounding box `bbox` (what NanoVDB's
+/// builders write; the dense load reads exactly that box). `None`: load it dense (which also
+/// gives the errors of empty boxes and boxes above `cap` voxels).
+fn load_sparse(bytes: &[u8], bbox: ([i32; 3], [i32; 3]), cap: u64) -> Result<Option<Voxels>> {
+    let (lo, hi) = (bbox.0.map(i64::from), bbox.1.map(i64::from));
+    if (0..3).any(|a| lo[a] > hi[a]) || super::dense_dims(lo, hi, cap).is_err() {
+        return Ok(None);
+    }
+    let tree = Tree::new(bytes, (lo, hi))?;
+    let mut survey = Survey::default();
+    tree.walk(&mut |node| match node {
+        Node::Tile {
+            origin,
+            log2,
+            value,
+        } => survey.tile(origin, log2, value),
+        Node::Leaf { origin, mask, .. } => survey.leaf(origin, mask),
+    })?;
+    if !survey.fits_cells(tree.background) || survey.bounds.bounds != Some((lo, hi)) {
+        return Ok(None);
+    }
+    let mut voxels = survey.allocate_cells(cap, false)?;
+    let mut values = vec![0.0f32; 512];
+    tree.walk(&mut |node| match node {
+        Node::Tile {
+            origin,
+            log2,
+            value,
+        } => voxels.tile(origin, log2, value),
+        Node::Leaf {
+            origin,
+            mask,
+            values: raw,
+        } => {
+            for (v, b) in values.iter_mut().zip(raw.as_chunks::<4>().0) {
+                *v = f32::from_le_bytes(*b);
+            }
+            voxels.set_leaf(origin, &mask, &values);
+        }
+    })?;
+    Ok(Some(voxels))
+}
+
+/// Bytes of a root node's header before its tile table (`RootData<float>`, 32-byte aligned).
+const ROOT_HEADER_BYTES: usize = 64;
+/// Bytes of one root tile: key u64, child offset i64, state u32, value f32, padding.
+const ROOT_TILE_BYTES: usize = 32;
+/// Offset of a leaf's active-voxel mask (after its bbox and flags).
+const LEAF_MASK_AT: usize = 16;
+/// Offset of a leaf's 512 f32 values (after the mask and its min/max/average/std).
+const LEAF_VALUES_AT: usize = 96;
+/// Root keys put each axis's coordinate bits above 12 in 21-bit fields (z lowest, x highest)
+/// of which the coordinate fills 20; a key with other bits set is reached by no coordinate.
+const ROOT_KEY_BITS: u64 = 0xF_FFFF | 0xF_FFFF << 21 | 0xF_FFFF << 42;
+
+/// A node met by [`Tree::walk`].
+enum Node<'a> {
+    /// An active tile of `2^log2` voxels per axis at `origin` with value `value`.
+    Tile {
+        origin: [i32; 3],
+        log2: u32,
+        value: f32,
+    },
+    /// A leaf at `origin`: its active-voxel mask and its 512 values (f32, little-endian, bit
+    /// `x << 6 | y << 3 | z`).
+    Leaf {
+        origin: [i32; 3],
+        mask: [u64; 8],
+        values: &'a [u8],
+    },
+}
+
+/// A float grid's tree, for walking its nodes within a box.
+struct Tree<'a> {
+    bytes: &'a [u8],
+    /// The inclusive index box walked: nodes entirely outside it are skipped (the dense load
+    /// never reads them either), so a corrupt tree whose nodes share children cannot make the
+    /// walk visit more nodes than the box holds.
+    clip: ([i64; 3], [i64; 3]),
+    /// Byte offset of the root node in `bytes`.
+    root: usize,
+    background: f32,
+}
+
+impl<'a> Tree<'a> {
+    /// The tree of validated grid bytes (see [`ValidatedFloatTreeCache`]), walked in `clip`.
+    fn new(bytes: &'a [u8], clip: ([i64; 3], [i64; 3])) -> Result<Self> {
+        let mut tree = Tree {
+            bytes,
+            clip,
+            root: 0,
+            background: 0.0,
+        };
+        // TreeData follows GridData: node offsets leaf, lower, upper, root, relative to it.
+        let root = tree.u64(GRID_DATA_SIZE + 24)?;
+        tree.root = usize::try_from(root)
+            .ok()
+            .and_then(|r| r.checked_add(GRID_DATA_SIZE))
+            .context("the root node offset is out of range: the file is corrupt")?;
+        tree.background = f32::from_bits(tree.u32(tree.root + 28)?);
+        Ok(tree)
+    }
+
+    /// `n` bytes at `at`, or an error if the grid is shorter.
+    fn slice(&self, at: usize, n: usize) -> Result<&'a [u8]> {
+        at.checked_add(n)
+            .and_then(|end| self.bytes.get(at..end))
+            .with_context(|| {
+                format!("a node at byte {at} runs past the end of the grid: the file is corrupt")
+            })
+    }
+
+    fn u32(&self, at: usize) -> Result<u32> {
+        Ok(u32::from_le_bytes(self.slice(at, 4)?.try_into()?))
+    }
+
+    fn u64(&self, at: usize) -> Result<u64> {
+        Ok(u64::from_le_bytes(self.slice(at, 8)?.try_into()?))
+    }
+
+    /// Whether the node of `2^log2` voxels per axis at `origin` overlaps the walked box.
+    fn overlaps(&self, origin: [i32; 3], log2: u32) -> bool {
+        let (lo, hi) = self.clip;
+        (0..3).all(|a| {
+            let o = i64::from(origin[a]);
+            o <= hi[a] && o + (1i64 << log2) > lo[a]
+        })
+    }
+
+    /// The node `offset` bytes (signed) from the node at `from`.
+    fn child(&self, from: usize, offset: u64) -> Result<usize> {
+        (from as i64)
+            .checked_add(offset as i64)
+            .and_then(|c| usize::try_from(c).ok())
+            .context("a child offset points outside the grid: the file is corrupt")
+    }
+
+    /// Calls `visit` for every active tile and every leaf, each at the place the tree's
+    /// coordinates give it (as the accessor finds them; a node's own bbox fields are not read).
+    /// A root key listed twice is walked once, as the accessor only ever finds the first.
+    fn walk(&self, visit: &mut impl FnMut(Node<'a>)) -> Result<()> {
+        let count = self.u32(self.root + 24)? as usize;
+        let mut seen = HashSet::new();
+        for i in 0..count {
+            let tile = self.root + ROOT_HEADER_BYTES + i * ROOT_TILE_BYTES;
+            let key = self.u64(tile)?;
+            if key & !ROOT_KEY_BITS != 0 || !seen.insert(key) {
+                continue;
+            }
+            let field = |shift: u32| (((key >> shift) & 0xF_FFFF) << 12) as u32 as i32;
+            let origin = [field(42), field(21), field(0)];
+            if !self.overlaps(origin, 12) {
+                continue;
+            }
+            let child = self.u64(tile + 8)?;
+            if child == 0 {
+                if self.u32(tile + 16)? != 0 {
+                    let value = f32::from_bits(self.u32(tile + 20)?);
+                    visit(Node::Tile {
+                        origin,
+                        log2: 12,
+                        value,
+                    });
+                }
+            } else {
+                self.internal(self.child(self.root, child)?, origin, 5, visit)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// An internal node of `2^log2` children per axis (5: upper, 4: lower) at `origin`.
+    fn internal(
+        &self,
+        node: usize,
+        origin: [i32; 3],
+        log2: u32,
+        visit: &mut impl FnMut(Node<'a>),
+    ) -> Result<()> {
+        let slots = 1usize << (3 * log2);
+        let mask_bytes = slots / 8;
+        let masks = |at: usize| -> Result<Vec<u64>> {
+            Ok(self
+                .slice(at, mask_bytes)?
+                .as_chunks::<8>()
+                .0
+                .iter()
+                .map(|&w| u64::from_le_bytes(w))
+                .collect())
+        };
+        // InternalData: bbox (24), flags (8), value mask, child mask, 4 statistics, 32-aligned.
+        let value_mask = masks(node + 32)?;
+        let child_mask = masks(node + 32 + mask_bytes)?;
+        let table = node + (32 + 2 * mask_bytes + 16).next_multiple_of(32);
+        let child_log2 = if log2 == 5 { 7 } else { 3 };
+        for n in ones(&value_mask).filter(|&n| !bit(&child_mask, n)) {
+            let tile = child_origin(origin, n, log2, child_log2);
+            if self.overlaps(tile, child_log2) {
+                visit(Node::Tile {
+                    origin: tile,
+                    log2: child_log2,
+                    value: f32::from_bits(self.u32(table + 8 * n)?),
+                });
+            }
+        }
+        for n in ones(&child_mask) {
+            let at = origin;
+            let origin = child_origin(at, n, log2, child_log2);
+            if !self.overlaps(origin, child_log2) {
+                continue;
+            }
+            let child = self.child(node, self.u64(table + 8 * n)?)?;
+            if log2 == 5 {
+                self.internal(child, origin, 4, visit)?;
+            } else {
+                let mask = self.slice(child + LEAF_MASK_AT, 64)?.as_chunks::<8>().0;
+                visit(Node::Leaf {
+                    origin,
+                    mask: std::array::from_fn(|w| u64::from_le_bytes(mask[w])),
+                    values: self.slice(child + LEAF_VALUES_AT, 512 * 4)?,
+                });
+            }
+        }
+        Ok(())
+    }
 }

@@ -7,7 +7,8 @@
 
 use super::blosc;
 use super::bytes::ByteReader;
-use super::{sparse, DenseBuilder, GridEntry, LinearMap, Voxels};
+use super::topology::{bit, child_origin, ones, Leaf, Survey, TopologySink};
+use super::{GridEntry, LinearMap, Voxels};
 use anyhow::{bail, ensure, Context, Result};
 use std::io::Read;
 
@@ -48,12 +49,6 @@ struct Storage {
     /// Bytes of one value in the tree (4 for float, 8 for double).
     value_size: usize,
     half: bool,
-}
-
-/// A leaf node found in the topology; its values come later, in the buffer section.
-struct Leaf {
-    origin: [i32; 3],
-    mask: [u64; 8],
 }
 
 /// Loads grid `grid` (or the default) of the `.vdb` file held in `data`, refusing dense grids
@@ -275,103 +270,6 @@ fn read_affine(r: &mut ByteReader) -> Result<LinearMap> {
     Ok(map)
 }
 
-/// Receives the active tiles and the leaves of a tree topology, in file order.
-trait TopologySink {
-    /// An active tile of `2^log2` voxels per axis at `origin`.
-    fn tile(&mut self, origin: [i32; 3], log2: u32, value: f32);
-    /// A leaf node at `origin` with active-voxel mask `mask`.
-    fn leaf(&mut self, origin: [i32; 3], mask: [u64; 8]);
-}
-
-/// Pass one over the topology: the active bounding box and the leaves.
-#[derive(Default)]
-struct Survey {
-    bounds: DenseBuilder,
-    leaves: Vec<Leaf>,
-    /// A tile or leaf off the 8-voxel lattice (only in corrupt files).
-    off_lattice: bool,
-}
-
-impl Survey {
-    /// Whether the grid can be kept as [`sparse::Cells`]: background 0 (+0: a -0 background
-    /// reads as stored nonzero f16 bits) and every node on the 8-voxel lattice.
-    fn fits_cells(&self, background: f32) -> bool {
-        background.to_bits() == 0 && !self.off_lattice
-    }
-
-    /// Empty cells over the bounding box, with room for the leaves; refuses boxes above `cap`
-    /// voxels (as a dense grid would be refused) and tables or leaves that do not fit memory.
-    fn allocate_cells(&self, cap: u64, half: bool) -> Result<Voxels> {
-        let (lo, hi) = self
-            .bounds
-            .bounds
-            .context("the grid has no active voxels (it is empty); pick another grid")?;
-        let dims = super::dense_dims(lo, hi, cap)?;
-        let leaves = self.leaves.len();
-        // The leaves' values (f16 from a half-float file, else f32), later the f16 pool of at
-        // most as many voxels, and the table.
-        let table: u64 = dims.iter().map(|&d| u64::from(d / 8 + 2)).product();
-        let value_bytes = if half { 2 } else { 4 };
-        let bytes = leaves as u64 * sparse::CELL_VALUES as u64 * (value_bytes + 2) + table * 4;
-        super::check_bytes(bytes, "its leaves", super::available_memory())?;
-        let mut cells = sparse::Cells::new(lo, hi, half)
-            .context("the grid's cell table does not fit memory; crop the volume")?;
-        ensure!(
-            cells.reserve_leaves(leaves),
-            "cannot allocate {:.1} GiB for its {leaves} leaves; crop or resample the volume",
-            bytes as f64 / (1u64 << 30) as f64
-        );
-        Ok(Voxels::Sparse {
-            cells,
-            min: lo.map(|v| v as i32),
-            dims,
-        })
-    }
-}
-
-impl TopologySink for Survey {
-    fn tile(&mut self, origin: [i32; 3], log2: u32, _value: f32) {
-        self.off_lattice |= origin.iter().any(|&o| o % 8 != 0) || log2 < 3;
-        self.bounds.include_tile(origin, log2);
-    }
-
-    fn leaf(&mut self, origin: [i32; 3], mask: [u64; 8]) {
-        self.off_lattice |= origin.iter().any(|&o| o % 8 != 0);
-        self.bounds.include_leaf(origin, &mask);
-        self.leaves.push(Leaf { origin, mask });
-    }
-}
-
-/// Pass two over the topology: the active tiles' values.
-impl TopologySink for Voxels {
-    fn tile(&mut self, origin: [i32; 3], log2: u32, value: f32) {
-        match self {
-            Voxels::Dense(dense) => dense.fill_tile(origin, log2, value),
-            Voxels::Sparse { cells, .. } => cells.tile(origin, log2, value),
-        }
-    }
-
-    fn leaf(&mut self, _origin: [i32; 3], _mask: [u64; 8]) {}
-}
-
-impl Voxels {
-    /// Writes the active values of a leaf at `origin` (bit `n` of `mask`: `values[n]`).
-    fn set_leaf(&mut self, origin: [i32; 3], mask: &[u64; 8], values: &[f32]) {
-        match self {
-            Voxels::Dense(dense) => {
-                for n in ones(mask) {
-                    let v = [n >> 6, (n >> 3) & 7, n & 7];
-                    dense.set(
-                        std::array::from_fn(|a| origin[a].wrapping_add(v[a] as i32)),
-                        values[n],
-                    );
-                }
-            }
-            Voxels::Sparse { cells, .. } => cells.leaf(origin, mask, values),
-        }
-    }
-}
-
 /// Reads a tree topology (`Tree::readTopology`) into `sink`; returns the background value.
 fn read_topology(
     r: &mut ByteReader,
@@ -449,13 +347,6 @@ impl<S: TopologySink> Walk<'_, '_, S> {
         }
         Ok(())
     }
-}
-
-/// Origin of child `n` of a node at `origin` with `2^log2` children per axis (x slowest).
-fn child_origin(origin: [i32; 3], n: usize, log2: u32, child_log2: u32) -> [i32; 3] {
-    let dim = (1usize << log2) - 1;
-    let local = [n >> (2 * log2), (n >> log2) & dim, n & dim];
-    std::array::from_fn(|a| origin[a].wrapping_add((local[a] as i32) << child_log2))
 }
 
 /// Reads each leaf's value buffer (in topology order) and writes its active voxels.
@@ -584,41 +475,9 @@ fn read_mask(r: &mut ByteReader, words: usize) -> Result<Vec<u64>> {
         .collect())
 }
 
-/// Whether bit `n` of `mask` is set.
-fn bit(mask: &[u64], n: usize) -> bool {
-    mask[n / 64] >> (n % 64) & 1 == 1
-}
-
-/// Indices of the set bits of `mask`, in increasing order.
-fn ones(mask: &[u64]) -> impl Iterator<Item = usize> + '_ {
-    mask.iter().enumerate().flat_map(|(w, &word)| {
-        let mut bits = word;
-        std::iter::from_fn(move || {
-            (bits != 0).then(|| {
-                let b = bits.trailing_zeros() as usize;
-                bits &= bits - 1;
-                w * 64 + b
-            })
-        })
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn ones_lists_set_bits_in_order() {
-        let mask = [0b1010u64, 1 << 63];
-        assert_eq!(ones(&mask).collect::<Vec<_>>(), vec![1, 3, 127]);
-    }
-
-    #[test]
-    fn child_origin_puts_x_slowest() {
-        assert_eq!(child_origin([0, 0, 0], 1, 4, 3), [0, 0, 8]);
-        assert_eq!(child_origin([0, 0, 0], 16, 4, 3), [0, 8, 0]);
-        assert_eq!(child_origin([-128, 0, 0], 256, 4, 3), [-120, 0, 0]);
-    }
 
     #[test]
     fn affine_matrix_is_transposed_from_row_vector_form() {
