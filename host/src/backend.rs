@@ -44,12 +44,23 @@ impl Backend {
         }
     }
 
-    /// "cpu" or "gpu".
-    /// [`Backend::open`] for rendering `volume`: a volume whose voxel or brick array exceeds the
-    /// GPU's largest storage buffer makes `auto` fall back to the CPU with a warning and a forced
-    /// `--backend gpu` fail with advice (volumes are not split across buffers).
-    pub fn open_for(choice: BackendChoice, volume: &crate::bricks::PackedVolume) -> Result<Self> {
-        let backend = Self::open(choice)?;
+    /// log2 of the words per page of the voxel pool this backend binds (see
+    /// [`crate::bricks::pack_paged`]): the GPU's largest page; the CPU reads the pool as one
+    /// page whatever its layout and keeps the layout every device binds.
+    pub fn page_log2(&self) -> u32 {
+        match self {
+            Backend::Cpu => shared::volume::pages::GPU_PAGE_LOG2,
+            Backend::Gpu(g) => g.page_log2(),
+        }
+    }
+
+    /// This backend, opened for `choice`, for rendering `volume` (packed with
+    /// [`Backend::page_log2`]): a volume the GPU cannot hold (a page or the brick array above
+    /// its largest storage buffer, more pages than the kernels bind, or more bytes than its
+    /// device-local memory) makes `auto` fall back to the CPU with a warning and a forced
+    /// `--backend gpu` fail with advice.
+    pub fn fit(self, choice: BackendChoice, volume: &crate::bricks::PackedVolume) -> Result<Self> {
+        let backend = self;
         let Some(why) = backend.cannot_hold(volume) else {
             return Ok(backend);
         };
@@ -64,7 +75,8 @@ impl Backend {
     }
 
     /// Why this backend cannot hold `volume` (a GPU whose largest storage buffer is smaller
-    /// than the voxel or brick array), or `None` if it can.
+    /// than a page of the voxel pool or the brick array, or whose device-local memory is
+    /// smaller than both), or `None` if it can.
     pub fn cannot_hold(&self, volume: &crate::bricks::PackedVolume) -> Option<String> {
         let Backend::Gpu(gpu) = self else {
             return None;
@@ -80,18 +92,34 @@ impl Backend {
             .max()
             .unwrap_or(0)
             .max(std::mem::size_of_val(volume.bricks.as_slice()) as u64);
-        (largest > limit).then(|| {
-            format!(
+        if largest > limit {
+            return Some(format!(
                 "the {}x{}x{} volume needs a {largest}-byte storage buffer, more than this GPU's \
                  maxStorageBufferRange of {limit} bytes ({})",
                 d[0],
                 d[1],
                 d[2],
                 gpu.description()
+            ));
+        }
+        let total = std::mem::size_of_val(volume.voxels.as_slice()) as u64
+            + std::mem::size_of_val(volume.bricks.as_slice()) as u64;
+        let memory = gpu.device_local_bytes();
+        (memory > 0 && total > memory).then(|| {
+            format!(
+                "the {}x{}x{} volume's voxel pool and brick table need {:.2} GiB, more than this \
+                 GPU's {:.2} GiB of device-local memory ({})",
+                d[0],
+                d[1],
+                d[2],
+                total as f64 / f64::from(1 << 30),
+                memory as f64 / f64::from(1 << 30),
+                gpu.description()
             )
         })
     }
 
+    /// "cpu" or "gpu".
     pub fn kind(&self) -> &'static str {
         match self {
             Backend::Cpu => "cpu",

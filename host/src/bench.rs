@@ -188,6 +188,16 @@ fn backends(choice: BenchBackend) -> Result<Vec<Backend>> {
     Ok(out)
 }
 
+/// The pages the volumes are packed in: the largest any of `backends` binds (the CPU reads
+/// every layout as one page).
+fn page_log2(backends: &[Backend]) -> u32 {
+    backends
+        .iter()
+        .map(Backend::page_log2)
+        .max()
+        .unwrap_or(shared::volume::pages::GPU_PAGE_LOG2)
+}
+
 /// Kernel time since the last call, if `backend` is a GPU with timestamps.
 fn kernel_ns(backend: &Backend) -> Option<u64> {
     match backend {
@@ -300,8 +310,14 @@ pub fn run(args: &BenchOptions) -> Result<BenchReport> {
     } else {
         estimators(&args.sweep_estimators, "--sweep-estimators")?
     };
-    let scene = crate::commands::prepare_scene(&args.scene, lookup, args.width, args.height)?;
     let backends = backends(args.backend)?;
+    let scene = crate::commands::prepare_scene(
+        &args.scene,
+        lookup,
+        args.width,
+        args.height,
+        page_log2(&backends),
+    )?;
     let base = RenderParams {
         camera: scene.camera,
         world_to_index: scene.world_to_index,
@@ -481,7 +497,13 @@ fn sweep(
             let mut scene_args = args.scene.clone();
             scene_args.resolution = resolution;
             let t = Instant::now();
-            let scene = crate::commands::prepare_scene(&scene_args, lookup, size, size)?;
+            let scene = crate::commands::prepare_scene(
+                &scene_args,
+                lookup,
+                size,
+                size,
+                page_log2(backends),
+            )?;
             if !args.quiet {
                 tracing::info!(
                     "sweep: {name} {resolution}^3 prepared in {:.1} s ({} of {} bricks occupied, \
@@ -546,9 +568,14 @@ fn sweep_files(
         scene_args.volume = file.display().to_string();
         let rss_before_bytes = reset_peak_rss().then(|| memory_line("VmRSS:")).flatten();
         let t = Instant::now();
-        let scene =
-            crate::commands::prepare_scene(&scene_args, args.lookup, args.width, args.height)
-                .with_context(|| format!("--sweep-files {}", file.display()))?;
+        let scene = crate::commands::prepare_scene(
+            &scene_args,
+            args.lookup,
+            args.width,
+            args.height,
+            page_log2(backends),
+        )
+        .with_context(|| format!("--sweep-files {}", file.display()))?;
         let prepare_ms = t.elapsed().as_secs_f64() * 1e3;
         let peak_rss_bytes = rss_before_bytes.and_then(|_| memory_line("VmHWM:"));
         let d = scene.volume.dims();

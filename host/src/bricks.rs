@@ -16,13 +16,44 @@ pub fn pack(
     brick_size: u32,
     lookup: Lookup,
 ) -> Result<PackedVolume> {
+    pack_paged(
+        vol,
+        density_scale,
+        brick_size,
+        lookup,
+        shared::volume::pages::GPU_PAGE_LOG2,
+    )
+}
+
+/// [`pack`] with the pool laid out in pages of 2^`page_log2` words (what the backend binds:
+/// [`crate::backend::Backend::page_log2`]); the voxels read are the same for every page size.
+pub fn pack_paged(
+    vol: &dyn VolumeData,
+    density_scale: f32,
+    brick_size: u32,
+    lookup: Lookup,
+    page_log2: u32,
+) -> Result<PackedVolume> {
     GridBuilder::from_boxes(vol.dims(), |lo, hi, out| vol.fill(lo, hi, out))
+        .page_log2(page_log2)
         .density_scale(density_scale)
         .brick_size(brick_size)
         .lookup(lookup)
         .max_chord(world_chord(vol))
         .build()
         .map_err(|e| explain(vol, e))
+}
+
+/// log2 of the words per page for a device whose storage buffers (and allocations) hold at
+/// most `max_buffer_bytes`: the largest page that fits one, from
+/// [`shared::volume::pages::GPU_PAGE_LOG2`] (128 MiB, what every Vulkan device binds; a device
+/// reporting less is refused later, naming the buffer) to [`jackknife::MAX_PAGE_LOG2`] (1 GiB:
+/// eight such pages hold the largest pool a u32 voxel index reaches).
+pub fn page_log2_for(max_buffer_bytes: u64) -> u32 {
+    (max_buffer_bytes / 4).max(1).ilog2().clamp(
+        shared::volume::pages::GPU_PAGE_LOG2,
+        jackknife::MAX_PAGE_LOG2,
+    )
 }
 
 /// Why the kernels cannot bind `packed`'s voxel pool (more pages than they have bindings), or
@@ -95,6 +126,21 @@ fn explain(vol: &dyn VolumeData, e: BuildError) -> anyhow::Error {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn pages_are_the_largest_power_of_two_a_buffer_holds() {
+        use super::page_log2_for;
+        // lavapipe and the Vulkan minimum (128 MiB): 2^25 words, as before.
+        assert_eq!(page_log2_for(1 << 27), 25);
+        assert_eq!(page_log2_for((1 << 28) - 1), 25);
+        assert_eq!(page_log2_for(1 << 29), 27);
+        // NVIDIA's 4 GiB - 1: 1 GiB pages (2 GiB would fit, but 8 of them pass the u32 index).
+        assert_eq!(page_log2_for(u64::from(u32::MAX)), 28);
+        assert_eq!(page_log2_for(u64::MAX), 28);
+        // Smaller than any device may report: the minimum page (refused later, naming it).
+        assert_eq!(page_log2_for(64), 25);
+        assert_eq!(page_log2_for(0), 25);
+    }
+
     use super::*;
     use crate::volume::{Affine, DenseVolume};
     use half::f16;

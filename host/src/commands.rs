@@ -1,7 +1,6 @@
 //! The subcommands: each parses nothing, validates its flags, runs, and reports.
 
 use crate::backend::{Backend, BackendChoice};
-use crate::bricks::pack;
 use crate::output::{write_exr, write_json, write_png, OutputPlan};
 use crate::render::{make_camera, occupied_world_bounds, world_to_index, CameraSpec};
 use crate::volume::{Volume, VolumeData};
@@ -381,10 +380,12 @@ pub struct RenderSummary {
     pub occupied_bricks: usize,
     pub pool_bytes: u64,
     pub brick_table_bytes: u64,
-    /// 128 MiB pages of the voxel pool (a GPU binds up to 8).
+    /// Pages of the voxel pool (a GPU binds up to 8) and their size: 128 MiB, what every
+    /// device binds, or up to 1 GiB on a GPU with larger storage buffers.
     pub pool_pages: usize,
+    pub pool_page_bytes: u64,
     /// How the loaded voxels were held before packing: "dense" (the bounding box as f32) or
-    /// "sparse" (an OpenVDB file's leaves and tiles only), and their bytes.
+    /// "sparse" (a file's leaves and tiles only), and their bytes.
     pub volume_storage: String,
     pub volume_bytes: u64,
     /// Wall time to load (or generate) and pack the volume.
@@ -743,11 +744,20 @@ fn direct_settings(
 pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
     check_render_flags(args)?;
     let png = plan_render_outputs(args)?;
+    // The backend first: a forced GPU that is missing fails before any loading, and the pool
+    // is laid out in the pages the device binds.
+    let backend = Backend::open(args.backend)?;
     let t_load = Instant::now();
-    let scene = prepare_scene(&args.scene, args.lookup, args.width, args.height)?;
+    let scene = prepare_scene(
+        &args.scene,
+        args.lookup,
+        args.width,
+        args.height,
+        backend.page_log2(),
+    )?;
     let (vol, packed, density_scale) = (&scene.volume, &scene.packed, scene.density_scale);
     let load_ms = t_load.elapsed().as_secs_f64() * 1e3;
-    let backend = Backend::open_for(args.backend, packed)?;
+    let backend = backend.fit(args.backend, packed)?;
     let volume_label = match &scene.grid {
         Some(grid) => format!("{} (grid '{grid}')", vol.name()),
         None => vol.name().to_owned(),
@@ -939,6 +949,7 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         pool_bytes: std::mem::size_of_val(packed.voxels.as_slice()) as u64,
         brick_table_bytes: std::mem::size_of_val(packed.bricks.as_slice()) as u64,
         pool_pages: packed.pages().count(),
+        pool_page_bytes: 4u64 << packed.page_log2,
         volume_storage: vol.storage().into(),
         volume_bytes: vol.stored_bytes(),
         prepare_ms: load_ms,
@@ -1041,8 +1052,15 @@ pub struct Scene {
     pub up: crate::render::UpAxis,
 }
 
-/// Loads the volume of `--volume`, packs it and sets up the camera for a `w` x `h` image.
-pub fn prepare_scene(args: &SceneOptions, lookup: Lookup, w: u32, h: u32) -> Result<Scene> {
+/// Loads the volume of `--volume`, packs it (its pool in pages of 2^`page_log2` words: see
+/// [`Backend::page_log2`]) and sets up the camera for a `w` x `h` image.
+pub fn prepare_scene(
+    args: &SceneOptions,
+    lookup: Lookup,
+    w: u32,
+    h: u32,
+    page_log2: u32,
+) -> Result<Scene> {
     anyhow::ensure!(
         args.fov.is_finite() && args.fov > 0.0 && args.fov < 180.0,
         "--fov must be in (0, 180) degrees (got {})",
@@ -1064,7 +1082,8 @@ pub fn prepare_scene(args: &SceneOptions, lookup: Lookup, w: u32, h: u32) -> Res
             volume.dims().iter().map(|&d| u64::from(d)).product::<u64>(),
             volume.storage()
         ));
-        let packed = pack(&volume, density_scale, args.brick_size, lookup)?;
+        let packed =
+            crate::bricks::pack_paged(&volume, density_scale, args.brick_size, lookup, page_log2)?;
         Ok((volume, grid, density_scale, packed))
     })();
     // Cleared on errors too, so the spinner never stays above an error message.
@@ -1172,9 +1191,11 @@ pub fn run_eval(args: &EvalOptions) -> Result<()> {
     };
     let json = plan_eval_outputs(args, &images)?;
     let lookup = args.lookup;
-    let scene = prepare_scene(&args.scene, lookup, args.width, args.height)?;
+    let backend = Backend::open(args.backend)?;
+    let page_log2 = backend.page_log2();
+    let scene = prepare_scene(&args.scene, lookup, args.width, args.height, page_log2)?;
     let (vol, packed) = (&scene.volume, &scene.packed);
-    let backend = Backend::open_for(args.backend, packed)?;
+    let backend = backend.fit(args.backend, packed)?;
     if !args.quiet {
         tracing::info!("backend: {} ({})", backend.kind(), backend.device());
     }
@@ -1290,9 +1311,11 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
     let names: Vec<&str> = names.iter().map(String::as_str).collect();
     let images = crate::eval_direct::direct_files(&args.out_dir, &labels, &names);
     let json = plan_eval_outputs(args, &images)?;
-    let scene = prepare_scene(&args.scene, args.lookup, args.width, args.height)?;
+    let backend = Backend::open(args.backend)?;
+    let page_log2 = backend.page_log2();
+    let scene = prepare_scene(&args.scene, args.lookup, args.width, args.height, page_log2)?;
     let (vol, packed) = (&scene.volume, &scene.packed);
-    let backend = Backend::open_for(args.backend, packed)?;
+    let backend = backend.fit(args.backend, packed)?;
     if !args.quiet {
         tracing::info!("backend: {} ({})", backend.kind(), backend.device());
     }

@@ -13,6 +13,10 @@ pub const DEFAULT_BRICK_SIZE: u32 = 16;
 /// squares of half of it in the MIS weights' complex exponentials) stay within f32.
 pub const MAX_OPTICAL_DEPTH: f64 = 1e35;
 
+/// Largest page, log2 of its words: 2^28 words (1 GiB); [`MAX_PAGES`] such pages hold 2^31
+/// words, every voxel a u32 pool index reaches (the pool's own limit).
+pub const MAX_PAGE_LOG2: u32 = 28;
+
 /// Why a grid cannot be built. Voxels are given in the builder's index coordinates.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum BuildError {
@@ -223,10 +227,11 @@ impl<'a> GridBuilder<'a> {
     }
 
     /// Lays the pool out in pages of 2^`log2` words (default [`GPU_PAGE_LOG2`], 128 MiB: any
-    /// Vulkan device binds such pages); smaller pages exercise paging on small volumes. The
-    /// voxels read are the same for every page size. At most 25; raised to fit one brick.
+    /// Vulkan device binds such pages; a device with larger storage buffers binds pages up to
+    /// [`MAX_PAGE_LOG2`]); smaller pages exercise paging on small volumes. The voxels read are
+    /// the same for every page size. At most [`MAX_PAGE_LOG2`]; raised to fit one brick.
     pub fn page_log2(mut self, log2: u32) -> Self {
-        self.page_log2 = log2.min(GPU_PAGE_LOG2);
+        self.page_log2 = log2.min(MAX_PAGE_LOG2);
         self
     }
 

@@ -19,7 +19,7 @@ mod builder;
 mod segment;
 
 pub use builder::{
-    BuildError, Grid, GridBuilder, Underflow, DEFAULT_BRICK_SIZE, MAX_OPTICAL_DEPTH,
+    BuildError, Grid, GridBuilder, Underflow, DEFAULT_BRICK_SIZE, MAX_OPTICAL_DEPTH, MAX_PAGE_LOG2,
 };
 pub use segment::SegmentEstimator;
 pub use shared::estimators::transmittance::{jackknife, naive, s, x_bar};

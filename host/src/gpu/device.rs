@@ -17,6 +17,8 @@ pub struct DeviceOwner {
     pub(crate) queue_family: u32,
     pub(crate) memory: vk::PhysicalDeviceMemoryProperties,
     pub(crate) limits: vk::PhysicalDeviceLimits,
+    /// `maxMemoryAllocationSize` (Vulkan 1.1): the largest single allocation.
+    pub(crate) max_allocation: u64,
     /// Valid bits of the compute queue's timestamps (0: no timestamp queries).
     pub(crate) timestamp_bits: u32,
     /// Human-readable device name, driver and type, e.g. "llvmpipe (LLVM 15.0.6, 256 bits) [cpu]".
@@ -128,6 +130,7 @@ struct DeviceParts {
     queue_family: u32,
     memory: vk::PhysicalDeviceMemoryProperties,
     limits: vk::PhysicalDeviceLimits,
+    max_allocation: u64,
     timestamp_bits: u32,
     description: String,
 }
@@ -144,6 +147,7 @@ impl DeviceParts {
             queue_family: self.queue_family,
             memory: self.memory,
             limits: self.limits,
+            max_allocation: self.max_allocation,
             timestamp_bits: self.timestamp_bits,
             description: self.description,
             storage_fallback_warned: std::sync::atomic::AtomicBool::new(false),
@@ -233,6 +237,11 @@ impl DeviceOwner {
         // SAFETY: query with a correctly chained output struct.
         unsafe { instance.get_physical_device_features2(physical, &mut have) };
         let int64 = have.features.shader_int64 == vk::TRUE;
+        let mut maintenance3 = vk::PhysicalDeviceMaintenance3Properties::default();
+        let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut maintenance3);
+        // SAFETY: query with a correctly chained output struct (core in Vulkan 1.1).
+        unsafe { instance.get_physical_device_properties2(physical, &mut props2) };
+        let max_allocation = maintenance3.max_memory_allocation_size;
         let memory_model = have12.vulkan_memory_model == vk::TRUE;
         if let Some(feature) = missing_feature(int64, memory_model) {
             return Err(GpuError::Unsupported(description, feature));
@@ -267,6 +276,7 @@ impl DeviceOwner {
             queue_family,
             memory,
             limits: props.limits,
+            max_allocation,
             timestamp_bits,
             description,
         })

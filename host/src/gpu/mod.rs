@@ -146,14 +146,36 @@ impl Gpu {
         self.owner.timestamp_bits > 0
     }
 
-    /// The largest storage buffer in bytes: the device's maxStorageBufferRange, or less if the
-    /// environment variable `JK_GPU_MAX_BUFFER_BYTES` says so (to exercise tiling in tests).
+    /// The largest storage buffer in bytes: the device's maxStorageBufferRange (or its
+    /// maxMemoryAllocationSize if smaller), or less if the environment variable
+    /// `JK_GPU_MAX_BUFFER_BYTES` says so (to exercise tiling in tests).
     pub fn max_buffer_bytes(&self) -> u64 {
-        let device = u64::from(self.owner.limits.max_storage_buffer_range);
+        let range = u64::from(self.owner.limits.max_storage_buffer_range);
+        let device = match self.owner.max_allocation {
+            0 => range,
+            a => range.min(a),
+        };
         let forced = std::env::var("JK_GPU_MAX_BUFFER_BYTES")
             .ok()
             .and_then(|v| v.parse::<u64>().ok());
         forced.map_or(device, |f| f.clamp(64, device))
+    }
+
+    /// log2 of the words per page of the voxel pool this device binds (see
+    /// [`crate::bricks::page_log2_for`] of [`Gpu::max_buffer_bytes`]).
+    pub fn page_log2(&self) -> u32 {
+        crate::bricks::page_log2_for(self.max_buffer_bytes())
+    }
+
+    /// Bytes of the largest device-local memory heap (what the volume's buffers must fit).
+    pub fn device_local_bytes(&self) -> u64 {
+        let m = &self.owner.memory;
+        m.memory_heaps[..m.memory_heap_count as usize]
+            .iter()
+            .filter(|h| h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL))
+            .map(|h| h.size)
+            .max()
+            .unwrap_or(0)
     }
 
     /// An uninitialised device-local storage buffer of `size` bytes (checked against the limit).
