@@ -100,7 +100,7 @@ pub fn load_volume_with(path: &Path, options: &LoadOptions) -> Result<LoadedVolu
     let cap = options.max_voxels.min(MAX_DENSE_VOXELS);
     let grid = options.grid;
     let loaded = guarded(|| match format {
-        Format::OpenVdb => openvdb::load(&read_file(path)?, grid, cap, options.sparse),
+        Format::OpenVdb => openvdb::load(stream_file(path)?, grid, cap, options.sparse),
         Format::NanoVdb => nanovdb::load(path, grid, cap, options.sparse),
     })
     .with_context(|| format!("cannot load {} file {}", format.name(), path.display()))?;
@@ -144,6 +144,24 @@ impl Format {
 /// naming it; directories, FIFOs and devices (a symlink to `/dev/zero`) are refused unread.
 fn read_file(path: &Path) -> Result<Vec<u8>> {
     use std::io::Read;
+    let (file, len) = open_file(path)?;
+    let mut bytes = Vec::with_capacity(usize::try_from(len).unwrap_or(0));
+    file.take(len)
+        .read_to_end(&mut bytes)
+        .with_context(|| format!("cannot read {}: check the path", path.display()))?;
+    Ok(bytes)
+}
+
+/// A reader over a regular file (checked as [`read_file`] does) that streams it through a
+/// window: its size when opened is its length, and only the window and each read are held.
+fn stream_file(path: &Path) -> Result<bytes::ByteReader<'static>> {
+    let (file, len) = open_file(path)?;
+    Ok(bytes::ByteReader::stream(file, len))
+}
+
+/// Opens a regular file and its size when opened; directories, FIFOs and devices are refused
+/// unopened, with an error naming the file.
+fn open_file(path: &Path) -> Result<(std::fs::File, u64)> {
     let what = || format!("cannot read {}: check the path", path.display());
     // Checked before opening: opening a FIFO blocks until something writes to it.
     let kind = std::fs::metadata(path).with_context(what)?.file_type();
@@ -165,10 +183,7 @@ fn read_file(path: &Path) -> Result<Vec<u8>> {
         "cannot read {}: not a regular file",
         path.display()
     );
-    let len = meta.len();
-    let mut bytes = Vec::with_capacity(usize::try_from(len).unwrap_or(0));
-    file.take(len).read_to_end(&mut bytes).with_context(what)?;
-    Ok(bytes)
+    Ok((file, meta.len()))
 }
 
 /// Runs a parser, turning a panic (a bug or a third-party reader's bad-input assertion) into an

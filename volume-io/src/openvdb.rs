@@ -51,16 +51,20 @@ struct Storage {
     half: bool,
 }
 
-/// Loads grid `grid` (or the default) of the `.vdb` file held in `data`, refusing dense grids
-/// of more than `cap` voxels; `sparse`: keep it sparse where it can be (see
+/// Loads grid `grid` (or the default) of the `.vdb` file `r` reads, refusing dense grids of
+/// more than `cap` voxels; `sparse`: keep it sparse where it can be (see
 /// [`super::LoadOptions::sparse`]).
-pub fn load(data: &[u8], grid: Option<&str>, cap: u64, sparse: bool) -> Result<super::Loaded> {
-    let mut r = ByteReader::new(data);
+pub fn load(
+    mut r: ByteReader,
+    grid: Option<&str>,
+    cap: u64,
+    sparse: bool,
+) -> Result<super::Loaded> {
     read_header(&mut r)?;
     let descriptors = read_descriptors(&mut r)?;
     let entries: Vec<GridEntry> = descriptors
         .iter()
-        .map(|d| match grid_class(data, d.grid_pos).as_deref() {
+        .map(|d| match grid_class(&mut r, d.grid_pos).as_deref() {
             Some("level set") => d.entry.clone().level_set(),
             _ => d.entry.clone(),
         })
@@ -94,8 +98,7 @@ fn read_header(r: &mut ByteReader) -> Result<()> {
 
 /// The "class" metadata of the grid at `grid_pos` ("level set", "fog volume", ...), if it can
 /// be read; reading the grid itself reports a damaged header.
-fn grid_class(data: &[u8], grid_pos: u64) -> Option<String> {
-    let mut r = ByteReader::new(data);
+fn grid_class(r: &mut ByteReader, grid_pos: u64) -> Option<String> {
     r.seek(grid_pos).ok()?;
     let _compression = r.u32().ok()?;
     let count = r.u32().ok()?;
