@@ -3,7 +3,9 @@
 //! the bricks that hold a nonzero voxel, built from a user's dense or sparse densities.
 
 use half::f16;
-use shared::volume::grid::{Brick, GridDesc, Lookup, VolumeView, EMPTY_BRICK};
+use shared::volume::grid::{
+    skip_slot, Brick, GridDesc, Lookup, VolumeView, EMPTY_BRICK, FIRST_EMPTY_SLOT, MAX_SKIP_LEVEL,
+};
 use shared::volume::pages::{Pages, GPU_PAGE_LOG2, MAX_PAGES, ONE_PAGE_LOG2};
 
 /// Default brick (super-voxel) size B in voxels per axis, as in the paper.
@@ -137,7 +139,7 @@ impl Grid {
 
     /// Bricks that hold a nonzero voxel (the pool holds their voxels only).
     pub fn occupied_bricks(&self) -> usize {
-        self.bricks.iter().filter(|b| b.slot != EMPTY_BRICK).count()
+        self.bricks.iter().filter(|b| b.stores_voxels()).count()
     }
 
     /// The part [t0, t1] of an index-space ray inside the grid's box (t0 >= t1: a miss).
@@ -390,6 +392,7 @@ impl<'a> GridBuilder<'a> {
                 }
             })
             .collect();
+        let bricks = mark_skippable(bricks, brick_dims);
         Ok(Grid {
             desc,
             voxels,
@@ -564,7 +567,7 @@ impl<'a> GridBuilder<'a> {
                 if page(start) != page(start + words - 1) {
                     total = (page(start) + 1) << (page_log2 + 1);
                 }
-                if total + len >= EMPTY_BRICK as usize {
+                if total + len >= FIRST_EMPTY_SLOT as usize {
                     return Err(BuildError::Pool(dims));
                 }
                 slots[i] = total as u32;
@@ -637,6 +640,63 @@ fn round_up(v: f64) -> f32 {
     } else {
         f
     }
+}
+
+/// Whether a traversal may skip brick `b`: no voxels stored and all statistics 0 (adds nothing
+/// to any estimator's sums, takes no sample and no free flight stops in it).
+fn is_zero(b: &Brick) -> bool {
+    !b.stores_voxels() && b.mu_min == 0.0 && b.mu_max == 0.0 && b.mean == 0.0 && b.p == 0.0
+}
+
+/// Gives every all-zero brick ([`is_zero`]) the slot [`skip_slot`]`(L)` of the largest aligned
+/// cube of 2^L bricks per axis (clipped to the grid) around it that holds only all-zero bricks:
+/// a pyramid of such cubes, level by level, each cube all-zero iff its (up to eight) halves are.
+fn mark_skippable(mut bricks: Vec<Brick>, brick_dims: [u32; 3]) -> Vec<Brick> {
+    let index = |c: [u32; 3], d: [u32; 3]| {
+        c[0] as usize + d[0] as usize * (c[1] as usize + d[1] as usize * c[2] as usize)
+    };
+    let mut level: Vec<bool> = bricks.iter().map(is_zero).collect();
+    let mut dims = brick_dims;
+    let mut levels = vec![level.clone()];
+    while dims.iter().any(|&d| d > 1) && (levels.len() as u32) <= MAX_SKIP_LEVEL {
+        let up = dims.map(|d| d.div_ceil(2));
+        let mut next = vec![false; up.iter().map(|&d| d as usize).product()];
+        for z in 0..up[2] {
+            for y in 0..up[1] {
+                for x in 0..up[0] {
+                    let mut all = true;
+                    for k in 0..8u32 {
+                        let c = [2 * x + (k & 1), 2 * y + (k >> 1 & 1), 2 * z + (k >> 2)];
+                        if (0..3).all(|a| c[a] < dims[a]) {
+                            all &= level[index(c, dims)];
+                        }
+                    }
+                    next[index([x, y, z], up)] = all;
+                }
+            }
+        }
+        levels.push(next.clone());
+        level = next;
+        dims = up;
+    }
+    for (i, b) in bricks.iter_mut().enumerate() {
+        if !levels[0][i] {
+            continue;
+        }
+        let c = unflatten(i, brick_dims);
+        let mut l = 0;
+        let mut d = brick_dims;
+        while l + 1 < levels.len() {
+            d = d.map(|v| v.div_ceil(2));
+            let up = c.map(|v| v >> (l + 1));
+            if !levels[l + 1][index(up, d)] {
+                break;
+            }
+            l += 1;
+        }
+        b.slot = skip_slot(l as u32);
+    }
+    bricks
 }
 
 /// The statistics of a brick whose widened window holds zeros only (what [`brick_stats`] gives).

@@ -8,7 +8,7 @@ use host::Backend;
 use integration_tests::{assert_bytes_equal, camera_params, gpu, volume};
 use shared::params::{Estimator, Integrator, RenderParams};
 use shared::rng::{pcg_hash, unit_f32};
-use shared::volume::grid::{Lookup, EMPTY_BRICK};
+use shared::volume::grid::Lookup;
 
 /// A 37 x 20 x 9 grid (no side a multiple of the brick size 8) where only some 4^3 cells hold
 /// density.
@@ -88,7 +88,7 @@ fn pool_holds_the_occupied_bricks_only_and_reads_back_every_voxel() {
                 let any = (lo[2]..hi[2])
                     .any(|z| (lo[1]..hi[1]).any(|y| (lo[0]..hi[0]).any(|x| vol.at(x, y, z) > 0.0)));
                 let brick = view.brick([bx, by, bz]);
-                assert_eq!(brick.slot != EMPTY_BRICK, any, "brick {bx} {by} {bz}");
+                assert_eq!(brick.stores_voxels(), any, "brick {bx} {by} {bz}");
                 if any {
                     occupied += 1;
                     let len = (0..3).map(|a| (hi[a] - lo[a]) as usize).product::<usize>();
@@ -223,7 +223,7 @@ fn paged_pools_render_identically_on_gpu_and_cpu() {
         for by in 0..dy.div_ceil(4) {
             for bx in 0..dx.div_ceil(4) {
                 let slot = view.brick([bx, by, bz]).slot;
-                if slot != EMPTY_BRICK {
+                if view.brick([bx, by, bz]).stores_voxels() {
                     let len = view.brick_extent(0, bx)
                         * view.brick_extent(1, by)
                         * view.brick_extent(2, bz);

@@ -43,8 +43,8 @@ pub fn prepare(vol: &VolumeView, ray: &Ray, t0: f32, t1: f32, mode: Importance) 
     let mut t_max = t0;
     let mut dda = GridDda::bricks(vol.desc, ray, t0, t1);
     while !dda.done {
-        let seg = dda.step();
-        let p = importance(&vol.brick(seg.cell), mode);
+        let (seg, b) = dda.step_brick(vol);
+        let p = importance(&b, mode);
         f += (seg.t1 - seg.t0) * p;
         if p != 0.0 {
             if seg.t0 < t_min {
@@ -265,8 +265,7 @@ pub fn estimate_interleaved(
         }
         // Advance over bricks until the CDF passes the target.
         while target >= f && !dda.done {
-            let seg = dda.step();
-            let b = vol.brick(seg.cell);
+            let (seg, b) = dda.step_brick(vol);
             let len = seg.t1 - seg.t0;
             let p = importance(&b, mode);
             let m = mu_min(&b, mode);
@@ -325,8 +324,8 @@ pub fn estimate_interleaved(
     }
     // The control variate needs the rest of the segment.
     while !dda.done {
-        let seg = dda.step();
-        tau_c += (seg.t1 - seg.t0) * mu_min(&vol.brick(seg.cell), mode);
+        let (seg, b) = dda.step_brick(vol);
+        tau_c += (seg.t1 - seg.t0) * mu_min(&b, mode);
     }
     let est = DepthPairEstimate {
         x0: f_delta * sum0 + tau_c,

@@ -37,12 +37,12 @@ impl MajorantIter {
     /// Next brick segment and its majorant mu_max (pbrt-v4 `Next`); call only while `!done`.
     #[inline]
     pub fn next_segment(&mut self, vol: &VolumeView) -> MajorantSegment {
-        let seg = self.dda.step();
+        let (seg, b) = self.dda.step_brick(vol);
         self.done = self.dda.done;
         MajorantSegment {
             t0: seg.t0,
             t1: seg.t1,
-            sigma_maj: vol.brick(seg.cell).mu_max,
+            sigma_maj: b.mu_max,
         }
     }
 }

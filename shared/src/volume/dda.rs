@@ -1,8 +1,12 @@
-//! Ray/box clipping and Amanatides-Woo traversal of the brick grid, in voxel index space.
+//! Ray/box clipping and Amanatides-Woo traversal of the brick grid, in voxel index space, with
+//! empty-space skipping: a traversal of the bricks jumps over the all-zero aligned cubes the
+//! brick table marks ([`crate::volume::grid::Brick::skip_level`]) to exactly the cell and t it
+//! would have reached by stepping, so the estimators see the same non-empty segments, bit for
+//! bit, in fewer iterations.
 
 use crate::geometry::{Ray, V3};
 use crate::math;
-use crate::volume::grid::GridDesc;
+use crate::volume::grid::{Brick, GridDesc, VolumeView, NO_SKIP};
 
 /// Clips [t_lo, t_hi] to the box [0, hi] (slab test). Returns (t_enter, t_exit); the ray misses
 /// when `!(t_enter < t_exit)`. Axis-parallel rays are handled without 0 * inf. Degenerate input
@@ -50,6 +54,21 @@ pub fn is_usable(ray: &Ray) -> bool {
     finite(ray.o.x) && finite(ray.o.y) && finite(ray.o.z) && len2 > 0.0 && finite(len2)
 }
 
+/// A traversal after [`skip_cube_of`], and whether it skipped.
+#[derive(Clone, Copy)]
+struct Skipped {
+    dda: GridDda,
+    skipped: bool,
+}
+
+/// [`GridDda::skip_cube`] by value and out of line: one body in the SPIR-V module that every
+/// traversal calls, instead of a copy inlined into each estimator of each kernel (free of
+/// pointer arguments and of panics, so rust-gpu keeps it a function).
+#[inline(never)]
+fn skip_cube_of(dda: GridDda, level: u32) -> Skipped {
+    dda.skipped(level)
+}
+
 /// One cell crossed by the ray: parameter range [t0, t1] and cell coordinates.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Segment {
@@ -71,6 +90,7 @@ pub struct GridDda {
     sz: i32,
     inv: V3,
     o: V3,
+    d: V3,
     t: f32,
     t_end: f32,
     size: f32,
@@ -148,6 +168,7 @@ impl GridDda {
                 inv_or_zero(ray.d.z),
             ),
             o: ray.o,
+            d: ray.d,
             t: t_start,
             t_end,
             size,
@@ -165,6 +186,244 @@ impl GridDda {
         }
         let plane = (c + if s > 0 { 1 } else { 0 }) as f32 * self.size;
         (plane - o) * inv
+    }
+
+    /// The current cell (the next segment's, while `!done`).
+    #[inline]
+    pub fn cell(&self) -> [u32; 3] {
+        [self.cx as u32, self.cy as u32, self.cz as u32]
+    }
+
+    /// The next brick segment and its statistics (call only while `!done`). An all-zero brick
+    /// whose cube can be skipped ([`GridDda::skip_cube`]) gives the whole skipped span as one
+    /// segment with its statistics (all 0: it adds nothing to any sum and takes no sample);
+    /// otherwise the brick's own segment. No loop: one call is one iteration of the caller's,
+    /// one skip or one step, so a traversal takes at most as many iterations as stepping (GPU
+    /// loop budgets count iterations).
+    #[inline]
+    pub fn step_brick(&mut self, vol: &VolumeView) -> (Segment, Brick) {
+        let cell = self.cell();
+        let b = vol.brick(cell);
+        let level = b.skip_level();
+        if level != NO_SKIP {
+            let t0 = self.t;
+            if self.skip_cube(level) {
+                let t1 = self.t;
+                return (Segment { t0, t1, cell }, b);
+            }
+        }
+        (self.step(), b)
+    }
+
+    /// Skips the aligned cube of 2^`level` cells per axis (clipped to the grid) that holds the
+    /// current cell, leaving the traversal exactly as [`GridDda::step`] would have left it on
+    /// leaving the cube (the same cell, t and `done`), without its segments. Returns false,
+    /// changing nothing, where that state cannot be verified in closed form (then step). No
+    /// loops: one call is one iteration of the caller's (GPU loop budgets count iterations).
+    ///
+    /// Why it is exact: `step` crosses the planes of each axis in order, their parameters are
+    /// computed from the plane alone and do not decrease along the axis, and it takes the
+    /// smallest next parameter, the lower axis on ties: its crossings are the merge of the three
+    /// axes' sequences ordered by (t, axis). The cube is left at the first crossing of a cube
+    /// face, (t*, a*) = the smallest (exit of the cube's last cell, axis); every other axis has
+    /// then crossed exactly its planes ordered before (t*, a*), t is t* unless t* < t, and
+    /// the traversal has ended if t* >= t_end or the crossing leaves the grid.
+    #[inline]
+    pub fn skip_cube(&mut self, level: u32) -> bool {
+        let after = skip_cube_of(*self, level);
+        if after.skipped {
+            *self = after.dda;
+        }
+        after.skipped
+    }
+
+    /// [`GridDda::skip_cube`] on a copy (see [`skip_cube_of`]).
+    #[allow(clippy::manual_range_contains)] // plain compares, the same on every backend
+    fn skipped(mut self, level: u32) -> Skipped {
+        let unchanged = Skipped {
+            dda: self,
+            skipped: false,
+        };
+        let finite = math::is_finite(self.inv.x)
+            && math::is_finite(self.inv.y)
+            && math::is_finite(self.inv.z)
+            && math::is_finite(self.t);
+        if level >= 31 || !finite {
+            return unchanged;
+        }
+        let (l0, l1, l2) = (
+            self.cube_last(0, level),
+            self.cube_last(1, level),
+            self.cube_last(2, level),
+        );
+        let (e0, e1, e2) = (
+            self.exit_of(0, l0),
+            self.exit_of(1, l1),
+            self.exit_of(2, l2),
+        );
+        // The smallest exit, the lower axis on ties (a moving axis always has a finite one).
+        let (mut a_star, mut t_star, mut last_star) = (0usize, e0, l0);
+        if e1 < t_star {
+            (a_star, t_star, last_star) = (1, e1, l1);
+        }
+        if e2 < t_star {
+            (a_star, t_star, last_star) = (2, e2, l2);
+        }
+        if !math::is_finite(t_star) {
+            return unchanged;
+        }
+        if t_star >= self.t_end || self.t >= self.t_end {
+            self.done = true;
+            self.spend();
+            return Skipped {
+                dda: self,
+                skipped: true,
+            };
+        }
+        let star = (t_star, a_star);
+        let (m0, m1, m2) = (
+            self.crossings(0, l0, star),
+            self.crossings(1, l1, star),
+            self.crossings(2, l2, star),
+        );
+        if m0 < 0 || m1 < 0 || m2 < 0 {
+            return unchanged;
+        }
+        let (_, s_star, _, _, _) = self.axis(a_star);
+        let j = last_star + s_star;
+        let mut next = (
+            self.cx + self.sx * m0,
+            self.cy + self.sy * m1,
+            self.cz + self.sz * m2,
+        );
+        if a_star == 0 {
+            next.0 = j;
+        } else if a_star == 1 {
+            next.1 = j;
+        } else {
+            next.2 = j;
+        }
+        if j < 0 || j >= self.dim(a_star) {
+            self.done = true;
+        } else {
+            (self.cx, self.cy, self.cz) = next;
+        }
+        // As `step` sets t: the crossing's parameter unless it is below t (so -0 after +0).
+        if !(t_star < self.t) {
+            self.t = t_star;
+        }
+        self.spend();
+        Skipped {
+            dda: self,
+            skipped: true,
+        }
+    }
+
+    /// Cells of the grid along axis `a`.
+    #[inline]
+    fn dim(&self, a: usize) -> i32 {
+        if a == 0 {
+            self.dims[0]
+        } else if a == 1 {
+            self.dims[1]
+        } else {
+            self.dims[2]
+        }
+    }
+
+    /// Cell, step, origin, direction and 1/direction of axis `a`.
+    #[inline]
+    fn axis(&self, a: usize) -> (i32, i32, f32, f32, f32) {
+        if a == 0 {
+            (self.cx, self.sx, self.o.x, self.d.x, self.inv.x)
+        } else if a == 1 {
+            (self.cy, self.sy, self.o.y, self.d.y, self.inv.y)
+        } else {
+            (self.cz, self.sz, self.o.z, self.d.z, self.inv.z)
+        }
+    }
+
+    /// The last cell along axis `a`, in the direction of travel, of the aligned cube of
+    /// 2^`level` cells (clipped to the grid) that holds the current cell.
+    #[inline]
+    fn cube_last(&self, a: usize, level: u32) -> i32 {
+        let (c, s, _, _, _) = self.axis(a);
+        let lo = (c >> level) << level;
+        let mut hi = lo + ((1i32 << level) - 1);
+        if hi > self.dim(a) - 1 {
+            hi = self.dim(a) - 1;
+        }
+        if s > 0 {
+            hi
+        } else {
+            lo
+        }
+    }
+
+    /// Parameter of the exit plane of cell `k` of axis `a` (+inf if the ray does not move
+    /// along it), as `step` computes it.
+    #[inline]
+    fn exit_of(&self, a: usize, k: i32) -> f32 {
+        let (_, s, o, _, inv) = self.axis(a);
+        self.exit(k, s, o, inv)
+    }
+
+    /// The number m of axis `b`'s crossings, from the current cell to the cube's `last`, that
+    /// `step` takes before (t*, a*), or -1 where it cannot be verified. 0 for a* itself (set
+    /// apart) and for an axis the ray does not move along. The candidate is the cell holding
+    /// the point at t*, verified and corrected by one cell either way.
+    #[inline]
+    #[allow(clippy::manual_range_contains)] // plain compares, the same on every backend
+    fn crossings(&self, b: usize, last: i32, star: (f32, usize)) -> i32 {
+        let (c, s, o, d, _) = self.axis(b);
+        if b == star.1 || s == 0 {
+            return 0;
+        }
+        let n = (last - c) * s;
+        let guess = math::floor((o + star.0 * d) / self.size);
+        if !(guess >= -2147483648.0 && guess <= 2147483520.0) {
+            return -1;
+        }
+        let g = (guess as i32 - c) * s;
+        if self.crossings_are(b, g, n, star) {
+            g
+        } else if self.crossings_are(b, g - 1, n, star) {
+            g - 1
+        } else if self.crossings_are(b, g + 1, n, star) {
+            g + 1
+        } else {
+            -1
+        }
+    }
+
+    /// Whether exactly `m` (in 0..=n) of axis `b`'s crossings come before (t*, a*): the m-th
+    /// does (if m > 0), the (m+1)-th does not (if m < n; the n-th, the cube's face, never does).
+    #[inline]
+    fn crossings_are(&self, b: usize, m: i32, n: i32, star: (f32, usize)) -> bool {
+        if m < 0 || m > n {
+            return false;
+        }
+        let (c, s, _, _, _) = self.axis(b);
+        (m == 0 || self.crossed_before(b, c + s * (m - 1), star))
+            && (m == n || !self.crossed_before(b, c + s * m, star))
+    }
+
+    /// Whether `step` crosses the exit plane of cell `k` of axis `b` before the crossing
+    /// (t*, a*): at a smaller t, or at the same t on a lower axis.
+    #[inline]
+    fn crossed_before(&self, b: usize, k: i32, star: (f32, usize)) -> bool {
+        let e = self.exit_of(b, k);
+        e < star.0 || (e == star.0 && b < star.1)
+    }
+
+    /// One iteration of the step budget (the guard against endless loops).
+    #[inline]
+    fn spend(&mut self) {
+        if self.budget == 0 {
+            self.done = true;
+        } else {
+            self.budget -= 1;
+        }
     }
 
     /// The current brick's segment; advances to the next brick. Call only while `!done`.
@@ -216,5 +475,141 @@ impl GridDda {
             self.budget -= 1;
         }
         Segment { t0, t1, cell }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::{pcg_hash, unit_f32};
+    use crate::volume::grid::NO_SKIP;
+
+    /// Deterministic uniform numbers in [0, 1) from a counter.
+    struct Draws(u32);
+
+    impl Draws {
+        fn next(&mut self) -> f32 {
+            self.0 += 1;
+            unit_f32(pcg_hash(self.0.wrapping_mul(0x9e37_79b9)))
+        }
+
+        fn below(&mut self, n: u32) -> u32 {
+            ((self.next() * n as f32) as u32).min(n - 1)
+        }
+    }
+
+    /// A grid of `dims` cells with a level per cell: the largest marked empty aligned cube holding it
+    /// (random cubes of levels 0..=3), or [`NO_SKIP`].
+    fn random_levels(dims: [u32; 3], r: &mut Draws) -> Vec<u32> {
+        let n = (dims[0] * dims[1] * dims[2]) as usize;
+        let mut levels = vec![NO_SKIP; n];
+        for _ in 0..(n / 6).max(1) {
+            let level = r.below(4);
+            let c = [0, 1, 2].map(|a| r.below(dims[a]) >> level << level);
+            for z in c[2]..(c[2] + (1 << level)).min(dims[2]) {
+                for y in c[1]..(c[1] + (1 << level)).min(dims[1]) {
+                    for x in c[0]..(c[0] + (1 << level)).min(dims[0]) {
+                        let i = (x + dims[0] * (y + dims[1] * z)) as usize;
+                        if levels[i] == NO_SKIP || levels[i] < level {
+                            levels[i] = level;
+                        }
+                    }
+                }
+            }
+        }
+        levels
+    }
+
+    /// Trials of the traversal test (`JK_SKIP_TRIALS` for a longer hunt).
+    fn trials() -> usize {
+        std::env::var("JK_SKIP_TRIALS")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(20_000)
+    }
+
+    /// Bit patterns of a segment, for exact comparison.
+    fn bits(s: &Segment) -> (u32, u32, [u32; 3]) {
+        (s.t0.to_bits(), s.t1.to_bits(), s.cell)
+    }
+
+    #[test]
+    fn skipping_a_cube_lands_where_stepping_through_it_lands() {
+        let mut r = Draws(7);
+        let mut skips = 0;
+        let mut fallbacks = 0;
+        for trial in 0..trials() {
+            let dims = [0, 1, 2].map(|_| 1 + r.below(24));
+            let size = [1.0f32, 4.0, 16.0][trial % 3];
+            let levels = random_levels(dims, &mut r);
+            let hi = V3::new(
+                dims[0] as f32 * size,
+                dims[1] as f32 * size,
+                dims[2] as f32 * size,
+            );
+            // Origins on cell boundaries and axis-parallel directions now and then.
+            let mut coord = |a: u32| {
+                let v = (r.next() * 1.4 - 0.2) * (dims[a as usize] as f32 * size);
+                if r.below(4) == 0 {
+                    (v / size).round() * size
+                } else {
+                    v
+                }
+            };
+            let o = V3::new(coord(0), coord(1), coord(2));
+            // Axis-parallel rays, slopes that cross edges and corners exactly (ties between
+            // axes), tiny components (huge t), and general directions.
+            let mut dir = |_: u32| match r.below(8) {
+                0 => 0.0,
+                1 | 2 => [-1.0, -0.5, 0.25, 0.5, 1.0, 2.0][r.below(6) as usize],
+                3 => (r.next() - 0.5) * 1e-6,
+                _ => r.next() * 2.0 - 1.0,
+            };
+            let d = V3::new(dir(0), dir(1), dir(2));
+            let ray = Ray { o, d };
+            let (t0, t1) = clip_to_box(&ray, hi, 0.0, f32::INFINITY);
+            if !(t0 < t1) {
+                continue;
+            }
+            // End some rays inside the grid.
+            let t_end = if r.below(3) == 0 {
+                t0 + (t1 - t0) * r.next()
+            } else {
+                t1
+            };
+            let level_of =
+                |c: [u32; 3]| levels[(c[0] + dims[0] * (c[1] + dims[1] * c[2])) as usize];
+            let mut stepped = Vec::new();
+            let mut dda = GridDda::new(size, dims, &ray, t0, t_end);
+            while !dda.done {
+                let s = dda.step();
+                if level_of(s.cell) == NO_SKIP {
+                    stepped.push(bits(&s));
+                }
+            }
+            let mut skipped = Vec::new();
+            let mut dda = GridDda::new(size, dims, &ray, t0, t_end);
+            while !dda.done {
+                let level = level_of(dda.cell());
+                if level != NO_SKIP {
+                    if dda.skip_cube(level) {
+                        skips += 1;
+                        continue;
+                    }
+                    fallbacks += 1;
+                }
+                let s = dda.step();
+                if level_of(s.cell) == NO_SKIP {
+                    skipped.push(bits(&s));
+                }
+            }
+            assert_eq!(
+                stepped, skipped,
+                "trial {trial}: dims {dims:?}, size {size}, ray {ray:?}, t {t0}..{t_end}"
+            );
+        }
+        // The closed form is verified, never trusted: it must hold almost always.
+        assert!(skips > 10_000, "{skips} skips");
+        assert!(fallbacks * 1000 < skips, "{fallbacks} fallbacks of {skips}");
     }
 }

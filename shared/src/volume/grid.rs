@@ -86,13 +86,48 @@ pub struct Brick {
     /// Variance-aware importance P (Eq. 5), >= 0.01 mu_min; rounded up.
     pub p: f32,
     /// Index in the pool of the brick's first voxel (its voxels follow x fastest, over the
-    /// brick's extent clipped to the grid), or [`EMPTY_BRICK`] if every voxel of the brick is 0
-    /// (then none is stored).
+    /// brick's extent clipped to the grid), or, at [`FIRST_EMPTY_SLOT`] and above, a brick
+    /// whose voxels are all 0 (none stored): [`EMPTY_BRICK`], or [`skip_slot`]`(L)` when its
+    /// statistics are 0 too and so are those of every brick of the aligned cube of 2^L bricks
+    /// per axis around it (clipped to the grid), which a traversal may then skip.
     pub slot: u32,
 }
 
-/// [`Brick::slot`] of a brick whose voxels are all 0.
+/// [`Brick::slot`] of a brick whose voxels are all 0 but whose statistics are not (nonzero
+/// voxels within one voxel of it, which filtered lookups reach).
 pub const EMPTY_BRICK: u32 = u32::MAX;
+/// Largest skip level: cubes of up to 2^31 bricks per axis.
+pub const MAX_SKIP_LEVEL: u32 = 31;
+/// Slots from here up store no voxels ([`EMPTY_BRICK`] and the [`skip_slot`]s); pool indices
+/// stay below.
+pub const FIRST_EMPTY_SLOT: u32 = EMPTY_BRICK - 1 - MAX_SKIP_LEVEL;
+/// [`Brick::skip_level`] of a brick that may not be skipped.
+pub const NO_SKIP: u32 = u32::MAX;
+
+/// The slot of an all-zero brick in an all-zero aligned cube of 2^`level` bricks per axis.
+#[inline]
+pub const fn skip_slot(level: u32) -> u32 {
+    EMPTY_BRICK - 1 - level
+}
+
+impl Brick {
+    /// Whether the pool holds this brick's voxels.
+    #[inline]
+    pub fn stores_voxels(&self) -> bool {
+        self.slot < FIRST_EMPTY_SLOT
+    }
+
+    /// Level L of the all-zero aligned cube of 2^L bricks per axis this brick lies in (see
+    /// [`Brick::slot`]), or [`NO_SKIP`].
+    #[inline]
+    pub fn skip_level(&self) -> u32 {
+        if self.slot >= FIRST_EMPTY_SLOT && self.slot != EMPTY_BRICK {
+            EMPTY_BRICK - 1 - self.slot
+        } else {
+            NO_SKIP
+        }
+    }
+}
 
 /// The high-resolution volume and its bricks, borrowed from kernel buffers or host vectors.
 #[derive(Clone, Copy)]
@@ -137,10 +172,11 @@ impl VolumeView<'_> {
     pub fn pool_index(&self, i: u32, j: u32, k: u32) -> Option<usize> {
         let b = self.desc.brick_size;
         let (bi, bj, bk) = (i / b, j / b, k / b);
-        let slot = self.brick([bi, bj, bk]).slot;
-        if slot == EMPTY_BRICK {
+        let brick = self.brick([bi, bj, bk]);
+        if !brick.stores_voxels() {
             return None;
         }
+        let slot = brick.slot;
         let (w, h) = (self.brick_extent(0, bi), self.brick_extent(1, bj));
         let local = (i - bi * b) + w * ((j - bj * b) + h * (k - bk * b));
         Some(slot as usize + local as usize)
