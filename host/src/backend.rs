@@ -60,9 +60,8 @@ impl Backend {
     /// device-local memory) makes `auto` fall back to the CPU with a warning and a forced
     /// `--backend gpu` fail with advice.
     pub fn fit(self, choice: BackendChoice, volume: &crate::bricks::PackedVolume) -> Result<Self> {
-        let backend = self;
-        let Some(why) = backend.cannot_hold(volume) else {
-            return Ok(backend);
+        let Some(why) = self.cannot_hold(volume) else {
+            return Ok(self);
         };
         if choice == BackendChoice::Gpu {
             anyhow::bail!(
