@@ -29,13 +29,9 @@ use ash::vk;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 
-/// The SPIR-V module of the `kernels` crate, compiled by `build.rs` with rust-gpu.
-pub const KERNELS_SPV: &[u8] = include_bytes!(env!("kernels.spv"));
-
-/// A Vulkan device with the kernels module loaded and pipelines built on first use.
+/// A Vulkan device with each kernel's pipeline built on first use from its own module.
 pub struct Gpu {
     owner: Arc<DeviceOwner>,
-    module: vk::ShaderModule,
     pipelines: Mutex<HashMap<Kernel, Arc<Pipeline>>>,
     submitter: Mutex<Submitter>,
     /// Kernel time measured by timestamp queries since the last [`Gpu::take_kernel_ns`].
@@ -65,26 +61,12 @@ struct Recording {
 }
 
 impl Gpu {
-    /// Opens the preferred Vulkan device and loads the kernels.
+    /// Opens the preferred Vulkan device.
     pub fn new() -> Result<Self, GpuError> {
         let owner = Arc::new(DeviceOwner::new()?);
-        let words = ash::util::read_spv(&mut std::io::Cursor::new(KERNELS_SPV))
-            .map_err(|e| GpuError::Internal(format!("embedded SPIR-V is malformed: {e}")))?;
-        let info = vk::ShaderModuleCreateInfo::default().code(&words);
-        // SAFETY: valid SPIR-V produced by rust-gpu; destroyed in Drop.
-        let module = unsafe { owner.device.create_shader_module(&info, None) }
-            .map_err(|e| GpuError::Vulkan("vkCreateShaderModule", e))?;
-        let submitter = match Submitter::new(&owner) {
-            Ok(s) => s,
-            Err(e) => {
-                // SAFETY: the module is unused.
-                unsafe { owner.device.destroy_shader_module(module, None) };
-                return Err(e);
-            }
-        };
+        let submitter = Submitter::new(&owner)?;
         Ok(Gpu {
             owner,
-            module,
             pipelines: Mutex::new(HashMap::new()),
             submitter: Mutex::new(submitter),
             kernel_ns: std::sync::atomic::AtomicU64::new(0),
@@ -112,13 +94,28 @@ impl Gpu {
                 kernel.name()
             )));
         }
-        let p = Arc::new(Pipeline::new(
+        let words =
+            ash::util::read_spv(&mut std::io::Cursor::new(kernel.spirv())).map_err(|e| {
+                GpuError::Internal(format!(
+                    "embedded SPIR-V of {} is malformed: {e}",
+                    kernel.name()
+                ))
+            })?;
+        let info = vk::ShaderModuleCreateInfo::default().code(&words);
+        // SAFETY: valid SPIR-V produced by rust-gpu and validated by build.rs; destroyed below,
+        // after the pipeline is built (Vulkan allows it).
+        let module = unsafe { self.owner.device.create_shader_module(&info, None) }
+            .map_err(|e| GpuError::Vulkan("vkCreateShaderModule", e))?;
+        let p = Pipeline::new(
             &self.owner,
-            self.module,
+            module,
             kernel.c_name(),
             bindings,
             kernel.push_size(),
-        )?);
+        );
+        // SAFETY: no pipeline creation is in flight; the pipeline does not need its module.
+        unsafe { self.owner.device.destroy_shader_module(module, None) };
+        let p = Arc::new(p?);
         cache.insert(kernel, p.clone());
         Ok(p)
     }
@@ -526,10 +523,9 @@ fn lost_or(e: vk::Result, what: &str, call: &'static str) -> GpuError {
 
 impl Drop for Gpu {
     fn drop(&mut self) {
-        // SAFETY: submissions wait for their fences, so the module is no longer in use.
+        // SAFETY: submissions wait for their fences; nothing is in use after this wait.
         unsafe {
             let _ = self.owner.device.device_wait_idle();
-            self.owner.device.destroy_shader_module(self.module, None);
         }
     }
 }
