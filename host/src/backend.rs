@@ -6,6 +6,7 @@ use anyhow::{Context, Result};
 use bytemuck::{Pod, Zeroable};
 use shared::kernels::launch::Launch;
 use shared::kernels::probe::{self, DepthPair, MathValues, RngDraws, TransmittancePair};
+use std::sync::Arc;
 
 /// Which backend the user asked for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -21,7 +22,8 @@ pub enum BackendChoice {
 /// A backend ready to run kernels.
 pub enum Backend {
     Cpu,
-    Gpu(Box<Gpu>),
+    /// Shared so that callers (tests, studies) can reuse one device and its built pipelines.
+    Gpu(Arc<Gpu>),
 }
 
 impl Backend {
@@ -29,11 +31,11 @@ impl Backend {
     pub fn open(choice: BackendChoice) -> Result<Self> {
         match choice {
             BackendChoice::Cpu => Ok(Backend::Cpu),
-            BackendChoice::Gpu => Ok(Backend::Gpu(Box::new(
+            BackendChoice::Gpu => Ok(Backend::Gpu(Arc::new(
                 Gpu::new().context("--backend gpu: cannot use the Vulkan GPU backend")?,
             ))),
             BackendChoice::Auto => match Gpu::new() {
-                Ok(g) => Ok(Backend::Gpu(Box::new(g))),
+                Ok(g) => Ok(Backend::Gpu(Arc::new(g))),
                 Err(e) => {
                     tracing::warn!(
                         "no usable Vulkan device ({e}); falling back to the CPU backend"

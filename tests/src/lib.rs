@@ -7,16 +7,22 @@ use host::render::{make_camera, world_bounds, world_to_index, CameraSpec};
 use host::volume::{Affine, DenseVolume};
 use shared::params::RenderParams;
 use std::fmt::Debug;
+use std::sync::{Arc, OnceLock};
 
-/// The Vulkan GPU, or a panic that says how to get one (these tests must run, not skip).
-pub fn gpu() -> Gpu {
-    match Gpu::new() {
-        Ok(g) => g,
+/// The Vulkan GPU, or a panic that says how to get one (these tests must run, not skip). One
+/// device per test binary, shared by its tests, so each kernel's pipeline is built once per
+/// binary: lavapipe takes 15-30 s to build a large kernel's pipeline (about 100 s with an empty
+/// shader cache, as on a fresh CI machine).
+pub fn gpu() -> Arc<Gpu> {
+    static GPU: OnceLock<Arc<Gpu>> = OnceLock::new();
+    GPU.get_or_init(|| match Gpu::new() {
+        Ok(g) => Arc::new(g),
         Err(e) => panic!(
             "GPU-vs-CPU tests need a Vulkan device: {e}. Install lavapipe with \
              `sudo apt-get install -y mesa-vulkan-drivers libvulkan1` (./scripts/test.sh does this)."
         ),
-    }
+    })
+    .clone()
 }
 
 /// Asserts that two output buffers are byte-identical; on mismatch prints the first rows that

@@ -63,7 +63,7 @@ fn both(gpu: &Backend, packed: &PackedVolume, p: &RenderParams, what: &str) -> V
 
 #[test]
 fn every_estimator_is_bit_identical_and_finite_at_every_density() {
-    let gpu = Backend::Gpu(Box::new(gpu()));
+    let gpu = Backend::Gpu(gpu());
     let vol = lumpy();
     for lookup in Lookup::ALL {
         for scale in SCALES {
@@ -100,7 +100,7 @@ fn every_estimator_is_bit_identical_and_finite_at_every_density() {
 
 #[test]
 fn every_integrator_is_bit_identical_and_finite_at_every_density() {
-    let gpu = Backend::Gpu(Box::new(gpu()));
+    let gpu = Backend::Gpu(gpu());
     let vol = lumpy();
     for lookup in Lookup::ALL {
         for scale in SCALES {

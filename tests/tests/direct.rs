@@ -136,7 +136,7 @@ fn packed(vol: &DenseVolume) -> PackedVolume {
 fn direct_is_bit_identical_on_gpu_and_cpu_for_every_light_and_estimator() {
     let vol = lumpy_blobs(24, 6);
     let packed = packed(&vol);
-    let gpu = Backend::Gpu(Box::new(gpu()));
+    let gpu = Backend::Gpu(gpu());
     let mut only_phase = map_scene();
     only_phase.lighting.p_env = 0.0;
     only_phase.lighting.p_sun = 1.0;

@@ -83,7 +83,7 @@ fn depth_pairs() -> Vec<DepthPair> {
 
 #[test]
 fn transmittance_pairs_are_bit_identical() {
-    let gpu = Backend::Gpu(Box::new(gpu()));
+    let gpu = Backend::Gpu(gpu());
     let pairs = depth_pairs();
     assert!(pairs.len() >= 1 << 20);
     let g = gpu.transmittance_pairs(&pairs).unwrap();
@@ -95,7 +95,7 @@ fn transmittance_pairs_are_bit_identical() {
 
 #[test]
 fn math_functions_are_bit_identical() {
-    let gpu = Backend::Gpu(Box::new(gpu()));
+    let gpu = Backend::Gpu(gpu());
     let mut xs = edge_floats();
     xs.extend(random_floats(RANDOM_COUNT, 11));
     // Dense sweeps over the ranges the estimators use.
@@ -109,7 +109,7 @@ const TRIG: f64 = shared::math::TRIG_ACCURATE_RANGE as f64;
 
 #[test]
 fn rng_streams_are_bit_identical() {
-    let gpu = Backend::Gpu(Box::new(gpu()));
+    let gpu = Backend::Gpu(gpu());
     for seed in [0u32, 1, pcg_hash(42), u32::MAX] {
         let g = gpu.rng_draws(RANDOM_COUNT, seed).unwrap();
         let c = Backend::Cpu.rng_draws(RANDOM_COUNT, seed).unwrap();
@@ -121,7 +121,7 @@ fn rng_streams_are_bit_identical() {
 #[test]
 fn launches_larger_than_one_dispatch_are_split_correctly() {
     // 65535 workgroups x 64 = 4,194,240 ids per dispatch; go past it so the host must split.
-    let gpu = Backend::Gpu(Box::new(gpu()));
+    let gpu = Backend::Gpu(gpu());
     let n = 65_535 * 64 + 1000;
     let pairs: Vec<DepthPair> = (0..n)
         .map(|i| DepthPair {
@@ -137,7 +137,7 @@ fn launches_larger_than_one_dispatch_are_split_correctly() {
 #[test]
 fn buffers_over_the_device_limit_are_refused_clearly() {
     // 4.2M RngDraws = 134 MB > lavapipe's 128 MiB maxStorageBufferRange: an error, not a crash.
-    let gpu = Backend::Gpu(Box::new(gpu()));
+    let gpu = Backend::Gpu(gpu());
     match gpu.rng_draws(65_535 * 64 + 1000, 3) {
         Ok(_) => {} // a device with a larger limit runs it; nothing to check here
         Err(e) => assert!(format!("{e:#}").contains("maxStorageBufferRange"), "{e:#}"),
@@ -146,7 +146,7 @@ fn buffers_over_the_device_limit_are_refused_clearly() {
 
 #[test]
 fn equiangular_sampling_is_bit_identical() {
-    let gpu = Backend::Gpu(Box::new(gpu()));
+    let gpu = Backend::Gpu(gpu());
     let r = random_floats(12 * 200_000, 21);
     let inputs: Vec<probe::EquiangularIn> = r
         .as_chunks::<12>()
@@ -176,7 +176,7 @@ fn equiangular_sampling_is_bit_identical() {
 /// every test and the README: 0.2, 0.3, 0.6, 0.85, -0.5), uniform numbers and directions.
 #[test]
 fn phase_sampling_is_bit_identical() {
-    let gpu = Backend::Gpu(Box::new(gpu()));
+    let gpu = Backend::Gpu(gpu());
     let mut rng = Pcg32::new(77, 5);
     let gs = [0.2f32, 0.3, 0.6, 0.85, -0.5, 0.0, 0.999, -0.999, 5e-4];
     let inputs: Vec<probe::PhaseIn> = (0..100_000)
@@ -214,7 +214,7 @@ fn phase_sampling_is_bit_identical() {
 fn shadow_map_lookups_are_bit_identical() {
     use shared::shadows::map::{store_texel, MsmDesc, Shadows};
     use shared::shadows::msm::add_atom6;
-    let gpu = Backend::Gpu(Box::new(gpu()));
+    let gpu = Backend::Gpu(gpu());
     let mut rng = Pcg32::new(91, 3);
     let mut next = || {
         let (v, r) = rng.next_f32();

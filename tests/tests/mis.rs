@@ -288,7 +288,7 @@ fn miller_agrees_with_free_flight_and_equiangular_per_ray() {
 
 #[test]
 fn gpu_and_cpu_render_identical_images_for_every_integrator() {
-    let gpu = Backend::Gpu(Box::new(gpu()));
+    let gpu = Backend::Gpu(gpu());
     let vol = lumpy(32);
     for lookup in [Lookup::Nearest, Lookup::Stochastic] {
         let packed = pack(&vol, 2.0, 8, lookup).unwrap();

@@ -80,7 +80,7 @@ fn map_settings() -> Vec<ShadowOptions> {
 fn with_residents(f: impl FnOnce(&DenseVolume, &PackedVolume, &Resident, &Resident)) {
     let vol = lumpy_blobs(24, 6);
     let packed = packed(&vol);
-    let gpu = Backend::Gpu(Box::new(gpu()));
+    let gpu = Backend::Gpu(gpu());
     let cpu = Backend::Cpu;
     let (rc, rg) = (
         Resident::new(&cpu, &packed).unwrap(),

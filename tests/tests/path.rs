@@ -52,7 +52,7 @@ fn no_lights() -> LightingOptions {
 fn path_is_bit_identical_on_gpu_and_cpu_for_its_lights_and_estimators() {
     let vol = lumpy_blobs(20, 5);
     let packed = pack(&vol, 1.5, 8, Lookup::Stochastic).unwrap();
-    let gpu = Backend::Gpu(Box::new(gpu()));
+    let gpu = Backend::Gpu(gpu());
     let sky = lights(&LightingOptions {
         env: EnvSource::Sky,
         ..no_lights()
@@ -150,7 +150,7 @@ fn paths_cut_off_by_max_depth_are_counted() {
         albedo: [0.99; 3],
         ..no_lights()
     });
-    let gpu = Backend::Gpu(Box::new(gpu()));
+    let gpu = Backend::Gpu(gpu());
     let mut p = params(&vol, 8, 8, 4, Estimator::Jackknife);
     p.max_depth = 1;
     p.rr_depth = 1024;

@@ -230,7 +230,7 @@ fn transmittance_stays_in_unit_interval_and_empty_volume_gives_one() {
 
 #[test]
 fn gpu_and_cpu_render_identical_images_for_every_estimator_and_lookup() {
-    let gpu = Backend::Gpu(Box::new(gpu()));
+    let gpu = Backend::Gpu(gpu());
     let vol = lumpy(64);
     for lookup in Lookup::ALL {
         let packed = pack(&vol, 3.0, 16, lookup).unwrap();
@@ -361,7 +361,7 @@ fn unbiased_ray_marching_matches_regular_tracking() {
 fn gpu_and_cpu_agree_for_every_estimator_and_many_samples_per_pixel() {
     // 3000 spp runs in many passes: lavapipe ends shader loops after 65535 iterations, which
     // once truncated a whole-spp loop on the GPU only. Every estimator, both lookups.
-    let gpu = Backend::Gpu(Box::new(gpu()));
+    let gpu = Backend::Gpu(gpu());
     let vol = lumpy(48);
     for lookup in Lookup::ALL {
         let packed = pack(&vol, 0.3, 16, lookup).unwrap();
@@ -395,7 +395,7 @@ fn gpu_and_cpu_agree_for_every_estimator_and_many_samples_per_pixel() {
 fn dense_media_with_long_loops_still_agree_between_gpu_and_cpu() {
     // Dense volume (optical depths in the hundreds): long tracking and ray-marching loops, passes
     // sized by host::render::spp_per_pass to stay within lavapipe's 65535-iteration limit.
-    let gpu = Backend::Gpu(Box::new(gpu()));
+    let gpu = Backend::Gpu(gpu());
     let vol = lumpy(48);
     let packed = pack(&vol, 40.0, 8, Lookup::Nearest).unwrap();
     for name in [

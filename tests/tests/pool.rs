@@ -136,7 +136,7 @@ fn a_sparse_volume_renders_identically_on_gpu_and_cpu() {
     assert_eq!(p.occupied_bricks(), 2);
     // Brick 0 (8 x 6 x 6 voxels) and the last brick (296..300: 4 x 6 x 6).
     assert_eq!(p.voxels.len(), (8 + 4) * 6 * 6 / 2);
-    let gpu = Backend::Gpu(Box::new(gpu()));
+    let gpu = Backend::Gpu(gpu());
     for integrator in [None, Some(Integrator::Direct)] {
         let params = RenderParams {
             spp: 4,
@@ -177,7 +177,7 @@ fn long_grids_beyond_the_gpu_loop_budget_render_on_the_cpu() {
     assert!(host::render::loop_iterations_per_ray(&params, &p.desc) > host::render::LOOP_BUDGET);
     let c = host::render::render(&Backend::Cpu, &p, &params, false).unwrap();
     assert!(c.iter().all(|px| px.t_mean.is_finite() && px.t_mean <= 1.0));
-    let gpu = Backend::Gpu(Box::new(gpu()));
+    let gpu = Backend::Gpu(gpu());
     let e = host::render::render(&gpu, &p, &params, false)
         .unwrap_err()
         .to_string();
@@ -242,7 +242,7 @@ fn paged_pools_render_identically_on_gpu_and_cpu() {
             }
         }
     }
-    let gpu = Backend::Gpu(Box::new(gpu()));
+    let gpu = Backend::Gpu(gpu());
     for integrator in [None, Some(Integrator::Direct), Some(Integrator::Path)] {
         let params = RenderParams {
             spp: 3,
@@ -287,7 +287,7 @@ fn pools_beyond_the_bound_pages_are_refused_on_the_gpu() {
     };
     let c = host::render::render(&Backend::Cpu, &paged, &params, false).unwrap();
     assert!(c.iter().all(|px| px.t_mean.is_finite()));
-    let gpu = Backend::Gpu(Box::new(gpu()));
+    let gpu = Backend::Gpu(gpu());
     let e = host::render::render(&gpu, &paged, &params, false)
         .unwrap_err()
         .to_string();

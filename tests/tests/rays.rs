@@ -249,7 +249,7 @@ fn render_both(
 
 #[test]
 fn camera_inside_the_volume_and_on_a_face_renders_identically_on_both_backends() {
-    let gpu = Backend::Gpu(Box::new(gpu()));
+    let gpu = Backend::Gpu(gpu());
     for e in [
         Estimator::Jackknife,
         Estimator::RatioTracking,

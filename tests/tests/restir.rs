@@ -111,7 +111,7 @@ fn render(
 fn restir_and_many_light_direct_are_bit_identical_on_gpu_and_cpu() {
     let vol = lumpy_blobs(24, 6);
     let packed = packed(&vol);
-    let gpu = Backend::Gpu(Box::new(gpu()));
+    let gpu = Backend::Gpu(gpu());
     let mut cases = Vec::new();
     for target in [
         RestirTarget::Jackknife,
@@ -382,7 +382,7 @@ fn target_is_positive_bounded_and_a_fixed_function() {
 fn spatial_reuse_is_bit_identical_on_gpu_and_cpu() {
     let vol = lumpy_blobs(24, 6);
     let packed = packed(&vol);
-    let gpu = Backend::Gpu(Box::new(gpu()));
+    let gpu = Backend::Gpu(gpu());
     let cases = [
         (
             1,

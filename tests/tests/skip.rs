@@ -80,7 +80,7 @@ fn the_builder_marks_the_largest_all_zero_cubes() {
 
 #[test]
 fn every_estimator_and_integrator_renders_the_same_bytes_with_and_without_skips() {
-    let gpu = Backend::Gpu(Box::new(gpu()));
+    let gpu = Backend::Gpu(gpu());
     let vol = sparse_blobs();
     for (brick, lookup) in [
         (4, Lookup::Nearest),
