@@ -62,7 +62,7 @@ fn optimize_all(result: &CompileResult, out: &Path) -> Result<HashMap<String, Pa
             (name, path, len)
         })
         .collect();
-    work.sort_by(|a, b| b.2.cmp(&a.2));
+    work.sort_by_key(|w| std::cmp::Reverse(w.2));
     let jobs = std::env::var("NUM_JOBS")
         .ok()
         .and_then(|j| j.parse::<usize>().ok())
