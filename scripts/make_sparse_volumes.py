@@ -8,6 +8,8 @@ loader's tests and benchmarks. Run with Debian's /usr/bin/python3.
   make_sparse_volumes.py disney OUT.vdb      bbox 993x675x1224, 15 % of its 16^3 blocks occupied in
                                              cloud-like clusters, half-float (Blosc), ~120 M voxels
   make_sparse_volumes.py two OUT.vdb         two active voxels at opposite corners of a 1000^3 box
+  make_sparse_volumes.py line OUT.vdb        two active voxels 10^6 voxels apart along x, checked
+                                             in as tests/fixtures/two_far.vdb
   make_sparse_volumes.py series DIR          the sparse series of `host bench --sweep-files`: bboxes
                                              256^3 and 1/2, 3/4, 1 x the Disney bbox, each with 15 %
                                              of its 16^3 blocks occupied: DIR/sparse_{256,half,
@@ -102,8 +104,16 @@ def two(out):
     vdb.write(out, grids=[g])
 
 
+def line(out):
+    g = grid()
+    acc = g.getAccessor()
+    acc.setValueOn((0, 0, 0), 1.0)
+    acc.setValueOn((1000000, 0, 0), 1.0)
+    vdb.write(out, grids=[g])
+
+
 if __name__ == "__main__":
-    modes = {"fixture": fixture, "disney": disney, "two": two, "series": series}
+    modes = {"fixture": fixture, "disney": disney, "two": two, "line": line, "series": series}
     if len(sys.argv) != 3 or sys.argv[1] not in modes:
         sys.exit(__doc__)
     modes[sys.argv[1]](sys.argv[2])

@@ -3,7 +3,7 @@
 
 use crate::volume::VolumeData;
 use anyhow::{anyhow, Result};
-use jackknife::{BuildError, GridBuilder};
+use jackknife::{BuildError, GridBuilder, SupervoxelFormat};
 use shared::volume::grid::Lookup;
 
 pub use jackknife::{Grid as PackedVolume, Underflow, DEFAULT_BRICK_SIZE, MAX_OPTICAL_DEPTH};
@@ -20,6 +20,7 @@ pub fn pack(
         vol,
         density_scale,
         brick_size,
+        SupervoxelFormat::F32,
         lookup,
         shared::volume::pages::GPU_PAGE_LOG2,
     )
@@ -31,6 +32,7 @@ pub fn pack_paged(
     vol: &dyn VolumeData,
     density_scale: f32,
     brick_size: u32,
+    format: SupervoxelFormat,
     lookup: Lookup,
     page_log2: u32,
 ) -> Result<PackedVolume> {
@@ -38,6 +40,7 @@ pub fn pack_paged(
         .page_log2(page_log2)
         .density_scale(density_scale)
         .brick_size(brick_size)
+        .supervoxel_format(format)
         .lookup(lookup)
         .max_chord(world_chord(vol))
         .build()

@@ -62,6 +62,8 @@ pub struct SceneOptions {
     pub density_scale: Option<f32>,
     /// Voxels per brick along each axis.
     pub brick_size: u32,
+    /// How the super-voxel statistics are stored.
+    pub supervoxel_format: jackknife::SupervoxelFormat,
     /// Camera position (None: framing the volume).
     pub camera: Option<[f32; 3]>,
     /// Point the camera looks at (None: the volume's center).
@@ -81,6 +83,7 @@ impl Default for SceneOptions {
             resolution: defaults::RESOLUTION,
             density_scale: None,
             brick_size: defaults::BRICK_SIZE,
+            supervoxel_format: jackknife::SupervoxelFormat::F32,
             camera: None,
             look_at: None,
             fov: defaults::FOV,
@@ -344,6 +347,11 @@ pub struct RenderSummary {
     pub n: u32,
     pub density_scale: f32,
     pub brick_size: u32,
+    /// How the super-voxel statistics are stored ("f32" or "bc4"; `brick_table_bytes` is the
+    /// table as held, decoded to f32; `bc4_brick_table_bytes` what a BC4 table would take).
+    pub supervoxel_format: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bc4_brick_table_bytes: Option<u64>,
     pub elapsed_ms: f64,
     pub mean_samples_per_ray: f64,
     /// Mean transmittance (transmittance renders only).
@@ -384,6 +392,13 @@ pub struct RenderSummary {
     /// device binds, or up to 1 GiB on a GPU with larger storage buffers.
     pub pool_pages: usize,
     pub pool_page_bytes: u64,
+    /// Most iterations of one traversal of the bricks and of one traversal of the voxels (the
+    /// bound from the occupied bricks with empty-space skipping, or the stepping bound if
+    /// smaller; a traversal that would exceed it is counted in `capped_rays`), and the loop
+    /// iterations one ray of this render may take (a GPU invocation runs at most 60000).
+    pub brick_traversal_steps: u32,
+    pub voxel_traversal_steps: u32,
+    pub loop_iterations_per_ray: u64,
     /// How the loaded voxels were held before packing: "dense" (the bounding box as f32) or
     /// "sparse" (a file's leaves and tiles only), and their bytes.
     pub volume_storage: String,
@@ -908,6 +923,12 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         n: args.n,
         density_scale,
         brick_size: args.scene.brick_size,
+        supervoxel_format: format!("{:?}", args.scene.supervoxel_format).to_lowercase(),
+        bc4_brick_table_bytes: (args.scene.supervoxel_format == jackknife::SupervoxelFormat::Bc4)
+            .then(|| {
+                let d = packed.desc.brick_dims;
+                jackknife::bc4::bc4_table_bytes([d[0], d[1], d[2]])
+            }),
         elapsed_ms,
         mean_samples_per_ray: samples / rays,
         mean_t: (!radiance).then_some(mean),
@@ -950,6 +971,9 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         brick_table_bytes: std::mem::size_of_val(packed.bricks.as_slice()) as u64,
         pool_pages: packed.pages().count(),
         pool_page_bytes: 4u64 << packed.page_log2,
+        brick_traversal_steps: packed.desc.brick_budget(),
+        voxel_traversal_steps: packed.desc.voxel_budget(),
+        loop_iterations_per_ray: per_ray,
         volume_storage: vol.storage().into(),
         volume_bytes: vol.stored_bytes(),
         prepare_ms: load_ms,
@@ -1082,8 +1106,14 @@ pub fn prepare_scene(
             volume.dims().iter().map(|&d| u64::from(d)).product::<u64>(),
             volume.storage()
         ));
-        let packed =
-            crate::bricks::pack_paged(&volume, density_scale, args.brick_size, lookup, page_log2)?;
+        let packed = crate::bricks::pack_paged(
+            &volume,
+            density_scale,
+            args.brick_size,
+            args.supervoxel_format,
+            lookup,
+            page_log2,
+        )?;
         Ok((volume, grid, density_scale, packed))
     })();
     // Cleared on errors too, so the spinner never stays above an error message.

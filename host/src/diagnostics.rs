@@ -85,8 +85,19 @@ impl RayFlags {
     }
 }
 
-/// What the loop bound of this render's estimator does when reached, and what to change.
+/// What the loop bound of this render's estimator does when reached, and what to change; and
+/// the bound every render shares: a traversal of the grid past its iteration budget.
 pub fn capped_advice(params: &RenderParams) -> String {
+    format!(
+        "{}; or a traversal of the grid used up its iteration budget (the bound from the \
+         occupied bricks that empty-space skipping keeps to, README: empty space) and the rest \
+         of that ray segment was taken as empty; that is a bug: please report the volume",
+        estimator_advice(params)
+    )
+}
+
+/// [`capped_advice`] of the estimator's or integrator's own loop bound.
+fn estimator_advice(params: &RenderParams) -> String {
     use shared::estimators::ray_marching::{MAX_BIASED_SAMPLES, MAX_UNBIASED_SAMPLES};
     let cap = crate::render::collision_cap(params);
     let tracking = format!(

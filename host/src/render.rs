@@ -217,8 +217,10 @@ pub fn loop_iterations_per_ray(
     desc: &shared::volume::grid::GridDesc,
 ) -> u64 {
     use shared::params::Estimator as E;
-    let bricks = (desc.brick_dims[0] + desc.brick_dims[1] + desc.brick_dims[2] + 3) as u64;
-    let voxels = (desc.dims[0] + desc.dims[1] + desc.dims[2] + 3) as u64;
+    // One traversal of the bricks or voxels: the builder's bound from the occupied bricks with
+    // empty-space skipping, or the stepping bound if smaller (the DDA's own budget).
+    let bricks = desc.brick_budget() as u64;
+    let voxels = desc.voxel_budget() as u64;
     let fixed = 64;
     // A tracking loop: two iterations per tentative collision (the collision loop and the
     // sampler's), one sampler iteration per brick segment, and at the cap the completion by a

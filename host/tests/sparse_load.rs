@@ -182,3 +182,61 @@ fn a_sparse_file_renders_the_same_bytes_on_both_backends() {
     }
     assert!(exrs[0] == exrs[1], "the CPU and GPU images differ");
 }
+
+/// Two active voxels 10^6 voxels apart (`tests/fixtures/two_far.vdb`, a 1000001 x 1 x 1 box),
+/// seen down the line so that every ray crosses the empty span: the traversals' budgets come from
+/// the two occupied bricks, not the 62501 bricks of the box, so lavapipe renders it (it refused
+/// the box's brick count before) with the CPU's bytes, no ray is capped, and regular tracking
+/// reads a few voxels per ray instead of stepping through ~10^5.
+#[test]
+fn two_voxels_a_million_voxels_apart_render_on_both_backends() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/fixtures/two_far.vdb");
+    let dir = tempfile::tempdir().unwrap();
+    let run = |backend: &str, estimator: &str| {
+        let exr = dir.path().join(format!("{backend}_{estimator}.exr"));
+        let json = dir.path().join(format!("{backend}_{estimator}.json"));
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_host"))
+            .args(["--backend", backend, "--estimator", estimator])
+            .args(["--width", "16", "--height", "16", "--spp", "2", "--quiet"])
+            .args([
+                "--camera=-1,0,0",
+                "--look-at",
+                "50000,0,0",
+                "--fov",
+                "0.001",
+            ])
+            .arg("--volume")
+            .arg(&path)
+            .arg("--out")
+            .arg(&exr)
+            .arg("--json")
+            .arg(&json)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{backend} {estimator}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let j: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        assert_eq!(j["bricks"], 62501, "{j}");
+        assert_eq!(j["capped_rays"], 0, "{j}");
+        assert!(j["brick_traversal_steps"].as_u64().unwrap() < 1000, "{j}");
+        assert!(
+            j["loop_iterations_per_ray"].as_u64().unwrap() <= 60_000,
+            "{j}"
+        );
+        // The rays meet the voxel at the near end.
+        assert!(j["mean_T"].as_f64().unwrap() < 0.99, "{j}");
+        (std::fs::read(&exr).unwrap(), j)
+    };
+    let (cpu, _) = run("cpu", "jackknife");
+    let (gpu, _) = run("gpu", "jackknife");
+    assert!(cpu == gpu, "the CPU and GPU images differ");
+    let (_, regular) = run("cpu", "regular");
+    assert!(
+        regular["mean_samples_per_ray"].as_f64().unwrap() < 1000.0,
+        "{regular}"
+    );
+}

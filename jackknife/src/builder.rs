@@ -175,6 +175,19 @@ pub struct GridBuilder<'a> {
     lookup: Lookup,
     chord: Option<f64>,
     page_log2: u32,
+    format: SupervoxelFormat,
+}
+
+/// How the super-voxel statistics are stored.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SupervoxelFormat {
+    /// f32 each, rounded conservatively from the exact statistics.
+    #[default]
+    F32,
+    /// BC4 block compression as in the paper's figures (see [`crate::bc4`]): 4 bits per brick
+    /// and statistic plus 8-bit endpoints per 4 x 4 block, conservative; the brick table holds
+    /// the decoded values.
+    Bc4,
 }
 
 impl<'a> GridBuilder<'a> {
@@ -207,6 +220,7 @@ impl<'a> GridBuilder<'a> {
             lookup: Lookup::Stochastic,
             chord: None,
             page_log2: GPU_PAGE_LOG2,
+            format: SupervoxelFormat::F32,
         }
     }
 
@@ -225,6 +239,12 @@ impl<'a> GridBuilder<'a> {
     /// How the estimators read voxels (default: stochastic filtering, as in the paper).
     pub fn lookup(mut self, lookup: Lookup) -> Self {
         self.lookup = lookup;
+        self
+    }
+
+    /// How the super-voxel statistics are stored (default f32; BC4 as in the paper's figures).
+    pub fn supervoxel_format(mut self, format: SupervoxelFormat) -> Self {
+        self.format = format;
         self
     }
 
@@ -348,6 +368,9 @@ impl<'a> GridBuilder<'a> {
             lookup: self.lookup as u32,
             density_scale: stored_scale,
             page_log2: ONE_PAGE_LOG2,
+            brick_steps: 0,
+            voxel_steps: 0,
+            pad: [0; 2],
         };
         let slots_only: Vec<Brick> = slots
             .iter()
@@ -392,9 +415,18 @@ impl<'a> GridBuilder<'a> {
                 }
             })
             .collect();
-        let bricks = mark_skippable(bricks, brick_dims);
+        let bricks = match self.format {
+            SupervoxelFormat::F32 => bricks,
+            SupervoxelFormat::Bc4 => crate::bc4::compress_bricks(&bricks, brick_dims),
+        };
+        let (bricks, levels) = mark_skippable(bricks, brick_dims);
+        let [brick_steps, voxel_steps] = traversal_steps(&levels, brick_dims, dims, b);
         Ok(Grid {
-            desc,
+            desc: GridDesc {
+                brick_steps,
+                voxel_steps,
+                ..desc
+            },
             voxels,
             bricks,
             underflow,
@@ -651,7 +683,8 @@ fn is_zero(b: &Brick) -> bool {
 /// Gives every all-zero brick ([`is_zero`]) the slot [`skip_slot`]`(L)` of the largest aligned
 /// cube of 2^L bricks per axis (clipped to the grid) around it that holds only all-zero bricks:
 /// a pyramid of such cubes, level by level, each cube all-zero iff its (up to eight) halves are.
-fn mark_skippable(mut bricks: Vec<Brick>, brick_dims: [u32; 3]) -> Vec<Brick> {
+/// Returns the bricks and the pyramid (per level, x fastest: whether the cube is all-zero).
+fn mark_skippable(mut bricks: Vec<Brick>, brick_dims: [u32; 3]) -> (Vec<Brick>, Vec<Vec<bool>>) {
     let index = |c: [u32; 3], d: [u32; 3]| {
         c[0] as usize + d[0] as usize * (c[1] as usize + d[1] as usize * c[2] as usize)
     };
@@ -696,7 +729,42 @@ fn mark_skippable(mut bricks: Vec<Brick>, brick_dims: [u32; 3]) -> Vec<Brick> {
         }
         b.slot = skip_slot(l as u32);
     }
-    bricks
+    (bricks, levels)
+}
+
+/// Slack for skips the traversal cannot verify in closed form and steps instead (a few in
+/// 10^5 skips, one or two cells each); a traversal past its budget is counted as capped.
+pub const FALLBACK_STEPS: u64 = 32;
+
+/// The iteration budgets of one brick traversal and one skipping voxel traversal
+/// ([`GridDesc::brick_steps`], [`GridDesc::voxel_steps`]): the smaller of the stepping bound
+/// (cells per axis summed, + 3) and a bound from the occupied cubes of the pyramid `levels`.
+///
+/// A traversal steps through each brick that is not all-zero (a voxel traversal through at most
+/// 3B of its voxels) and skips each maximal all-zero cube in one iteration. A maximal cube of
+/// level L below the top lies in a cube of level L + 1 holding a brick that is not all-zero, and
+/// a line meets at most 4 of a cube's 8 halves (it crosses each of the 3 mid-planes once), so
+/// with M_l the cubes of level l that are not all-zero and S_l the most cells of level l a ray
+/// meets (cells per axis summed): skips <= 1 + sum over l >= 1 of 4 min(M_l, S_l).
+fn traversal_steps(levels: &[Vec<bool>], brick_dims: [u32; 3], dims: [u32; 3], b: u32) -> [u32; 2] {
+    let mut cells = brick_dims;
+    let mut occupied = [0u64; 2];
+    let mut skips = 1u64;
+    for (l, level) in levels.iter().enumerate() {
+        let m = level.iter().filter(|&&zero| !zero).count() as u64;
+        let s = cells.iter().map(|&c| c as u64).sum::<u64>();
+        if l == 0 {
+            occupied = [m.min(s), 3 * b as u64 * m.min(s)];
+        } else {
+            skips += 4 * m.min(s);
+        }
+        cells = cells.map(|c| c.div_ceil(2));
+    }
+    let bound = |occ: u64, d: [u32; 3]| {
+        let b = (occ + skips + FALLBACK_STEPS).min(u32::MAX as u64) as u32;
+        shared::volume::grid::traversal_budget(b, d)
+    };
+    [bound(occupied[0], brick_dims), bound(occupied[1], dims)]
 }
 
 /// The statistics of a brick whose widened window holds zeros only (what [`brick_stats`] gives).

@@ -15,11 +15,13 @@
 //! ```
 #![deny(missing_docs)]
 
+pub mod bc4;
 mod builder;
 mod segment;
 
 pub use builder::{
-    BuildError, Grid, GridBuilder, Underflow, DEFAULT_BRICK_SIZE, MAX_OPTICAL_DEPTH, MAX_PAGE_LOG2,
+    BuildError, Grid, GridBuilder, SupervoxelFormat, Underflow, DEFAULT_BRICK_SIZE, FALLBACK_STEPS,
+    MAX_OPTICAL_DEPTH, MAX_PAGE_LOG2,
 };
 pub use segment::SegmentEstimator;
 pub use shared::estimators::transmittance::{jackknife, naive, s, x_bar};

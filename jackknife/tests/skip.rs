@@ -6,7 +6,9 @@
 use jackknife::{GridBuilder, HashRng, Importance, Jitter, Lookup, Ray, V3};
 use shared::estimators::optical_depth::{estimate_pair, prepare};
 use shared::estimators::ray_marching::{biased_ray_marching, unbiased_ray_marching};
-use shared::estimators::tracking::{ratio_tracking, track_length};
+use shared::estimators::tracking::{
+    exact_free_flight, ratio_tracking, regular_tracking_tau, track_length,
+};
 use shared::rng::{pcg_hash, unit_f32};
 use shared::volume::grid::{EMPTY_BRICK, NO_SKIP};
 
@@ -42,6 +44,12 @@ fn estimates(g: &jackknife::Grid, ray: &Ray, lookup: Lookup, seed: u32) -> Vec<u
             .0
             .to_bits(),
     );
+    // The voxel traversals (regular tracking, and the exact free flight at the collision cap):
+    // the same optical depth and collision bits whether they skip or step.
+    out.push(regular_tracking_tau(&vol, ray, t0, t1).0.to_bits());
+    let target = 0.05 + 3.0 * unit_f32(pcg_hash(seed ^ 0x51ed));
+    let f = exact_free_flight(&vol, ray, t0, t1, target);
+    out.extend([f.t.to_bits(), f.mu.to_bits(), f.found as u32]);
     out
 }
 
@@ -77,6 +85,9 @@ fn every_estimate_is_the_same_with_and_without_skip_marks() {
             .count();
         assert!(brick == 16 || marked > 50, "brick {brick}: {marked} marked");
         let mut stepping = skipping.clone();
+        // Stepping needs the stepping bound's budget (0: that bound).
+        stepping.desc.brick_steps = 0;
+        stepping.desc.voxel_steps = 0;
         for b in &mut stepping.bricks {
             if b.skip_level() != NO_SKIP {
                 b.slot = EMPTY_BRICK;

@@ -30,7 +30,9 @@ fn shared_struct_layouts() {
     assert_eq!(size_of::<Pcg32>(), 16);
     assert_eq!(align_of::<Pcg32>(), 8);
     assert_eq!(size_of::<Complex>(), 8);
-    assert_eq!(size_of::<GridDesc>(), 48);
+    assert_eq!(size_of::<GridDesc>(), 64);
+    assert_eq!(std::mem::offset_of!(GridDesc, brick_steps), 48);
+    assert_eq!(std::mem::offset_of!(GridDesc, voxel_steps), 52);
     assert_eq!(size_of::<Brick>(), 20);
     assert_eq!(size_of::<RenderParams>(), 228);
     assert_eq!(size_of::<RenderPass>(), 32);

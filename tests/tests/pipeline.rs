@@ -316,6 +316,7 @@ fn optical_depth_estimates_are_unbiased_in_every_mode() {
                         rng,
                     )
                     .0
+                    .x0
                 });
                 assert!(
                     (m - tau as f64).abs() < 4.5 * se + 1e-5 * tau as f64,

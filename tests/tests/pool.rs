@@ -6,9 +6,11 @@ use host::bricks::pack;
 use host::volume::{Affine, DenseVolume};
 use host::Backend;
 use integration_tests::{assert_bytes_equal, camera_params, gpu, volume};
+use shared::camera::Camera;
+use shared::geometry::V3;
 use shared::params::{Estimator, Integrator, RenderParams};
 use shared::rng::{pcg_hash, unit_f32};
-use shared::volume::grid::Lookup;
+use shared::volume::grid::{GridDesc, Lookup};
 
 /// A 37 x 20 x 9 grid (no side a multiple of the brick size 8) where only some 4^3 cells hold
 /// density.
@@ -155,20 +157,92 @@ fn a_sparse_volume_renders_identically_on_gpu_and_cpu() {
     }
 }
 
-/// A 200000 x 2 x 2 grid with density at both ends: one ray may need more loop iterations than a
-/// GPU invocation runs (the brick traversal alone), so the GPU backend refuses it naming
-/// `--backend cpu`, and the CPU backend, which has no such limit, renders it (before, both
-/// refused with the GPU's limit). The pool holds the two end bricks only.
+/// A 200000 x 2 x 2 grid with density at both ends, seen down its length: stepping through its
+/// bricks would take one ray past a GPU invocation's loop budget (the GPU refused it before), but
+/// empty-space skipping bounds each traversal by the occupied bricks (`GridDesc::brick_steps`,
+/// `voxel_steps`), so both backends render it, bit-identically, with estimators of every family
+/// (Alg. 1/2, tracking over the bricks, regular tracking over the voxels, ray marching), and no
+/// ray reaches a traversal's budget. The pool holds the two end bricks only.
 #[test]
-fn long_grids_beyond_the_gpu_loop_budget_render_on_the_cpu() {
+fn long_mostly_empty_grids_render_on_the_gpu_within_the_budget_of_their_occupied_bricks() {
     let vol = volume(
         "long",
         [200_000, 2, 2],
         Affine::scale_translate([1e-5; 3], [-1.0, -1e-5, -1e-5]),
-        |x, _, _| if !(8..199_992).contains(&x) { 5.0 } else { 0.0 },
+        // 8 voxels of 1e-5 world units at each end: tau 0.4 per end at extinction 5000.
+        |x, _, _| {
+            if !(8..199_992).contains(&x) {
+                5000.0
+            } else {
+                0.0
+            }
+        },
     );
     let p = pack(&vol, 1.0, 8, Lookup::Nearest).unwrap();
     assert_eq!(p.occupied_bricks(), 2);
+    let mut base = RenderParams {
+        spp: 2,
+        seed: 1,
+        ..jackknife_params(&vol, 8, 4, None)
+    };
+    // Down the line (world x): every ray crosses both ends and the empty span between them.
+    base.camera = Camera {
+        origin: V3::new(-1.5, 0.0, 0.0),
+        forward: V3::new(1.0, 0.0, 0.0),
+        right: V3::new(0.0, 0.0, 2e-6),
+        up: V3::new(0.0, 1.5e-6, 0.0),
+        ..Default::default()
+    };
+    let stepping = GridDesc {
+        brick_steps: 0,
+        voxel_steps: 0,
+        ..p.desc
+    };
+    let gpu = Backend::Gpu(gpu());
+    for e in [
+        Estimator::Jackknife,
+        Estimator::RatioTracking,
+        Estimator::TrackLength,
+        Estimator::RegularTracking,
+        Estimator::UnbiasedRayMarching,
+    ] {
+        let params = RenderParams {
+            estimator: e as u32,
+            ..base
+        };
+        use host::render::{loop_iterations_per_ray, LOOP_BUDGET};
+        assert!(
+            loop_iterations_per_ray(&params, &stepping) > LOOP_BUDGET,
+            "{e:?}"
+        );
+        assert!(
+            loop_iterations_per_ray(&params, &p.desc) <= LOOP_BUDGET,
+            "{e:?}"
+        );
+        let c = host::render::render(&Backend::Cpu, &p, &params, false).unwrap();
+        let g = host::render::render(&gpu, &p, &params, false).unwrap();
+        let ids: Vec<u32> = (0..c.len() as u32).collect();
+        assert_bytes_equal(&format!("{e:?}"), &ids, &g, &c);
+        assert!(c.iter().all(|px| px.capped == 0), "{e:?}: capped rays");
+        // Both ends absorb (tau 0.4 each): T = e^-0.8 = 0.45 on every ray; the image mean of
+        // 64 samples (track-length's are 0 or 1: std 0.06) lies within (0.25, 0.65).
+        let mean = c.iter().map(|px| px.t_mean as f64).sum::<f64>() / c.len() as f64;
+        assert!(mean > 0.25 && mean < 0.65, "{e:?}: mean T {mean}");
+    }
+}
+
+/// The same grid with density along its whole length: every brick is occupied, so a ray's
+/// traversal bound stays the brick count and exceeds what a GPU invocation runs: the GPU backend
+/// refuses it naming `--backend cpu`, and the CPU backend, which has no such limit, renders it.
+#[test]
+fn long_occupied_grids_beyond_the_gpu_loop_budget_render_on_the_cpu() {
+    let vol = volume(
+        "long",
+        [200_000, 2, 2],
+        Affine::scale_translate([1e-5; 3], [-1.0, -1e-5, -1e-5]),
+        |x, _, _| 1e-4 * (1 + x % 7) as f32,
+    );
+    let p = pack(&vol, 1.0, 8, Lookup::Nearest).unwrap();
     let params = RenderParams {
         spp: 2,
         seed: 1,
@@ -185,6 +259,51 @@ fn long_grids_beyond_the_gpu_loop_budget_render_on_the_cpu() {
         e.contains("--backend cpu") && e.contains("200000x2x2"),
         "{e}"
     );
+}
+
+/// BC4-compressed super-voxel statistics (`--supervoxel-format bc4`): the brick table holds the
+/// decoded values, so every estimator family renders the same bytes on lavapipe as on the CPU,
+/// and the images differ from the f32 statistics' (the format changes the sampling).
+#[test]
+fn bc4_statistics_render_identically_on_gpu_and_cpu() {
+    let vol = patchy();
+    let pack_as = |format| {
+        host::bricks::pack_paged(
+            &vol,
+            1.5,
+            4,
+            format,
+            Lookup::Nearest,
+            shared::volume::pages::GPU_PAGE_LOG2,
+        )
+        .unwrap()
+    };
+    let bc4 = pack_as(jackknife::SupervoxelFormat::Bc4);
+    let f32s = pack_as(jackknife::SupervoxelFormat::F32);
+    assert_eq!(bc4.voxels, f32s.voxels);
+    let gpu = Backend::Gpu(gpu());
+    for e in [
+        Estimator::Jackknife,
+        Estimator::JackknifeAdaptive,
+        Estimator::RatioTracking,
+        Estimator::BiasedRayMarching,
+    ] {
+        let params = RenderParams {
+            estimator: e as u32,
+            spp: 3,
+            seed: 5,
+            ..jackknife_params(&vol, 24, 16, None)
+        };
+        let c = host::render::render(&Backend::Cpu, &bc4, &params, false).unwrap();
+        let g = host::render::render(&gpu, &bc4, &params, false).unwrap();
+        let ids: Vec<u32> = (0..c.len() as u32).collect();
+        assert_bytes_equal(&format!("{e:?}"), &ids, &g, &c);
+        let f = host::render::render(&Backend::Cpu, &f32s, &params, false).unwrap();
+        assert!(
+            c.iter().zip(&f).any(|(a, b)| a.t_mean != b.t_mean),
+            "{e:?}: bc4 rendered exactly as f32"
+        );
+    }
 }
 
 /// `patchy()` packed with pages of 2^`page_log2` words (brick size 4, stochastic lookups).

@@ -68,7 +68,8 @@ fn zero_length_segments_give_transmittance_one_without_lookups() {
                 (0.0, 0.0, 0),
                 "pair at t = {t}"
             );
-            assert_eq!(regular_tracking_tau(&vol, &ray, t, t), (0.0, 0));
+            let (tau, tally) = regular_tracking_tau(&vol, &ray, t, t);
+            assert_eq!((tau, tally.lookups, tally.capped), (0.0, 0, 0));
             for (name, (tr, n, _)) in [
                 ("track-length", track_length(&vol, &ray, t, t, lookup, rng)),
                 (

@@ -171,7 +171,9 @@ fn regular_tracking_equals_chord_length_times_density_in_a_constant_box() {
         if !(t0 < t1) {
             continue;
         }
-        let (tau, visited) = regular_tracking_tau(&view, &r, t0, t1);
+        let (tau, tally) = regular_tracking_tau(&view, &r, t0, t1);
+        let visited = tally.lookups;
+        assert_eq!(tally.capped, 0);
         let exact = 0.0625 * (t1 - t0) as f64;
         assert!(
             (tau as f64 - exact).abs() <= 1e-5 * exact.max(1.0),
@@ -194,10 +196,10 @@ fn regular_tracking_equals_sum_of_densities_times_lengths_in_two_halves() {
     let view = p.view();
     let axis = ray([-5.0, 3.3, 4.7], [40.0, 3.3, 4.7]);
     let (t0, t1) = clip(&p, &axis);
-    let (tau, visited) = regular_tracking_tau(&view, &axis, t0, t1);
+    let (tau, tally) = regular_tracking_tau(&view, &axis, t0, t1);
     assert_eq!((t0, t1), (5.0, 37.0));
     assert_eq!(tau, 0.5 * 16.0 + 1.5 * 16.0, "axis-parallel ray");
-    assert_eq!(visited, 32);
+    assert_eq!(tally.lookups, 32);
     // A sub-interval starting and ending inside voxels: x from 10.25 to 20.5.
     let (tau, _) = regular_tracking_tau(&view, &axis, 15.25, 25.5);
     assert_eq!(tau, (0.5 * 5.75 + 1.5 * 4.5) as f32, "sub-interval");

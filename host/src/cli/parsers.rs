@@ -7,6 +7,7 @@ use crate::render::UpAxis;
 use crate::shadow_map::{MsmStorage, ShadowKind};
 use crate::study::distributions::Distribution;
 use crate::study::profile::Sampling;
+use jackknife::SupervoxelFormat;
 use shared::params::TransmittanceHat;
 use shared::shadows::map::{MsmFilter, MAX_FILTER_RADIUS};
 use shared::volume::grid::Lookup;
@@ -51,6 +52,16 @@ value_enum! {
         Stochastic,
         /// Deterministic trilinear interpolation of the eight nearest voxels.
         Trilinear,
+    }
+}
+
+value_enum! {
+    /// How the super-voxel statistics are stored.
+    SupervoxelFormatArg => SupervoxelFormat {
+        /// f32 per statistic (exact up to conservative rounding).
+        F32,
+        /// BC4 block compression as in the paper's figures (conservative).
+        Bc4,
     }
 }
 

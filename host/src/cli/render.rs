@@ -3,7 +3,7 @@
 use super::parsers::{
     f32_in, f32_open, parse_albedo, parse_density_scale, parse_env, parse_f_delta,
     parse_msm_filter, parse_positive, parse_sun, parse_vec3, BackendArg, LookupArg, MsmStorageArg,
-    ShadowsArg, THatArg, UpArg,
+    ShadowsArg, SupervoxelFormatArg, THatArg, UpArg,
 };
 use crate::commands::{defaults, RenderOptions, SceneOptions};
 use clap::Args;
@@ -31,6 +31,11 @@ pub struct SceneArgs {
     /// Voxels per super-voxel (brick) along each axis, 2 to 256.
     #[arg(long, allow_hyphen_values = true, default_value_t = defaults::BRICK_SIZE, value_parser = clap::value_parser!(u32).range(2..=256))]
     pub brick_size: u32,
+    /// How the super-voxel statistics are stored: f32, or bc4 (the paper's block-compressed
+    /// grids: 4 bits per brick and statistic, conservative rounding; more variance and, on thin
+    /// wisps, more jackknife bias).
+    #[arg(long, value_enum, default_value_t = SupervoxelFormatArg::F32)]
+    pub supervoxel_format: SupervoxelFormatArg,
     /// Camera position x,y,z in world units (default: framing the volume from the front).
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub camera: Option<[f32; 3]>,
@@ -57,6 +62,7 @@ impl SceneArgs {
             resolution: self.resolution,
             density_scale: self.density_scale,
             brick_size: self.brick_size,
+            supervoxel_format: self.supervoxel_format.into(),
             camera: self.camera,
             look_at: self.look_at,
             fov: self.fov,

@@ -44,7 +44,7 @@ pub fn transmittance(
                 cfg.lookup,
                 rng,
             );
-            let tally = Tally::lookups(est.samples);
+            let tally = est.tally();
             if which == Estimator::Jackknife {
                 let outside = transmittance::outside_regime(est.x0, est.x1);
                 (
@@ -58,7 +58,7 @@ pub fn transmittance(
         }
         Estimator::NaiveSingle => {
             let prep = prepare(vol, ray, t0, t1, cfg.importance);
-            let (x, n, rng) = estimate_single(
+            let (est, rng) = estimate_single(
                 vol,
                 ray,
                 &prep,
@@ -68,7 +68,7 @@ pub fn transmittance(
                 cfg.lookup,
                 rng,
             );
-            (math::exp(-x), Tally::lookups(n), rng)
+            (math::exp(-est.x0), est.tally(), rng)
         }
         Estimator::JackknifeAdaptive => {
             let prep = prepare(vol, ray, t0, t1, cfg.importance);
@@ -83,7 +83,8 @@ pub fn transmittance(
                 cfg.lookup,
                 rng,
             );
-            let tally = Tally::lookups(est.samples)
+            let tally = est
+                .tally()
                 .capped_if(capped)
                 .outside_if(transmittance::outside_regime(est.x0, est.x1));
             (transmittance::jackknife(est.x0, est.x1), tally, rng)
@@ -95,8 +96,8 @@ pub fn transmittance(
             unbiased_ray_marching(vol, ray, t0, t1, rm_scale, cfg.lookup, rng)
         }
         Estimator::RegularTracking => {
-            let (tau, n) = regular_tracking_tau(vol, ray, t0, t1);
-            (math::exp(-tau), Tally::lookups(n), rng)
+            let (tau, tally) = regular_tracking_tau(vol, ray, t0, t1);
+            (math::exp(-tau), tally, rng)
         }
         Estimator::TrackLength => {
             track_length_capped(vol, ray, t0, t1, cfg.lookup, cfg.max_collisions, rng)

@@ -6,6 +6,7 @@ use crate::geometry::V3;
 use crate::math;
 use crate::params::{Importance, Jitter};
 use crate::rng::{pcg3d, unit_f32, HashRng};
+use crate::tally::Tally;
 use crate::volume::dda::GridDda;
 use crate::volume::grid::{Brick, Lookup, VolumeView};
 
@@ -33,6 +34,8 @@ pub struct Prep {
     pub f: f32,
     pub t_min: f32,
     pub t_max: f32,
+    /// Whether the traversal's iteration budget ended it early ([`GridDda::exhausted`]).
+    pub capped: bool,
 }
 
 /// Alg. 2: one DDA over the bricks of [t0, t1], summing (t_{n+1} - t_n) P into F and recording
@@ -55,7 +58,12 @@ pub fn prepare(vol: &VolumeView, ray: &Ray, t0: f32, t1: f32, mode: Importance) 
             }
         }
     }
-    Prep { f, t_min, t_max }
+    Prep {
+        f,
+        t_min,
+        t_max,
+        capped: dda.exhausted(),
+    }
 }
 
 /// Two optical depth estimates of one ray and the number of high-resolution lookups they took.
@@ -64,6 +72,16 @@ pub struct DepthPairEstimate {
     pub x0: f32,
     pub x1: f32,
     pub samples: u32,
+    /// Whether a traversal's iteration budget cut a brick traversal of Alg. 2 or Alg. 1 short.
+    pub capped: bool,
+}
+
+impl DepthPairEstimate {
+    /// The lookups taken, and the capped flag.
+    #[inline]
+    pub fn tally(&self) -> Tally {
+        Tally::lookups(self.samples).capped_if(self.capped)
+    }
 }
 
 /// Extinction at index-space point p with the chosen lookup; `key` decorrelates the jitter.
@@ -113,7 +131,8 @@ pub fn estimate_pair(
     estimate_interleaved(vol, ray, prep, &plan, mode, jitter, lookup, rng)
 }
 
-/// One optical depth estimate with N samples (m = 1), as Alg. 1 with a single estimate.
+/// One optical depth estimate with N samples (m = 1), as Alg. 1 with a single estimate: x0 (x1
+/// is 0).
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn estimate_single(
@@ -125,10 +144,9 @@ pub fn estimate_single(
     jitter: Jitter,
     lookup: Lookup,
     rng: HashRng,
-) -> (f32, u32, HashRng) {
+) -> (DepthPairEstimate, HashRng) {
     let plan = Strata::fixed(prep, n, 0);
-    let (est, rng) = estimate_interleaved(vol, ray, prep, &plan, mode, jitter, lookup, rng);
-    (est.x0, est.samples, rng)
+    estimate_interleaved(vol, ray, prep, &plan, mode, jitter, lookup, rng)
 }
 
 /// Most strata per estimate in the adaptive variant (bounds the work per ray on the GPU).
@@ -230,7 +248,11 @@ pub fn estimate_interleaved(
 ) -> (DepthPairEstimate, HashRng) {
     let (n0, n1) = (plan.n0, plan.n1);
     if !(prep.f > 0.0) || (n0 == 0 && n1 == 0) || !(plan.f_delta > 0.0) {
-        return (DepthPairEstimate::default(), rng);
+        let est = DepthPairEstimate {
+            capped: prep.capped,
+            ..Default::default()
+        };
+        return (est, rng);
     }
     let f_delta = plan.f_delta;
     let (xi0, rng) = rng.next_f32_open0();
@@ -331,6 +353,7 @@ pub fn estimate_interleaved(
         x0: f_delta * sum0 + tau_c,
         x1: f_delta * sum1 + tau_c,
         samples,
+        capped: prep.capped || dda.exhausted(),
     };
     (est, rng)
 }

@@ -2,7 +2,7 @@
 //! series with aggressive Russian roulette and U-statistics), over mean-based importance sampling
 //! with tight segments and uniform jitter, as the paper compares them (Sec. 6; REFERENCE.md).
 
-use crate::estimators::optical_depth::{estimate_single, prepare, Prep};
+use crate::estimators::optical_depth::{estimate_single, prepare, DepthPairEstimate, Prep};
 use crate::geometry::Ray;
 use crate::math;
 use crate::params::{Importance, Jitter};
@@ -113,7 +113,7 @@ fn sample_degree(rng: HashRng) -> (usize, HashRng) {
 }
 
 /// One optical depth estimate of the ray marching baselines: N mean-importance samples with
-/// one uniform jitter offset (Alg. 1 with m = 1). Returns (X, samples, rng).
+/// one uniform jitter offset (Alg. 1 with m = 1). Returns (X in `x0`, rng).
 #[inline]
 fn marching_estimate(
     vol: &VolumeView,
@@ -122,7 +122,7 @@ fn marching_estimate(
     n: u32,
     lookup: Lookup,
     rng: HashRng,
-) -> (f32, u32, HashRng) {
+) -> (DepthPairEstimate, HashRng) {
     estimate_single(
         vol,
         ray,
@@ -148,15 +148,11 @@ pub fn biased_ray_marching(
 ) -> (f32, Tally, HashRng) {
     let prep = prepare(vol, ray, t0, t1, Importance::Mean);
     if !(prep.f > 0.0) {
-        return (1.0, Tally::default(), rng);
+        return (1.0, Tally::default().capped_if(prep.capped), rng);
     }
     let (n, capped) = tuple_size(prep.f, scale, MAX_BIASED_SAMPLES);
-    let (x, samples, rng) = marching_estimate(vol, ray, &prep, n, lookup, rng);
-    (
-        math::exp(-x),
-        Tally::lookups(samples).capped_if(capped),
-        rng,
-    )
+    let (est, rng) = marching_estimate(vol, ray, &prep, n, lookup, rng);
+    (math::exp(-est.x0), est.tally().capped_if(capped), rng)
 }
 
 /// Unbiased ray marching: with M + 1 i.i.d. estimates X_i (M from the roulette), each X_p as
@@ -173,17 +169,19 @@ pub fn unbiased_ray_marching(
 ) -> (f32, Tally, HashRng) {
     let prep = prepare(vol, ray, t0, t1, Importance::Mean);
     if !(prep.f > 0.0) {
-        return (1.0, Tally::default(), rng);
+        return (1.0, Tally::default().capped_if(prep.capped), rng);
     }
     let (n, capped) = tuple_size(prep.f, scale, MAX_UNBIASED_SAMPLES);
     let (m, mut rng) = sample_degree(rng);
     let mut xs = [0.0f32; MAX_DEGREE + 1];
     let mut samples = 0u32;
+    let mut cut = false;
     let mut i = 0;
     while i <= m {
-        let (x, s, r) = marching_estimate(vol, ray, &prep, n, lookup, rng);
-        xs[i] = x;
-        samples += s;
+        let (est, r) = marching_estimate(vol, ray, &prep, n, lookup, rng);
+        xs[i] = est.x0;
+        samples += est.samples;
+        cut |= est.capped;
         rng = r;
         i += 1;
     }
@@ -199,7 +197,7 @@ pub fn unbiased_ray_marching(
     let finite = math::is_finite(t);
     (
         if finite { t } else { 0.0 },
-        Tally::lookups(samples).capped_if(capped || !finite),
+        Tally::lookups(samples).capped_if(capped || cut || !finite),
         rng,
     )
 }

@@ -28,20 +28,21 @@ pub const RR_TERMINATE: f32 = 0.75;
 const JITTER_SALT: u32 = 0x85eb_ca6b;
 
 /// Exact optical depth of the nearest-neighbour grid over [t0, t1] (already clipped to the grid
-/// box) by a voxel DDA (regular tracking): sum of segment length times voxel extinction.
-/// Returns (tau, voxels visited).
-pub fn regular_tracking_tau(vol: &VolumeView, ray: &Ray, t0: f32, t1: f32) -> (f32, u32) {
-    let d = &vol.desc.dims;
-    let cap = d[0] + d[1] + d[2] + 4;
+/// box) by a voxel DDA (regular tracking): sum of segment length times voxel extinction, over
+/// the voxels outside all-zero cubes of bricks (skipped: they add exactly 0). Returns (tau,
+/// tally: the voxels read, capped if the traversal's budget ended it).
+pub fn regular_tracking_tau(vol: &VolumeView, ray: &Ray, t0: f32, t1: f32) -> (f32, Tally) {
     let mut tau = 0.0f32;
     let mut visited = 0u32;
     let mut dda = GridDda::voxels(vol.desc, ray, t0, t1);
-    while !dda.done && visited < cap {
-        let seg = dda.step();
-        tau += (seg.t1 - seg.t0) * vol.voxel(seg.cell[0], seg.cell[1], seg.cell[2]);
-        visited += 1;
+    while !dda.done {
+        let (seg, read) = dda.step_voxel(vol);
+        if read {
+            tau += (seg.t1 - seg.t0) * vol.voxel(seg.cell[0], seg.cell[1], seg.cell[2]);
+            visited += 1;
+        }
     }
-    (tau, visited)
+    (tau, Tally::lookups(visited).capped_if(dda.exhausted()))
 }
 
 /// Track-length estimator (delta tracking, Novák et al. 2014; pbrt-v4): 0 if the free flight
@@ -178,7 +179,7 @@ pub fn delta_tracking_capped(
             }
         }
     }
-    out.tally = Tally::lookups(lookups);
+    out.tally = Tally::lookups(lookups).capped_if(sampler.capped());
     if !sampler.done {
         let (u, r) = rng.next_f32();
         rng = r;
@@ -252,7 +253,7 @@ pub fn ratio_tracking_capped(
             }
         }
     }
-    let mut tally = Tally::lookups(lookups);
+    let mut tally = Tally::lookups(lookups).capped_if(sampler.capped());
     if !sampler.done {
         // At the collision cap: the rest's expected factor given the collisions so far is T of
         // the rest (memoryless), exactly known for nearest lookups.
@@ -268,14 +269,15 @@ pub fn ratio_tracking_capped(
 /// the density. Given the collisions so far, the remaining factor of both ratio tracking and the
 /// track-length estimate has this expectation (the collision process is memoryless), so the
 /// completed estimate stays unbiased for nearest lookups (approximate for stochastic ones).
-/// Returns (T of the rest, voxels visited).
+/// Returns (T of the rest, voxels read).
 #[inline]
 pub fn complete_exactly(vol: &VolumeView, ray: &Ray, t_last: f32, t1: f32) -> (f32, u32) {
     if !(t_last < t1) {
         return (1.0, 0);
     }
-    let (tau, visited) = regular_tracking_tau(vol, ray, t_last, t1);
-    (math::exp(-tau), visited)
+    // Called at the collision cap: the ray is counted as capped already.
+    let (tau, tally) = regular_tracking_tau(vol, ray, t_last, t1);
+    (math::exp(-tau), tally.lookups)
 }
 
 /// A free-flight distance sampled exactly in the nearest-neighbour grid by a voxel DDA: the
@@ -289,7 +291,7 @@ pub struct ExactFlight {
     pub mu: f32,
     /// False when the flight escaped past t1.
     pub found: bool,
-    /// Voxels visited.
+    /// Voxels read (skipped all-zero cubes read none).
     pub visited: u32,
 }
 
@@ -301,16 +303,18 @@ pub fn exact_free_flight(
     t1: f32,
     target: f32,
 ) -> ExactFlight {
-    let d = &vol.desc.dims;
-    let cap = d[0] + d[1] + d[2] + 4;
     let mut out = ExactFlight::default();
     if !(t0 < t1) {
         return out;
     }
     let mut tau = 0.0f32;
     let mut dda = GridDda::voxels(vol.desc, ray, t0, t1);
-    while !dda.done && !out.found && out.visited < cap {
-        let seg = dda.step();
+    while !dda.done && !out.found {
+        let (seg, read) = dda.step_voxel(vol);
+        if !read {
+            // An all-zero cube: no collision, nothing added to tau.
+            continue;
+        }
         let mu = vol.voxel(seg.cell[0], seg.cell[1], seg.cell[2]);
         out.visited += 1;
         let dtau = (seg.t1 - seg.t0) * mu;

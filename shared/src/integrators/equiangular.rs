@@ -40,10 +40,10 @@ pub(super) fn equiangular_strategy(
                 Integrator::Equiangular => 1.0,
                 Integrator::MisNaive => {
                     // Fig. 12d: g(X) from ONE estimate with N samples (m = 1).
-                    let (x, n, r) = depth_single(vol, ray, ta, t0, params.n, ctx.lookup, rng);
+                    let (est, r) = depth_single(vol, ray, ta, t0, params.n, ctx.lookup, rng);
                     rng = r;
-                    tally = tally.merge(Tally::lookups(n));
-                    Mobius::other_weight(mu0, p0).naive(x, x)
+                    tally = tally.merge(est.tally());
+                    Mobius::other_weight(mu0, p0).naive(est.x0, est.x0)
                 }
                 _ => {
                     let (est, r) = depth_pair(vol, ray, ta, t0, params.n, ctx.lookup, rng);
@@ -79,7 +79,7 @@ pub(super) fn equiangular_strategy(
                 tally = tally.merge(jackknife_tally(&est));
                 g.jackknife(est.x0, est.x1) * params.albedo * ls
             } else {
-                tally = tally.merge(Tally::lookups(est.samples));
+                tally = tally.merge(est.tally());
                 g.naive(est.x0, est.x1) * params.albedo * ls
             }
         }

@@ -56,10 +56,10 @@ pub(super) fn free_flight_strategy(
         }
         Integrator::MisNaive => {
             // Fig. 12d: g(X) from ONE estimate with N samples (m = 1).
-            let (x, n, r) = depth_single(vol, ray, ta, ff.t, params.n, ctx.lookup, rng);
+            let (est, r) = depth_single(vol, ray, ta, ff.t, params.n, ctx.lookup, rng);
             rng = r;
-            tally = tally.merge(Tally::lookups(n));
-            Mobius::free_flight_weight(ff.mu, p0).naive(x, x)
+            tally = tally.merge(est.tally());
+            Mobius::free_flight_weight(ff.mu, p0).naive(est.x0, est.x0)
         }
         _ => {
             let (est, r) = depth_pair(vol, ray, ta, ff.t, params.n, ctx.lookup, rng);
@@ -67,7 +67,7 @@ pub(super) fn free_flight_strategy(
             let g = Mobius::free_flight_weight(ff.mu, p0);
             match which {
                 Integrator::CombinedNaive => {
-                    tally = tally.merge(Tally::lookups(est.samples));
+                    tally = tally.merge(est.tally());
                     g.naive(est.x0, est.x1)
                 }
                 Integrator::MisPowerJackknife => {

@@ -41,7 +41,7 @@ pub(super) fn depth_pair(
 }
 
 /// One optical depth estimate X of [t_start, t_end] with n samples (m = 1; Alg. 2 + Alg. 1):
-/// the naive MIS weight g(X) of the paper's Fig. 12d. Returns (X, samples, rng).
+/// the naive MIS weight g(X) of the paper's Fig. 12d. Returns (X in `x0`, rng).
 #[inline]
 pub(super) fn depth_single(
     vol: &VolumeView,
@@ -51,9 +51,9 @@ pub(super) fn depth_single(
     n: u32,
     lookup: Lookup,
     rng: HashRng,
-) -> (f32, u32, HashRng) {
+) -> (DepthPairEstimate, HashRng) {
     if !(t_start < t_end) {
-        return (0.0, 0, rng);
+        return (DepthPairEstimate::default(), rng);
     }
     let prep = prepare(vol, ray, t_start, t_end, Importance::VarianceAware);
     estimate_single(
@@ -71,7 +71,8 @@ pub(super) fn depth_single(
 /// The tally of a pair of optical depth estimates used by a jackknife (regime flag set).
 #[inline]
 pub(super) fn jackknife_tally(est: &DepthPairEstimate) -> Tally {
-    Tally::lookups(est.samples).outside_if(transmittance::outside_regime(est.x0, est.x1))
+    est.tally()
+        .outside_if(transmittance::outside_regime(est.x0, est.x1))
 }
 
 /// Power-heuristic weight of free-flight sampling, Re g(X̄ + iS) with

@@ -45,6 +45,12 @@ impl MajorantIter {
             sigma_maj: b.mu_max,
         }
     }
+
+    /// Whether the brick traversal's iteration budget ended it early ([`GridDda::exhausted`]).
+    #[inline]
+    pub fn exhausted(&self) -> bool {
+        self.dda.exhausted()
+    }
 }
 
 /// A tentative collision at distance t where the majorant is `sigma_maj`; `found` is false when
@@ -85,6 +91,13 @@ impl MajorantSampler {
             guard: b[0] + b[1] + b[2] + 8,
             done: iter.done,
         }
+    }
+
+    /// Whether the brick traversal's iteration budget ended the flight early (the ray is counted
+    /// as capped).
+    #[inline]
+    pub fn capped(&self) -> bool {
+        self.iter.exhausted()
     }
 
     /// Next tentative collision (pbrt-v4 `SampleT_maj`): t += -ln(1 - u) / sigma_maj within the

@@ -6,7 +6,7 @@
 
 use crate::geometry::{Ray, V3};
 use crate::math;
-use crate::volume::grid::{Brick, GridDesc, VolumeView, NO_SKIP};
+use crate::volume::grid::{traversal_budget, Brick, GridDesc, VolumeView, NO_SKIP};
 
 /// Clips [t_lo, t_hi] to the box [0, hi] (slab test). Returns (t_enter, t_exit); the ray misses
 /// when `!(t_enter < t_exit)`. Axis-parallel rays are handled without 0 * inf. Degenerate input
@@ -95,8 +95,13 @@ pub struct GridDda {
     t_end: f32,
     size: f32,
     dims: [i32; 3],
-    /// Steps left before the traversal is forced to end (guards against NaN loops).
+    /// Cells per brick along each axis (1 for the brick traversal, B for the voxels): skip
+    /// levels count bricks, so a cube of level L is `unit << L` cells per axis.
+    unit: i32,
+    /// Iterations left before the traversal is forced to end (see [`GridDesc::brick_steps`]).
     budget: u32,
+    /// Whether the budget ended the traversal before it reached its end.
+    exhausted: bool,
     pub done: bool,
 }
 
@@ -136,22 +141,49 @@ fn cell_of(v: f32, size: f32, n: i32) -> i32 {
 }
 
 impl GridDda {
-    /// Traversal of the bricks of `desc` from t_start (inside the grid box) to t_end.
+    /// Traversal of the bricks of `desc` from t_start (inside the grid box) to t_end, with at
+    /// most `desc.brick_steps` iterations ([`GridDda::exhausted`] tells whether they ended it).
     #[inline]
     pub fn bricks(desc: &GridDesc, ray: &Ray, t_start: f32, t_end: f32) -> Self {
         let dims = [desc.brick_dims[0], desc.brick_dims[1], desc.brick_dims[2]];
-        Self::new(desc.brick_size as f32, dims, ray, t_start, t_end)
+        let size = desc.brick_size as f32;
+        Self::with(size, dims, 1, desc.brick_budget(), ray, t_start, t_end)
     }
 
-    /// Traversal of the voxels of `desc` (regular tracking) from t_start to t_end.
+    /// Traversal of the voxels of `desc` (regular tracking) from t_start to t_end that skips
+    /// all-zero cubes of bricks ([`GridDda::step_voxel`]), with at most `desc.voxel_steps`
+    /// iterations.
     #[inline]
     pub fn voxels(desc: &GridDesc, ray: &Ray, t_start: f32, t_end: f32) -> Self {
         let dims = [desc.dims[0], desc.dims[1], desc.dims[2]];
-        Self::new(1.0, dims, ray, t_start, t_end)
+        let unit = desc.brick_size as i32;
+        Self::with(1.0, dims, unit, desc.voxel_budget(), ray, t_start, t_end)
     }
 
-    /// Traversal of cells of `size` voxels in a grid of `cells` cells, from t_start to t_end.
+    /// Traversal of cells of `size` voxels in a grid of `cells` cells, from t_start to t_end,
+    /// stepping through every cell (skip levels, if used, count these cells).
     pub fn new(size: f32, cells: [u32; 3], ray: &Ray, t_start: f32, t_end: f32) -> Self {
+        Self::with(
+            size,
+            cells,
+            1,
+            traversal_budget(0, cells),
+            ray,
+            t_start,
+            t_end,
+        )
+    }
+
+    /// [`GridDda::new`] with `unit` cells per brick and a budget of `budget` iterations.
+    fn with(
+        size: f32,
+        cells: [u32; 3],
+        unit: i32,
+        budget: u32,
+        ray: &Ray,
+        t_start: f32,
+        t_end: f32,
+    ) -> Self {
         let dims = [cells[0] as i32, cells[1] as i32, cells[2] as i32];
         let p = ray.at(t_start);
         let valid = t_start < t_end && math::is_finite(t_start) && math::is_finite(t_end);
@@ -173,9 +205,19 @@ impl GridDda {
             t_end,
             size,
             dims,
-            budget: (dims[0] + dims[1] + dims[2]) as u32 + 3,
+            unit,
+            budget,
+            exhausted: false,
             done: !valid,
         }
+    }
+
+    /// Whether the traversal ended because its budget of iterations ran out, before reaching
+    /// t_end or the grid's edge: the caller counts the ray as capped. Only a skip that cannot be
+    /// verified in closed form (which then steps) can take a traversal past the builder's bound.
+    #[inline]
+    pub fn exhausted(&self) -> bool {
+        self.exhausted
     }
 
     /// Parameter where the ray leaves the current cell along one axis (+inf if it never does).
@@ -215,8 +257,29 @@ impl GridDda {
         (self.step(), b)
     }
 
-    /// Skips the aligned cube of 2^`level` cells per axis (clipped to the grid) that holds the
-    /// current cell, leaving the traversal exactly as [`GridDda::step`] would have left it on
+    /// The next voxel segment of a voxel traversal ([`GridDda::voxels`]), or, in an all-zero
+    /// brick whose cube can be skipped, the whole skipped span as one segment; the flag is true
+    /// for a voxel the caller reads (false for a skip: extinction 0 throughout). One skip or
+    /// one step per call, no loop. Call only while `!done`.
+    #[inline]
+    pub fn step_voxel(&mut self, vol: &VolumeView) -> (Segment, bool) {
+        let cell = self.cell();
+        let b = vol.desc.brick_size;
+        let level = vol
+            .brick([cell[0] / b, cell[1] / b, cell[2] / b])
+            .skip_level();
+        if level != NO_SKIP {
+            let t0 = self.t;
+            if self.skip_cube(level) {
+                let t1 = self.t;
+                return (Segment { t0, t1, cell }, false);
+            }
+        }
+        (self.step(), true)
+    }
+
+    /// Skips the aligned cube of 2^`level` bricks per axis (`unit << level` cells, clipped to the
+    /// grid) that holds the current cell, leaving the traversal exactly as [`GridDda::step`] would have left it on
     /// leaving the cube (the same cell, t and `done`), without its segments. Returns false,
     /// changing nothing, where that state cannot be verified in closed form (then step). No
     /// loops: one call is one iteration of the caller's (GPU loop budgets count iterations).
@@ -248,7 +311,8 @@ impl GridDda {
             && math::is_finite(self.inv.y)
             && math::is_finite(self.inv.z)
             && math::is_finite(self.t);
-        if level >= 31 || !finite {
+        // The cube's side, unit << level cells, must stay within 2^30 (i32 arithmetic).
+        if level >= 31 || !finite || self.unit as u32 > (1u32 << 30) >> level {
             return unchanged;
         }
         let (l0, l1, l2) = (
@@ -344,12 +408,19 @@ impl GridDda {
     }
 
     /// The last cell along axis `a`, in the direction of travel, of the aligned cube of
-    /// 2^`level` cells (clipped to the grid) that holds the current cell.
+    /// 2^`level` bricks (`unit << level` cells, at most 2^30; clipped to the grid) that holds
+    /// the current cell.
     #[inline]
     fn cube_last(&self, a: usize, level: u32) -> i32 {
         let (c, s, _, _, _) = self.axis(a);
-        let lo = (c >> level) << level;
-        let mut hi = lo + ((1i32 << level) - 1);
+        let side = self.unit << level;
+        // Division by a NonZero cannot panic: this function must stay free of panics (see
+        // [`skip_cube_of`]); c >= 0 and side >= 1 (the caller checked the shift).
+        let lo = match core::num::NonZeroU32::new(side as u32) {
+            Some(d) => ((c as u32 / d) * side as u32) as i32,
+            None => c,
+        };
+        let mut hi = lo + (side - 1);
         if hi > self.dim(a) - 1 {
             hi = self.dim(a) - 1;
         }
@@ -420,6 +491,7 @@ impl GridDda {
     #[inline]
     fn spend(&mut self) {
         if self.budget == 0 {
+            self.exhausted = !self.done;
             self.done = true;
         } else {
             self.budget -= 1;
@@ -470,6 +542,7 @@ impl GridDda {
         }
         self.t = t1;
         if self.budget == 0 {
+            self.exhausted = !self.done;
             self.done = true;
         } else {
             self.budget -= 1;

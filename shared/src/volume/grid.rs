@@ -71,6 +71,43 @@ pub struct GridDesc {
     pub density_scale: f32,
     /// log2 of the words per page of the pool as this view binds it (see [`Pages`]).
     pub page_log2: u32,
+    /// Most iterations one traversal of the brick grid may take, skips included: the budget of
+    /// [`crate::volume::dda::GridDda::bricks`] (0: the stepping bound, the sum of the brick
+    /// counts + 3). The builder sets the smaller of that and a bound from the occupied bricks.
+    pub brick_steps: u32,
+    /// Most iterations one skipping traversal of the voxels may take (regular tracking): the
+    /// budget of [`crate::volume::dda::GridDda::voxels`] (0: the sum of the voxel counts + 3).
+    pub voxel_steps: u32,
+    /// Padding to 16 bytes.
+    pub pad: [u32; 2],
+}
+
+/// Iteration budget of a traversal of a grid of `cells` cells: `steps`, unless it is 0 or above
+/// the stepping bound (cells per axis summed, + 3), which it then is.
+#[inline]
+pub fn traversal_budget(steps: u32, cells: [u32; 3]) -> u32 {
+    let stepping = cells[0] + cells[1] + cells[2] + 3;
+    if steps == 0 || steps > stepping {
+        stepping
+    } else {
+        steps
+    }
+}
+
+impl GridDesc {
+    /// Iteration budget of one traversal of the bricks ([`GridDesc::brick_steps`]).
+    #[inline]
+    pub fn brick_budget(&self) -> u32 {
+        let d = self.brick_dims;
+        traversal_budget(self.brick_steps, [d[0], d[1], d[2]])
+    }
+
+    /// Iteration budget of one skipping traversal of the voxels ([`GridDesc::voxel_steps`]).
+    #[inline]
+    pub fn voxel_budget(&self) -> u32 {
+        let d = self.dims;
+        traversal_budget(self.voxel_steps, [d[0], d[1], d[2]])
+    }
 }
 
 /// Statistics of one brick, already multiplied by the density scale and rounded conservatively.
