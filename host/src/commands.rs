@@ -923,7 +923,7 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         n: args.n,
         density_scale,
         brick_size: args.scene.brick_size,
-        supervoxel_format: format!("{:?}", args.scene.supervoxel_format).to_lowercase(),
+        supervoxel_format: args.scene.supervoxel_format.name().into(),
         bc4_brick_table_bytes: (args.scene.supervoxel_format == jackknife::SupervoxelFormat::Bc4)
             .then(|| {
                 let d = packed.desc.brick_dims;

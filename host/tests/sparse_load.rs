@@ -134,18 +134,42 @@ fn the_sparse_fixture_is_stored_sparsely() {
     );
 }
 
+/// Runs `host` with `args` plus `--quiet --out DIR/NAME.exr --json DIR/NAME.json`; asserts it
+/// succeeded and returns the EXR bytes and the JSON summary.
+fn render_cli(dir: &Path, name: &str, args: &[&str]) -> (Vec<u8>, serde_json::Value) {
+    let exr = dir.join(format!("{name}.exr"));
+    let json = dir.join(format!("{name}.json"));
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_host"))
+        .args(args)
+        .arg("--quiet")
+        .arg("--out")
+        .arg(&exr)
+        .arg("--json")
+        .arg(&json)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{name}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let j = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    (std::fs::read(&exr).unwrap(), j)
+}
+
 /// The sparse fixture end to end: `host render` on the CPU and on lavapipe writes the same EXR
 /// bytes, and the JSON says the file was held sparse (its bytes well below a dense f32 box).
 #[test]
 fn a_sparse_file_renders_the_same_bytes_on_both_backends() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/fixtures/sparse_patches.vdb");
     let dir = tempfile::tempdir().unwrap();
+    let file = path.to_str().unwrap();
     let mut exrs = Vec::new();
     for backend in ["cpu", "gpu"] {
-        let exr = dir.path().join(format!("{backend}.exr"));
-        let json = dir.path().join(format!("{backend}.json"));
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_host"))
-            .args([
+        let (exr, j) = render_cli(
+            dir.path(),
+            backend,
+            &[
                 "--backend",
                 backend,
                 "--width",
@@ -154,22 +178,12 @@ fn a_sparse_file_renders_the_same_bytes_on_both_backends() {
                 "32",
                 "--spp",
                 "2",
-            ])
-            .args(["--density-scale", "20", "--quiet", "--volume"])
-            .arg(&path)
-            .arg("--out")
-            .arg(&exr)
-            .arg("--json")
-            .arg(&json)
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
+                "--density-scale",
+                "20",
+                "--volume",
+                file,
+            ],
         );
-        let j: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
         assert_eq!(j["volume_storage"], "sparse", "{j}");
         assert_eq!(j["pool_pages"], 1, "{j}");
         // lavapipe's storage buffers hold 128 MiB: the pages every device binds (the CPU
@@ -178,7 +192,7 @@ fn a_sparse_file_renders_the_same_bytes_on_both_backends() {
         let dense_bytes = 131 * 101 * 82 * 4;
         assert!(j["volume_bytes"].as_u64().unwrap() * 4 < dense_bytes, "{j}");
         assert!(j["mean_T"].as_f64().unwrap() < 0.999, "{j}");
-        exrs.push(std::fs::read(&exr).unwrap());
+        exrs.push(exr);
     }
     assert!(exrs[0] == exrs[1], "the CPU and GPU images differ");
 }
@@ -192,35 +206,36 @@ fn a_sparse_file_renders_the_same_bytes_on_both_backends() {
 fn two_voxels_a_million_voxels_apart_render_on_both_backends() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/fixtures/two_far.vdb");
     let dir = tempfile::tempdir().unwrap();
-    let run = |backend: &str, estimator: &str| {
-        let exr = dir.path().join(format!("{backend}_{estimator}.exr"));
-        let json = dir.path().join(format!("{backend}_{estimator}.json"));
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_host"))
-            .args(["--backend", backend, "--estimator", estimator])
-            .args(["--width", "16", "--height", "16", "--spp", "2", "--quiet"])
-            .args([
+    let file = path.to_str().unwrap();
+    let run = |backend: &str, estimator: &str, format: &str| {
+        let (exr, j) = render_cli(
+            dir.path(),
+            &format!("{backend}_{estimator}_{format}"),
+            &[
+                "--supervoxel-format",
+                format,
+                "--backend",
+                backend,
+                "--estimator",
+                estimator,
+                "--width",
+                "16",
+                "--height",
+                "16",
+                "--spp",
+                "2",
                 "--camera=-1,0,0",
                 "--look-at",
                 "50000,0,0",
                 "--fov",
                 "0.001",
-            ])
-            .arg("--volume")
-            .arg(&path)
-            .arg("--out")
-            .arg(&exr)
-            .arg("--json")
-            .arg(&json)
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{backend} {estimator}: {}",
-            String::from_utf8_lossy(&out.stderr)
+                "--volume",
+                file,
+            ],
         );
-        let j: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
         assert_eq!(j["bricks"], 62501, "{j}");
+        assert_eq!(j["supervoxel_format"], format, "{j}");
+        assert_eq!(j["bc4_brick_table_bytes"].is_u64(), format == "bc4", "{j}");
         assert_eq!(j["capped_rays"], 0, "{j}");
         assert!(j["brick_traversal_steps"].as_u64().unwrap() < 1000, "{j}");
         assert!(
@@ -229,12 +244,14 @@ fn two_voxels_a_million_voxels_apart_render_on_both_backends() {
         );
         // The rays meet the voxel at the near end.
         assert!(j["mean_T"].as_f64().unwrap() < 0.99, "{j}");
-        (std::fs::read(&exr).unwrap(), j)
+        (exr, j)
     };
-    let (cpu, _) = run("cpu", "jackknife");
-    let (gpu, _) = run("gpu", "jackknife");
+    let (cpu, _) = run("cpu", "jackknife", "f32");
+    let (gpu, _) = run("gpu", "jackknife", "f32");
     assert!(cpu == gpu, "the CPU and GPU images differ");
-    let (_, regular) = run("cpu", "regular");
+    let (_, regular) = run("cpu", "regular", "f32");
+    // The BC4 statistics through the CLI: same budgets, its table size reported.
+    run("cpu", "jackknife", "bc4");
     assert!(
         regular["mean_samples_per_ray"].as_f64().unwrap() < 1000.0,
         "{regular}"

@@ -190,6 +190,16 @@ pub enum SupervoxelFormat {
     Bc4,
 }
 
+impl SupervoxelFormat {
+    /// The format's name in flags and JSON: "f32" or "bc4".
+    pub fn name(self) -> &'static str {
+        match self {
+            SupervoxelFormat::F32 => "f32",
+            SupervoxelFormat::Bc4 => "bc4",
+        }
+    }
+}
+
 impl<'a> GridBuilder<'a> {
     /// Densities of a dense `dims` grid, x fastest (`values.len()` = dims product).
     pub fn dense(dims: [u32; 3], values: &'a [f32]) -> Self {
