@@ -510,7 +510,7 @@ fn sweep(
                      {:.1} MiB of voxels)",
                     t.elapsed().as_secs_f64(),
                     scene.packed.occupied_bricks(),
-                    scene.packed.bricks.len(),
+                    scene.packed.grid_bricks().len(),
                     std::mem::size_of_val(scene.packed.voxels.as_slice()) as f64
                         / f64::from(1 << 20)
                 );
@@ -591,7 +591,7 @@ fn sweep_files(
                 mib(rss_before_bytes),
                 mib(peak_rss_bytes),
                 scene.packed.occupied_bricks(),
-                scene.packed.bricks.len(),
+                scene.packed.grid_bricks().len(),
                 std::mem::size_of_val(scene.packed.voxels.as_slice()) as f64 / f64::from(1 << 20)
             );
         }
@@ -647,7 +647,7 @@ fn time_points(
                 samples_per_ray: f64::NAN,
                 skipped: skipped.clone(),
                 prepare_ms,
-                bricks: scene.packed.bricks.len(),
+                bricks: scene.packed.grid_bricks().len(),
                 occupied_bricks: scene.packed.occupied_bricks(),
                 pool_bytes: std::mem::size_of_val(scene.packed.voxels.as_slice()) as u64,
                 volume: scene.volume.name().to_owned(),

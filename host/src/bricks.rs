@@ -3,7 +3,7 @@
 
 use crate::volume::VolumeData;
 use anyhow::{anyhow, Result};
-use jackknife::{BuildError, GridBuilder, SupervoxelFormat};
+use jackknife::{BuildError, GridBuilder, SupervoxelFormat, Supervoxels};
 use shared::volume::grid::Lookup;
 
 pub use jackknife::{Grid as PackedVolume, Underflow, DEFAULT_BRICK_SIZE, MAX_OPTICAL_DEPTH};
@@ -21,6 +21,7 @@ pub fn pack(
         density_scale,
         brick_size,
         SupervoxelFormat::F32,
+        Supervoxels::Fixed,
         lookup,
         shared::volume::pages::GPU_PAGE_LOG2,
     )
@@ -33,6 +34,7 @@ pub fn pack_paged(
     density_scale: f32,
     brick_size: u32,
     format: SupervoxelFormat,
+    supervoxels: Supervoxels,
     lookup: Lookup,
     page_log2: u32,
 ) -> Result<PackedVolume> {
@@ -41,6 +43,7 @@ pub fn pack_paged(
         .density_scale(density_scale)
         .brick_size(brick_size)
         .supervoxel_format(format)
+        .supervoxels(supervoxels)
         .lookup(lookup)
         .max_chord(world_chord(vol))
         .build()
@@ -95,6 +98,22 @@ fn explain(vol: &dyn VolumeData, e: BuildError) -> anyhow::Error {
     match e {
         BuildError::Scale(s) => anyhow!("--density-scale must be finite and >= 0 (got {s})"),
         BuildError::BrickSize(b) => anyhow!("--brick-size must be in 2..=256 (got {b})"),
+        BuildError::CellSize { cell, brick } => anyhow!(
+            "--cell-size {cell} must divide --brick-size {brick} into 2 or more cells per axis \
+             (e.g. --cell-size {})",
+            (brick / 4).max(1)
+        ),
+        BuildError::SplitRatio(r) => anyhow!("--split-ratio must be in (0, 1] (got {r})"),
+        BuildError::SplitOccupancy(o) => {
+            anyhow!("--split-occupancy must be in (0, 1] (got {o})")
+        }
+        BuildError::Table(d) => anyhow!(
+            "the super-voxel table of the {}x{}x{} volume with adaptive cells exceeds 2^32 - 1 \
+             records; use --supervoxels fixed or a larger --cell-size",
+            d[0],
+            d[1],
+            d[2]
+        ),
         BuildError::OpticalDepth {
             voxel,
             density,

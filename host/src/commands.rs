@@ -64,6 +64,8 @@ pub struct SceneOptions {
     pub brick_size: u32,
     /// How the super-voxel statistics are stored.
     pub supervoxel_format: jackknife::SupervoxelFormat,
+    /// Fixed or adaptive super-voxels.
+    pub supervoxels: SupervoxelOptions,
     /// Camera position (None: framing the volume).
     pub camera: Option<[f32; 3]>,
     /// Point the camera looks at (None: the volume's center).
@@ -84,10 +86,65 @@ impl Default for SceneOptions {
             density_scale: None,
             brick_size: defaults::BRICK_SIZE,
             supervoxel_format: jackknife::SupervoxelFormat::F32,
+            supervoxels: SupervoxelOptions::default(),
             camera: None,
             look_at: None,
             fov: defaults::FOV,
             up: crate::render::UpAxis::Y,
+        }
+    }
+}
+
+/// `--supervoxels`, `--cell-size`, `--split-ratio` and `--split-occupancy` as given.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct SupervoxelOptions {
+    /// `--supervoxels adaptive`.
+    pub adaptive: bool,
+    /// Voxels per cell axis of a subdivided brick (default [`jackknife::DEFAULT_CELL_SIZE`]).
+    pub cell_size: Option<u32>,
+    /// Split ratio (default [`jackknife::DEFAULT_SPLIT_RATIO`]).
+    pub split_ratio: Option<f32>,
+    /// Split occupancy (default [`jackknife::DEFAULT_SPLIT_OCCUPANCY`]).
+    pub split_occupancy: Option<f32>,
+}
+
+impl SupervoxelOptions {
+    /// The builder's mode; refuses `--cell-size`, `--split-ratio` and `--split-occupancy`
+    /// without `adaptive`, which
+    /// would be ignored.
+    pub fn mode(&self) -> Result<jackknife::Supervoxels> {
+        if !self.adaptive {
+            if self.cell_size.is_some() {
+                bail!("--cell-size only applies to --supervoxels adaptive; add it or drop --cell-size");
+            }
+            if self.split_ratio.is_some() {
+                bail!(
+                    "--split-ratio only applies to --supervoxels adaptive; add it or drop --split-ratio"
+                );
+            }
+            if self.split_occupancy.is_some() {
+                bail!(
+                    "--split-occupancy only applies to --supervoxels adaptive; add it or drop \
+                     --split-occupancy"
+                );
+            }
+            return Ok(jackknife::Supervoxels::Fixed);
+        }
+        Ok(jackknife::Supervoxels::Adaptive {
+            cell: self.cell_size.unwrap_or(jackknife::DEFAULT_CELL_SIZE),
+            ratio: self.split_ratio.unwrap_or(jackknife::DEFAULT_SPLIT_RATIO),
+            occupancy: self
+                .split_occupancy
+                .unwrap_or(jackknife::DEFAULT_SPLIT_OCCUPANCY),
+        })
+    }
+
+    /// "fixed" or "adaptive".
+    pub fn name(&self) -> &'static str {
+        if self.adaptive {
+            "adaptive"
+        } else {
+            "fixed"
         }
     }
 }
@@ -352,6 +409,23 @@ pub struct RenderSummary {
     pub supervoxel_format: String,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub bc4_brick_table_bytes: Option<u64>,
+    /// "fixed" (one super-voxel per brick) or "adaptive" (subdivided bricks).
+    pub supervoxels: String,
+    /// Adaptive: voxels per cell axis and the split ratio the grid was built with.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub supervoxel_cell_size: Option<u32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub split_ratio: Option<f32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub split_occupancy: Option<f32>,
+    /// Bricks split into cells, and the cell records they add to the table.
+    pub subdivided_bricks: usize,
+    pub supervoxel_cells: usize,
+    /// Most cell iterations one traversal of the super-voxels may take (0: none subdivided).
+    pub cell_traversal_steps: u32,
+    /// Super-voxel (and, for comparison, brick) reads of one traversal per pixel-centre
+    /// camera ray that meets the grid; the estimators' lookups are counted apart.
+    pub supervoxel_reads_per_ray: crate::traversal::ReadsPerRay,
     pub elapsed_ms: f64,
     pub mean_samples_per_ray: f64,
     /// Mean transmittance (transmittance renders only).
@@ -783,7 +857,7 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
             vol.dims()[0],
             vol.dims()[1],
             vol.dims()[2],
-            packed.bricks.len(),
+            packed.grid_bricks().len(),
             args.scene.brick_size,
             packed.occupied_bricks(),
             std::mem::size_of_val(packed.voxels.as_slice()) as f64 / (1 << 20) as f64
@@ -925,10 +999,24 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         brick_size: args.scene.brick_size,
         supervoxel_format: args.scene.supervoxel_format.name().into(),
         bc4_brick_table_bytes: (args.scene.supervoxel_format == jackknife::SupervoxelFormat::Bc4)
-            .then(|| {
-                let d = packed.desc.brick_dims;
-                jackknife::bc4::bc4_table_bytes([d[0], d[1], d[2]])
-            }),
+            .then(|| packed.bc4_table_bytes()),
+        supervoxels: args.scene.supervoxels.name().into(),
+        supervoxel_cell_size: match args.scene.supervoxels.mode()? {
+            jackknife::Supervoxels::Adaptive { cell, .. } => Some(cell),
+            jackknife::Supervoxels::Fixed => None,
+        },
+        split_ratio: match args.scene.supervoxels.mode()? {
+            jackknife::Supervoxels::Adaptive { ratio, .. } => Some(ratio),
+            jackknife::Supervoxels::Fixed => None,
+        },
+        split_occupancy: match args.scene.supervoxels.mode()? {
+            jackknife::Supervoxels::Adaptive { occupancy, .. } => Some(occupancy),
+            jackknife::Supervoxels::Fixed => None,
+        },
+        subdivided_bricks: packed.subdivided_bricks(),
+        supervoxel_cells: packed.bricks.len() - packed.grid_bricks().len(),
+        cell_traversal_steps: packed.desc.cell_budget(),
+        supervoxel_reads_per_ray: crate::traversal::reads_per_ray(packed, &params),
         elapsed_ms,
         mean_samples_per_ray: samples / rays,
         mean_t: (!radiance).then_some(mean),
@@ -965,7 +1053,7 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
             None => None,
         },
         underflowed_voxels: packed.underflow.count,
-        bricks: packed.bricks.len(),
+        bricks: packed.grid_bricks().len(),
         occupied_bricks: packed.occupied_bricks(),
         pool_bytes: std::mem::size_of_val(packed.voxels.as_slice()) as u64,
         brick_table_bytes: std::mem::size_of_val(packed.bricks.as_slice()) as u64,
@@ -1111,6 +1199,7 @@ pub fn prepare_scene(
             density_scale,
             args.brick_size,
             args.supervoxel_format,
+            args.supervoxels.mode()?,
             lookup,
             page_log2,
         )?;
@@ -1269,6 +1358,12 @@ pub fn run_eval(args: &EvalOptions) -> Result<()> {
         bias_scale: args.bias_scale,
         std_scale: args.std_scale,
         progress: !args.quiet,
+        supervoxels: Some(crate::eval::SupervoxelInfo::of(
+            packed,
+            args.scene.supervoxels.mode()?,
+            args.scene.supervoxel_format,
+            &params,
+        )),
     };
     let report = crate::eval::evaluate(&setup, &estimators)?;
     crate::eval::write_report(&json, &report)?;
@@ -1322,6 +1417,12 @@ fn run_eval_integrators(
         bias_scale: args.bias_scale,
         std_scale: args.std_scale,
         progress: !args.quiet,
+        supervoxels: Some(crate::eval::SupervoxelInfo::of(
+            packed,
+            args.scene.supervoxels.mode()?,
+            args.scene.supervoxel_format,
+            &params,
+        )),
     };
     let report = crate::eval::evaluate_integrators(&setup, &lights, integrators, args.exposure)?;
     crate::output::write_json(json, &report)?;
@@ -1429,6 +1530,12 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
         bias_scale: args.bias_scale,
         std_scale: args.std_scale,
         progress: !args.quiet,
+        supervoxels: Some(crate::eval::SupervoxelInfo::of(
+            packed,
+            args.scene.supervoxels.mode()?,
+            args.scene.supervoxel_format,
+            &params,
+        )),
     };
     let report = crate::eval_direct::evaluate_direct(
         &setup,

@@ -28,3 +28,4 @@ pub mod restir;
 pub mod schedule;
 pub mod shadow_map;
 pub mod study;
+pub mod traversal;

@@ -217,9 +217,10 @@ pub fn loop_iterations_per_ray(
     desc: &shared::volume::grid::GridDesc,
 ) -> u64 {
     use shared::params::Estimator as E;
-    // One traversal of the bricks or voxels: the builder's bound from the occupied bricks with
-    // empty-space skipping, or the stepping bound if smaller (the DDA's own budget).
-    let bricks = desc.brick_budget() as u64;
+    // One traversal of the super-voxels or voxels: the builder's bound from the occupied bricks
+    // with empty-space skipping, or the stepping bound if smaller (the DDA's own budget), plus
+    // the cells of subdivided bricks (adaptive super-voxels).
+    let bricks = desc.brick_budget() as u64 + desc.cell_budget() as u64;
     let voxels = desc.voxel_budget() as u64;
     let fixed = 64;
     // A tracking loop: two iterations per tentative collision (the collision loop and the

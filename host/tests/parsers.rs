@@ -116,6 +116,9 @@ const NUMERIC_FLAGS: &[(&[&str], &str)] = &[
     (&["render"], "--resolution"),
     (&["render"], "--density-scale"),
     (&["render"], "--brick-size"),
+    (&["render"], "--cell-size"),
+    (&["render"], "--split-ratio"),
+    (&["render"], "--split-occupancy"),
     (&["render"], "--fov"),
     (&["render"], "--n"),
     (&["render"], "--f-delta"),
@@ -209,6 +212,9 @@ fn numeric_values(cli: &host::cli::Cli) -> Vec<f64> {
             let s = &a.scene;
             let mut v = vec![s.resolution as f64, s.brick_size as f64, s.fov as f64];
             v.extend(s.density_scale.map(f64::from));
+            v.extend(s.cell_size.map(f64::from));
+            v.extend(s.split_ratio.map(f64::from));
+            v.extend(s.split_occupancy.map(f64::from));
             v.extend([a.n, a.width, a.height, a.spp].map(f64::from));
             v.extend([a.f_delta, a.hg_g, a.exposure, a.env_scale, a.env_rotate].map(f64::from));
             v.extend(a.albedo.map(f64::from));

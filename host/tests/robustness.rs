@@ -101,6 +101,30 @@ fn bad_flag_values_name_the_flag() {
         (&["--width", "100000"], "--width"),
         (&["--n", "0"], "--n"),
         (&["--brick-size", "1"], "--brick-size"),
+        (&["--cell-size", "4"], "--cell-size"),
+        (&["--split-ratio", "0.5"], "--split-ratio"),
+        (
+            &["--supervoxels", "adaptive", "--cell-size", "5"],
+            "--cell-size",
+        ),
+        (
+            &["--supervoxels", "adaptive", "--cell-size", "16"],
+            "--cell-size",
+        ),
+        (
+            &["--supervoxels", "adaptive", "--split-ratio", "0"],
+            "--split-ratio",
+        ),
+        (
+            &["--supervoxels", "adaptive", "--split-ratio", "1.5"],
+            "--split-ratio",
+        ),
+        (&["--supervoxels", "octree"], "--supervoxels"),
+        (&["--split-occupancy", "0.2"], "--split-occupancy"),
+        (
+            &["--supervoxels", "adaptive", "--split-occupancy", "0"],
+            "--split-occupancy",
+        ),
         (&["--resolution", "4"], "--resolution"),
         (&["--seed", "-3"], "--seed"),
         (&["--lookup", "bicubic"], "--lookup"),

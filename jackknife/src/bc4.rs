@@ -216,8 +216,9 @@ pub fn compress(values: &[f32], dims: [u32; 3], round: Round) -> Vec<f32> {
     out
 }
 
-/// The bricks with their four statistics BC4-compressed and decoded (mu_min down, mu_max, mean
-/// and P up); slots unchanged. A statistic that is 0 stays exactly 0 where the grid's minimum of
+/// The bricks (or the cell records of subdivided bricks, as `dims` = [s, s, s x count]) with
+/// their four statistics BC4-compressed and decoded (mu_min down, mu_max, mean and P up); slots
+/// and cell indices unchanged. A statistic that is 0 stays exactly 0 where the grid's minimum of
 /// it is 0 (the transform maps the minimum to 0, a block holding it has endpoint 0).
 pub fn compress_bricks(bricks: &[Brick], dims: [u32; 3]) -> Vec<Brick> {
     let stat = |f: fn(&Brick) -> f32, round| {
@@ -236,6 +237,7 @@ pub fn compress_bricks(bricks: &[Brick], dims: [u32; 3]) -> Vec<Brick> {
             mean: mean[i],
             p: p[i],
             slot: b.slot,
+            cells: b.cells,
         })
         .collect()
 }

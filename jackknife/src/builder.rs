@@ -8,6 +8,8 @@ use shared::volume::grid::{
 };
 use shared::volume::pages::{Pages, GPU_PAGE_LOG2, MAX_PAGES, ONE_PAGE_LOG2};
 
+use crate::adaptive::Supervoxels;
+
 /// Default brick (super-voxel) size B in voxels per axis, as in the paper.
 pub const DEFAULT_BRICK_SIZE: u32 = 16;
 
@@ -28,6 +30,23 @@ pub enum BuildError {
     /// The brick size is outside 2..=256.
     #[error("the brick size must be in 2..=256 (got {0})")]
     BrickSize(u32),
+    /// The adaptive cell size does not divide the brick size into at least two cells per axis.
+    #[error("the adaptive cell size must divide the brick size {brick} into 2 or more cells per axis (got {cell})")]
+    CellSize {
+        /// Voxels per cell axis.
+        cell: u32,
+        /// Voxels per brick axis.
+        brick: u32,
+    },
+    /// The adaptive split ratio is not in (0, 1].
+    #[error("the adaptive split ratio must be in (0, 1] (got {0})")]
+    SplitRatio(f32),
+    /// The adaptive split occupancy is not in (0, 1].
+    #[error("the adaptive split occupancy must be in (0, 1] (got {0})")]
+    SplitOccupancy(f32),
+    /// The brick table with the cells of the subdivided bricks exceeds 2^32 - 1 records.
+    #[error("the super-voxel table of the {0:?} grid exceeds 2^32 - 1 records")]
+    Table([u32; 3]),
     /// A dimension is 0, or the voxel count does not fit memory indices.
     #[error("grid dimensions {0:?} are empty or too large")]
     Dims([u32; 3]),
@@ -95,7 +114,8 @@ pub struct Grid {
     /// The pool: f16 voxel bits of the non-empty bricks, two per word; per brick its voxels x
     /// fastest over its extent clipped to the grid, each brick padded to a whole word.
     pub voxels: Vec<u32>,
-    /// Statistics and pool slot of every brick, x fastest.
+    /// Statistics and pool slot of every brick, x fastest, then the cell records of the
+    /// subdivided bricks (adaptive super-voxels, [`Brick::cells`]).
     pub bricks: Vec<Brick>,
     /// Nonzero densities lost to underflow.
     pub underflow: Underflow,
@@ -139,7 +159,44 @@ impl Grid {
 
     /// Bricks that hold a nonzero voxel (the pool holds their voxels only).
     pub fn occupied_bricks(&self) -> usize {
-        self.bricks.iter().filter(|b| b.stores_voxels()).count()
+        self.grid_bricks()
+            .iter()
+            .filter(|b| b.stores_voxels())
+            .count()
+    }
+
+    /// The records of the grid's bricks (without the cells of subdivided bricks).
+    pub fn grid_bricks(&self) -> &[Brick] {
+        let n: usize = self.desc.brick_dims[..3]
+            .iter()
+            .map(|&d| d as usize)
+            .product();
+        &self.bricks[..n]
+    }
+
+    /// Bricks split into cells (adaptive super-voxels).
+    pub fn subdivided_bricks(&self) -> usize {
+        self.grid_bricks().iter().filter(|b| b.cells != 0).count()
+    }
+
+    /// Bytes of the super-voxel table: the bricks' and the cells' records.
+    pub fn table_bytes(&self) -> u64 {
+        (self.bricks.len() * std::mem::size_of::<Brick>()) as u64
+    }
+
+    /// Bytes the table would take BC4-compressed ([`crate::bc4::bc4_table_bytes`]): the
+    /// bricks', plus with subdivided bricks their cells' (each brick's s x s x s cells as s
+    /// slices of s x s) and a 4-byte cell index per brick.
+    pub fn bc4_table_bytes(&self) -> u64 {
+        let d = self.desc.brick_dims;
+        let bricks = crate::bc4::bc4_table_bytes([d[0], d[1], d[2]]);
+        let n = self.subdivided_bricks() as u64;
+        if n == 0 {
+            return bricks;
+        }
+        let s = self.desc.cells_per_brick();
+        let per_brick = crate::bc4::bc4_table_bytes([s, s, s]) - 4 * (s as u64).pow(3);
+        bricks + n * per_brick + 4 * self.grid_bricks().len() as u64
     }
 
     /// The part [t0, t1] of an index-space ray inside the grid's box (t0 >= t1: a miss).
@@ -176,6 +233,7 @@ pub struct GridBuilder<'a> {
     chord: Option<f64>,
     page_log2: u32,
     format: SupervoxelFormat,
+    supervoxels: Supervoxels,
 }
 
 /// How the super-voxel statistics are stored.
@@ -231,7 +289,14 @@ impl<'a> GridBuilder<'a> {
             chord: None,
             page_log2: GPU_PAGE_LOG2,
             format: SupervoxelFormat::F32,
+            supervoxels: Supervoxels::Fixed,
         }
+    }
+
+    /// Fixed super-voxels (one per brick, the default) or adaptive ones ([`Supervoxels`]).
+    pub fn supervoxels(mut self, mode: Supervoxels) -> Self {
+        self.supervoxels = mode;
+        self
     }
 
     /// Extinction per unit of density (default 1).
@@ -343,6 +408,23 @@ impl<'a> GridBuilder<'a> {
         if !(2..=256).contains(&self.brick_size) {
             return Err(BuildError::BrickSize(self.brick_size));
         }
+        if let Supervoxels::Adaptive {
+            cell,
+            ratio,
+            occupancy,
+        } = self.supervoxels
+        {
+            let brick = self.brick_size;
+            if cell == 0 || !brick.is_multiple_of(cell) || brick / cell < 2 {
+                return Err(BuildError::CellSize { cell, brick });
+            }
+            if !(ratio > 0.0 && ratio <= 1.0) {
+                return Err(BuildError::SplitRatio(ratio));
+            }
+            if !(occupancy > 0.0 && occupancy <= 1.0) {
+                return Err(BuildError::SplitOccupancy(occupancy));
+            }
+        }
         let dims = self.dims;
         let count = dims
             .iter()
@@ -380,7 +462,8 @@ impl<'a> GridBuilder<'a> {
             page_log2: ONE_PAGE_LOG2,
             brick_steps: 0,
             voxel_steps: 0,
-            pad: [0; 2],
+            cells_per_brick: 0,
+            cell_steps: 0,
         };
         let slots_only: Vec<Brick> = slots
             .iter()
@@ -425,16 +508,58 @@ impl<'a> GridBuilder<'a> {
                 }
             })
             .collect();
-        let bricks = match self.format {
-            SupervoxelFormat::F32 => bricks,
-            SupervoxelFormat::Bc4 => crate::bc4::compress_bricks(&bricks, brick_dims),
+        let (mut bricks, cells, s) = match self.supervoxels {
+            Supervoxels::Fixed => (bricks, Vec::new(), 0),
+            Supervoxels::Adaptive {
+                cell,
+                ratio,
+                occupancy,
+            } => {
+                let split: Vec<Option<Vec<Brick>>> = bricks
+                    .par_iter()
+                    .enumerate()
+                    .map(|(i, brick)| {
+                        let c = unflatten(i, brick_dims);
+                        crate::adaptive::split(&view, brick, c, b, cell, (ratio, occupancy))
+                    })
+                    .collect();
+                let mut bricks = bricks;
+                let mut cells = Vec::new();
+                for (brick, split) in bricks.iter_mut().zip(split) {
+                    if let Some(split) = split {
+                        let first = n_bricks + cells.len();
+                        brick.cells = u32::try_from(first)
+                            .ok()
+                            .filter(|&f| f as usize + split.len() <= u32::MAX as usize)
+                            .ok_or(BuildError::Table(dims))?;
+                        cells.extend(split);
+                    }
+                }
+                (bricks, cells, b / cell)
+            }
         };
-        let (bricks, levels) = mark_skippable(bricks, brick_dims);
+        if self.format == SupervoxelFormat::Bc4 {
+            bricks = crate::bc4::compress_bricks(&bricks, brick_dims);
+        }
+        let (mut bricks, levels) = mark_skippable(bricks, brick_dims);
         let [brick_steps, voxel_steps] = traversal_steps(&levels, brick_dims, dims, b);
+        let subdivided = bricks.iter().filter(|b| b.cells != 0).count() as u64;
+        if !cells.is_empty() {
+            let n = (s * s) as usize;
+            let dims = [s, s, (cells.len() / n) as u32];
+            match self.format {
+                SupervoxelFormat::F32 => bricks.extend(cells),
+                SupervoxelFormat::Bc4 => bricks.extend(crate::bc4::compress_bricks(&cells, dims)),
+            }
+        }
+        let s = if subdivided == 0 { 0 } else { s };
+        let cell_steps = cell_steps(subdivided, brick_steps, s);
         Ok(Grid {
             desc: GridDesc {
                 brick_steps,
                 voxel_steps,
+                cells_per_brick: s,
+                cell_steps,
                 ..desc
             },
             voxels,
@@ -777,21 +902,42 @@ fn traversal_steps(levels: &[Vec<bool>], brick_dims: [u32; 3], dims: [u32; 3], b
     [bound(occupied[0], brick_dims), bound(occupied[1], dims)]
 }
 
+/// The budget of cell steps of one super-voxel traversal ([`GridDesc::cell_steps`]): a ray
+/// crosses at most 3s - 2 cells of a brick of s^3 cells (3s + 3, the stepping bound, allowing
+/// for a start clamped into the brick), in at most min(subdivided bricks, brick iterations)
+/// subdivided bricks.
+fn cell_steps(subdivided: u64, brick_steps: u32, s: u32) -> u32 {
+    if subdivided == 0 {
+        return 0;
+    }
+    (subdivided.min(brick_steps as u64) * (3 * s as u64 + 3)).min(u32::MAX as u64) as u32
+}
+
 /// The statistics of a brick whose widened window holds zeros only (what [`brick_stats`] gives).
-const ZERO_STATS: Brick = Brick {
+pub(crate) const ZERO_STATS: Brick = Brick {
     mu_min: 0.0,
     mu_max: 0.0,
     mean: 0.0,
     p: 0.0,
     slot: EMPTY_BRICK,
+    cells: 0,
 };
 
 /// Statistics of brick b over its widened, clamped window ([-1, B+1) per axis): exact min,
 /// max, mean and P of Eq. 5 (RMS of mu - mu_min) rounded up, P >= 0.01 mu_min.
 fn brick_stats(view: &VolumeView, b: [u32; 3], size: u32) -> Brick {
+    box_stats(view, b.map(|c| c * size), b.map(|c| (c + 1) * size))
+}
+
+/// Statistics of the voxel box [lo, hi) as [`brick_stats`] computes a brick's: over the box
+/// widened by one voxel per side and clamped to the grid (all 0 for a box outside the grid).
+pub(crate) fn box_stats(view: &VolumeView, lo: [u32; 3], hi: [u32; 3]) -> Brick {
     let d = view.desc.dims;
-    let lo = [0, 1, 2].map(|a| (b[a] * size).saturating_sub(1));
-    let hi = [0, 1, 2].map(|a| ((b[a] + 1) * size + 1).min(d[a]));
+    if (0..3).any(|a| lo[a] >= d[a]) {
+        return ZERO_STATS;
+    }
+    let lo = [0, 1, 2].map(|a| lo[a].saturating_sub(1));
+    let hi = [0, 1, 2].map(|a| (hi[a] + 1).min(d[a]));
     let (mut mn, mut mx) = (f32::INFINITY, 0.0f32);
     let (mut sum, mut sum2, mut n) = (0.0f64, 0.0f64, 0u64);
     for z in lo[2]..hi[2] {
@@ -819,5 +965,6 @@ fn brick_stats(view: &VolumeView, b: [u32; 3], size: u32) -> Brick {
         mean: round_up(mean),
         p: round_up(p),
         slot: EMPTY_BRICK,
+        cells: 0,
     }
 }

@@ -15,10 +15,14 @@
 //! ```
 #![deny(missing_docs)]
 
+mod adaptive;
 pub mod bc4;
 mod builder;
 mod segment;
 
+pub use adaptive::{
+    occupancy, Supervoxels, DEFAULT_CELL_SIZE, DEFAULT_SPLIT_OCCUPANCY, DEFAULT_SPLIT_RATIO,
+};
 pub use builder::{
     BuildError, Grid, GridBuilder, SupervoxelFormat, Underflow, DEFAULT_BRICK_SIZE, FALLBACK_STEPS,
     MAX_OPTICAL_DEPTH, MAX_PAGE_LOG2,

@@ -273,6 +273,7 @@ fn bc4_statistics_render_identically_on_gpu_and_cpu() {
             1.5,
             4,
             format,
+            jackknife::Supervoxels::Fixed,
             Lookup::Nearest,
             shared::volume::pages::GPU_PAGE_LOG2,
         )

@@ -65,6 +65,15 @@ value_enum! {
     }
 }
 
+/// Fixed or adaptive super-voxels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum SupervoxelsArg {
+    /// One super-voxel per brick (the paper).
+    Fixed,
+    /// Bricks split into cells where that concentrates the importance.
+    Adaptive,
+}
+
 value_enum! {
     /// The up axis of a volume.
     UpArg => UpAxis {
@@ -207,6 +216,15 @@ where
 /// A value parser of finite f32 numbers in `[lo, hi]`.
 pub fn f32_in(lo: f32, hi: f32) -> impl Fn(&str) -> Result<f32, String> + Clone + Send + Sync {
     number_in(lo, hi)
+}
+
+/// `--split-ratio`: a number in (0, 1].
+pub fn parse_split_ratio(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v > 0.0 && v <= 1.0 => Ok(v),
+        Ok(v) => Err(format!("must be in (0, 1] (got {v})")),
+        Err(e) => Err(format!("not a number: {e}")),
+    }
 }
 
 /// A value parser of finite numbers in the open interval `(lo, hi)`.

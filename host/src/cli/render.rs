@@ -2,8 +2,8 @@
 
 use super::parsers::{
     f32_in, f32_open, parse_albedo, parse_density_scale, parse_env, parse_f_delta,
-    parse_msm_filter, parse_positive, parse_sun, parse_vec3, BackendArg, LookupArg, MsmStorageArg,
-    ShadowsArg, SupervoxelFormatArg, THatArg, UpArg,
+    parse_msm_filter, parse_positive, parse_split_ratio, parse_sun, parse_vec3, BackendArg,
+    LookupArg, MsmStorageArg, ShadowsArg, SupervoxelFormatArg, SupervoxelsArg, THatArg, UpArg,
 };
 use crate::commands::{defaults, RenderOptions, SceneOptions};
 use clap::Args;
@@ -36,6 +36,24 @@ pub struct SceneArgs {
     /// wisps, more jackknife bias).
     #[arg(long, value_enum, default_value_t = SupervoxelFormatArg::F32)]
     pub supervoxel_format: SupervoxelFormatArg,
+    /// Super-voxels: fixed (one per brick, the paper) or adaptive (a brick whose importance is
+    /// concentrated in part of it is split into cells of --cell-size voxels with their own
+    /// statistics, so samples go where the extinction is; beyond the paper, Sec. 7).
+    #[arg(long, value_enum, default_value_t = SupervoxelsArg::Fixed)]
+    pub supervoxels: SupervoxelsArg,
+    /// Adaptive super-voxels: voxels per cell axis, dividing --brick-size into 2 or more cells
+    /// (default 4).
+    #[arg(long, allow_hyphen_values = true, value_parser = clap::value_parser!(u32).range(1..=128))]
+    pub cell_size: Option<u32>,
+    /// Adaptive super-voxels: split a sparse brick when its cells' importance mass (P x voxels
+    /// summed) is at most this fraction of the brick's, in (0, 1] (default 0.7).
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_split_ratio)]
+    pub split_ratio: Option<f32>,
+    /// Adaptive super-voxels: a brick is sparse, and may be split, when its occupancy
+    /// (mean - mu_min) / P is below this, in (0, 1] (default 0.2; thin wisps filling a fraction
+    /// f of a brick have sqrt(f), smooth media 0.6 and more; 1 considers every brick).
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_split_ratio)]
+    pub split_occupancy: Option<f32>,
     /// Camera position x,y,z in world units (default: framing the volume from the front).
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub camera: Option<[f32; 3]>,
@@ -63,6 +81,12 @@ impl SceneArgs {
             density_scale: self.density_scale,
             brick_size: self.brick_size,
             supervoxel_format: self.supervoxel_format.into(),
+            supervoxels: crate::commands::SupervoxelOptions {
+                adaptive: self.supervoxels == SupervoxelsArg::Adaptive,
+                cell_size: self.cell_size,
+                split_ratio: self.split_ratio,
+                split_occupancy: self.split_occupancy,
+            },
             camera: self.camera,
             look_at: self.look_at,
             fov: self.fov,

@@ -7,8 +7,8 @@ use crate::math;
 use crate::params::{Importance, Jitter};
 use crate::rng::{pcg3d, unit_f32, HashRng};
 use crate::tally::Tally;
-use crate::volume::dda::GridDda;
 use crate::volume::grid::{Brick, Lookup, VolumeView};
+use crate::volume::supervoxels::SuperVoxelDda;
 
 /// Sampling importance of a brick.
 #[inline]
@@ -34,19 +34,19 @@ pub struct Prep {
     pub f: f32,
     pub t_min: f32,
     pub t_max: f32,
-    /// Whether the traversal's iteration budget ended it early ([`GridDda::exhausted`]).
+    /// Whether the traversal's iteration budget ended it early ([`SuperVoxelDda::exhausted`]).
     pub capped: bool,
 }
 
-/// Alg. 2: one DDA over the bricks of [t0, t1], summing (t_{n+1} - t_n) P into F and recording
-/// the entry of the first and the exit of the last brick with P != 0.
+/// Alg. 2: one DDA over the super-voxels of [t0, t1], summing (t_{n+1} - t_n) P into F and recording
+/// the entry of the first and the exit of the last super-voxel with P != 0.
 pub fn prepare(vol: &VolumeView, ray: &Ray, t0: f32, t1: f32, mode: Importance) -> Prep {
     let mut f = 0.0;
     let mut t_min = t1;
     let mut t_max = t0;
-    let mut dda = GridDda::bricks(vol.desc, ray, t0, t1);
+    let mut dda = SuperVoxelDda::new(vol.desc, ray, t0, t1);
     while !dda.done {
-        let (seg, b) = dda.step_brick(vol);
+        let (seg, b) = dda.step(vol);
         let p = importance(&b, mode);
         f += (seg.t1 - seg.t0) * p;
         if p != 0.0 {
@@ -266,7 +266,7 @@ pub fn estimate_interleaved(
     let mut cur = Placed::default();
     let mut last_nonzero = Placed::default();
     let mut have_nonzero = false;
-    let mut dda = GridDda::bricks(vol.desc, ray, prep.t_min, prep.t_max);
+    let mut dda = SuperVoxelDda::new(vol.desc, ray, prep.t_min, prep.t_max);
     let mut samples = 0u32;
     // Each pass takes one high-resolution sample (coherent on SIMD hardware).
     while k0 < n0 || k1 < n1 {
@@ -287,7 +287,7 @@ pub fn estimate_interleaved(
         }
         // Advance over bricks until the CDF passes the target.
         while target >= f && !dda.done {
-            let (seg, b) = dda.step_brick(vol);
+            let (seg, b) = dda.step(vol);
             let len = seg.t1 - seg.t0;
             let p = importance(&b, mode);
             let m = mu_min(&b, mode);
@@ -346,7 +346,7 @@ pub fn estimate_interleaved(
     }
     // The control variate needs the rest of the segment.
     while !dda.done {
-        let (seg, b) = dda.step_brick(vol);
+        let (seg, b) = dda.step(vol);
         tau_c += (seg.t1 - seg.t0) * mu_min(&b, mode);
     }
     let est = DepthPairEstimate {

@@ -5,8 +5,8 @@
 use crate::geometry::Ray;
 use crate::math;
 use crate::rng::HashRng;
-use crate::volume::dda::GridDda;
 use crate::volume::grid::VolumeView;
+use crate::volume::supervoxels::SuperVoxelDda;
 
 /// A piece [t0, t1] of the ray with a constant majorant (pbrt-v4's `RayMajorantSegment`).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -16,10 +16,10 @@ pub struct MajorantSegment {
     pub sigma_maj: f32,
 }
 
-/// pbrt-v4's `DDAMajorantIterator` over the brick grid: brick segments with majorant mu_max.
+/// pbrt-v4's `DDAMajorantIterator` over the super-voxels: segments with majorant mu_max.
 #[derive(Clone, Copy, Debug)]
 pub struct MajorantIter {
-    dda: GridDda,
+    dda: SuperVoxelDda,
     pub done: bool,
 }
 
@@ -27,7 +27,7 @@ impl MajorantIter {
     /// Iterator over the bricks of [t0, t1] (pbrt-v4 `DDAMajorantIterator`).
     #[inline]
     pub fn new(vol: &VolumeView, ray: &Ray, t0: f32, t1: f32) -> Self {
-        let dda = GridDda::bricks(vol.desc, ray, t0, t1);
+        let dda = SuperVoxelDda::new(vol.desc, ray, t0, t1);
         MajorantIter {
             dda,
             done: dda.done,
@@ -37,7 +37,7 @@ impl MajorantIter {
     /// Next brick segment and its majorant mu_max (pbrt-v4 `Next`); call only while `!done`.
     #[inline]
     pub fn next_segment(&mut self, vol: &VolumeView) -> MajorantSegment {
-        let (seg, b) = self.dda.step_brick(vol);
+        let (seg, b) = self.dda.step(vol);
         self.done = self.dda.done;
         MajorantSegment {
             t0: seg.t0,
@@ -46,7 +46,7 @@ impl MajorantIter {
         }
     }
 
-    /// Whether the brick traversal's iteration budget ended it early ([`GridDda::exhausted`]).
+    /// Whether the traversal's iteration budgets ended it early ([`SuperVoxelDda::exhausted`]).
     #[inline]
     pub fn exhausted(&self) -> bool {
         self.dda.exhausted()
@@ -79,7 +79,6 @@ impl MajorantSampler {
     #[inline]
     pub fn new(vol: &VolumeView, ray: &Ray, t0: f32, t1: f32) -> Self {
         let iter = MajorantIter::new(vol, ray, t0, t1);
-        let b = &vol.desc.brick_dims;
         MajorantSampler {
             iter,
             seg: MajorantSegment {
@@ -88,7 +87,14 @@ impl MajorantSampler {
                 sigma_maj: 0.0,
             },
             t: t0,
-            guard: b[0] + b[1] + b[2] + 8,
+            guard: {
+                let g = vol.desc.supervoxel_budget();
+                if g > u32::MAX - 8 {
+                    u32::MAX
+                } else {
+                    g + 8
+                }
+            },
             done: iter.done,
         }
     }

@@ -94,6 +94,8 @@ pub struct GridDda {
     t: f32,
     t_end: f32,
     size: f32,
+    /// The traversed cells are [lo, dims) per axis (lo 0 but in the cells of one brick).
+    lo: [i32; 3],
     dims: [i32; 3],
     /// Cells per brick along each axis (1 for the brick traversal, B for the voxels): skip
     /// levels count bricks, so a cube of level L is `unit << L` cells per axis.
@@ -127,12 +129,12 @@ fn inv_or_zero(d: f32) -> f32 {
     }
 }
 
-/// Brick index of coordinate v, clamped to [0, n-1].
+/// Cell index of coordinate v, clamped to [lo, n-1].
 #[inline]
-fn cell_of(v: f32, size: f32, n: i32) -> i32 {
+fn cell_of(v: f32, size: f32, lo: i32, n: i32) -> i32 {
     let c = math::floor(v / size);
-    if c < 0.0 {
-        0
+    if !(c >= lo as f32) {
+        lo
     } else if c >= n as f32 {
         n - 1
     } else {
@@ -188,9 +190,9 @@ impl GridDda {
         let p = ray.at(t_start);
         let valid = t_start < t_end && math::is_finite(t_start) && math::is_finite(t_end);
         GridDda {
-            cx: cell_of(p.x, size, dims[0]),
-            cy: cell_of(p.y, size, dims[1]),
-            cz: cell_of(p.z, size, dims[2]),
+            cx: cell_of(p.x, size, 0, dims[0]),
+            cy: cell_of(p.y, size, 0, dims[1]),
+            cz: cell_of(p.z, size, 0, dims[2]),
             sx: step_of(ray.d.x),
             sy: step_of(ray.d.y),
             sz: step_of(ray.d.z),
@@ -204,12 +206,58 @@ impl GridDda {
             t: t_start,
             t_end,
             size,
+            lo: [0; 3],
             dims,
             unit,
             budget,
             exhausted: false,
             done: !valid,
         }
+    }
+
+    /// A stepping traversal of the same ray through the cells [lo, hi) of `size` voxels (the
+    /// cells of one brick, [`crate::volume::supervoxels::SuperVoxelDda`]) from t_start to
+    /// t_end, with at most `budget` iterations. Its cell planes are computed as this
+    /// traversal's, so where they coincide with brick planes the parameters are the same bits.
+    #[inline]
+    pub fn within(
+        &self,
+        size: f32,
+        lo: [u32; 3],
+        hi: [u32; 3],
+        budget: u32,
+        t_start: f32,
+        t_end: f32,
+    ) -> Self {
+        let lo = [lo[0] as i32, lo[1] as i32, lo[2] as i32];
+        let dims = [hi[0] as i32, hi[1] as i32, hi[2] as i32];
+        let p = Ray {
+            o: self.o,
+            d: self.d,
+        }
+        .at(t_start);
+        let valid = t_start < t_end && math::is_finite(t_start) && math::is_finite(t_end);
+        GridDda {
+            cx: cell_of(p.x, size, lo[0], dims[0]),
+            cy: cell_of(p.y, size, lo[1], dims[1]),
+            cz: cell_of(p.z, size, lo[2], dims[2]),
+            t: t_start,
+            t_end,
+            size,
+            lo,
+            dims,
+            unit: 1,
+            budget,
+            exhausted: false,
+            done: !valid,
+            ..*self
+        }
+    }
+
+    /// Iterations left of the budget.
+    #[inline]
+    pub fn budget_left(&self) -> u32 {
+        self.budget
     }
 
     /// Whether the traversal ended because its budget of iterations ran out, before reaching
@@ -530,9 +578,9 @@ impl GridDda {
             } else {
                 self.cz += self.sz;
             }
-            if self.cx < 0
-                || self.cy < 0
-                || self.cz < 0
+            if self.cx < self.lo[0]
+                || self.cy < self.lo[1]
+                || self.cz < self.lo[2]
                 || self.cx >= self.dims[0]
                 || self.cy >= self.dims[1]
                 || self.cz >= self.dims[2]

@@ -78,8 +78,14 @@ pub struct GridDesc {
     /// Most iterations one skipping traversal of the voxels may take (regular tracking): the
     /// budget of [`crate::volume::dda::GridDda::voxels`] (0: the sum of the voxel counts + 3).
     pub voxel_steps: u32,
-    /// Padding to 16 bytes.
-    pub pad: [u32; 2],
+    /// Adaptive super-voxels: cells per axis s of a subdivided brick (each cell B / s voxels per
+    /// axis; B a multiple of s), whose statistics follow the grid's bricks in the table
+    /// ([`Brick::cells`]); 0 or 1: every brick is one super-voxel (the paper's fixed grid).
+    pub cells_per_brick: u32,
+    /// Most cells one traversal may visit inside subdivided bricks, the budget of the cell
+    /// steps of [`crate::volume::supervoxels::SuperVoxelDda`] (0: one stepping bound, 3 s + 3,
+    /// per brick of the brick budget).
+    pub cell_steps: u32,
 }
 
 /// Iteration budget of a traversal of a grid of `cells` cells: `steps`, unless it is 0 or above
@@ -100,6 +106,46 @@ impl GridDesc {
     pub fn brick_budget(&self) -> u32 {
         let d = self.brick_dims;
         traversal_budget(self.brick_steps, [d[0], d[1], d[2]])
+    }
+
+    /// Cells per axis of a subdivided brick, or 1 (no brick is subdivided).
+    #[inline]
+    pub fn cells_per_brick(&self) -> u32 {
+        if self.cells_per_brick > 1 {
+            self.cells_per_brick
+        } else {
+            1
+        }
+    }
+
+    /// Iteration budget of the cell steps of one traversal of the super-voxels
+    /// ([`GridDesc::cell_steps`]; 0 without subdivided bricks).
+    #[inline]
+    pub fn cell_budget(&self) -> u32 {
+        let s = self.cells_per_brick();
+        if s == 1 {
+            0
+        } else if self.cell_steps != 0 {
+            self.cell_steps
+        } else {
+            // Without overflow (rust-gpu has no saturating arithmetic): at most 65535 x 771.
+            let b = self.brick_budget();
+            let b = if b > 65535 { 65535 } else { b };
+            let s = if s > 256 { 256 } else { s };
+            b * (3 * s + 3)
+        }
+    }
+
+    /// Iterations of one whole super-voxel traversal: bricks and cells
+    /// ([`GridDesc::brick_budget`] + [`GridDesc::cell_budget`], at most u32::MAX).
+    #[inline]
+    pub fn supervoxel_budget(&self) -> u32 {
+        let (a, b) = (self.brick_budget(), self.cell_budget());
+        if a > u32::MAX - b {
+            u32::MAX
+        } else {
+            a + b
+        }
     }
 
     /// Iteration budget of one skipping traversal of the voxels ([`GridDesc::voxel_steps`]).
@@ -127,7 +173,12 @@ pub struct Brick {
     /// whose voxels are all 0 (none stored): [`EMPTY_BRICK`], or [`skip_slot`]`(L)` when its
     /// statistics are 0 too and so are those of every brick of the aligned cube of 2^L bricks
     /// per axis around it (clipped to the grid), which a traversal may then skip.
+    /// [`EMPTY_BRICK`] in a cell record (the brick's slot locates the voxels).
     pub slot: u32,
+    /// Adaptive super-voxels: index in the table of the first of this brick's s^3 cell records
+    /// (s = [`GridDesc::cells_per_brick`], x fastest, statistics as a brick's over the cell),
+    /// which a traversal visits instead of the brick; 0: the brick is not subdivided.
+    pub cells: u32,
 }
 
 /// [`Brick::slot`] of a brick whose voxels are all 0 but whose statistics are not (nonzero
@@ -173,7 +224,7 @@ pub struct VolumeView<'a> {
     /// The pool: f16 voxels of the non-empty bricks, two per u32; each brick's voxels x fastest
     /// over its extent clipped to the grid, bricks in order, in pages of 2^`desc.page_log2` words.
     pub voxels: Pages<'a>,
-    /// Bricks, x fastest.
+    /// Bricks, x fastest, then the cell records of the subdivided bricks ([`Brick::cells`]).
     pub bricks: &'a [Brick],
 }
 
@@ -260,6 +311,15 @@ impl VolumeView<'_> {
     pub fn brick(&self, b: [u32; 3]) -> Brick {
         let d = &self.desc.brick_dims;
         self.bricks[b[0] as usize + d[0] as usize * (b[1] as usize + d[1] as usize * b[2] as usize)]
+    }
+
+    /// Cell `local` (coordinates within its brick, each below s) of the subdivided brick whose
+    /// cell records start at `first` ([`Brick::cells`]).
+    #[inline]
+    pub fn cell(&self, first: u32, local: [u32; 3]) -> Brick {
+        let s = self.desc.cells_per_brick() as usize;
+        let l = local[0] as usize + s * (local[1] as usize + s * local[2] as usize);
+        self.bricks[first as usize + l]
     }
 }
 

@@ -3,3 +3,4 @@
 pub mod dda;
 pub mod grid;
 pub mod pages;
+pub mod supervoxels;

@@ -1,0 +1,109 @@
+//! Traversal of the super-voxels along a ray: the bricks of the grid, and inside a subdivided
+//! brick ([`Brick::cells`], adaptive super-voxels) its cells of B / s voxels per axis, each with
+//! the statistics of a brick over the cell. Every estimator that walks the importance or the
+//! majorant (Alg. 2, Alg. 1, the majorant sampler of delta and ratio tracking) sees one sequence
+//! of segments with constant statistics, from the fixed grid or from the adaptive one alike.
+
+use crate::geometry::Ray;
+use crate::volume::dda::{GridDda, Segment};
+use crate::volume::grid::{Brick, GridDesc, VolumeView};
+use core::num::NonZeroU32;
+
+/// The super-voxels of one ray segment: a skipping traversal of the bricks that, at a
+/// subdivided brick, steps through the brick's cells crossed by the brick's segment before it
+/// moves on. One call of [`SuperVoxelDda::step`] is one iteration of the caller's loop: a skip,
+/// a brick, or a cell.
+#[derive(Clone, Copy, Debug)]
+pub struct SuperVoxelDda {
+    bricks: GridDda,
+    /// The cells of the current subdivided brick, while `in_cells`.
+    cells: GridDda,
+    /// First cell record of the current subdivided brick ([`Brick::cells`]).
+    first_cell: u32,
+    /// Its first cell (global cell coordinates): brick coordinates times s.
+    lo: [u32; 3],
+    in_cells: bool,
+    /// Cell steps left ([`GridDesc::cell_budget`]).
+    cell_budget: u32,
+    /// Whether the cell budget ended the traversal.
+    cells_exhausted: bool,
+    pub done: bool,
+}
+
+impl SuperVoxelDda {
+    /// Traversal of the super-voxels of `desc` from t_start (inside the grid box) to t_end, with
+    /// at most `desc.brick_budget()` brick iterations and `desc.cell_budget()` cell iterations.
+    #[inline]
+    pub fn new(desc: &GridDesc, ray: &Ray, t_start: f32, t_end: f32) -> Self {
+        let bricks = GridDda::bricks(desc, ray, t_start, t_end);
+        SuperVoxelDda {
+            bricks,
+            cells: bricks,
+            first_cell: 0,
+            lo: [0; 3],
+            in_cells: false,
+            cell_budget: desc.cell_budget(),
+            cells_exhausted: false,
+            done: bricks.done,
+        }
+    }
+
+    /// Whether a budget (bricks or cells) ended the traversal before it reached its end: the
+    /// caller counts the ray as capped.
+    #[inline]
+    pub fn exhausted(&self) -> bool {
+        self.cells_exhausted || self.bricks.exhausted()
+    }
+
+    /// The next super-voxel segment and its statistics (call only while `!done`): a skipped
+    /// span of all-zero bricks (statistics 0), a brick, or a cell of a subdivided brick (its
+    /// segment's cell in global cell coordinates, brick coordinates times s plus the local
+    /// ones). A subdivided brick whose segment is empty (the ray grazes an edge) gives that
+    /// empty segment with the brick's own statistics: length 0 adds nothing to any sum.
+    #[inline]
+    pub fn step(&mut self, vol: &VolumeView) -> (Segment, Brick) {
+        if !self.in_cells {
+            let (seg, b) = self.bricks.step_brick(vol);
+            let s = vol.desc.cells_per_brick();
+            if b.cells == 0 || s == 1 {
+                self.done = self.bricks.done;
+                return (seg, b);
+            }
+            let size = match NonZeroU32::new(s) {
+                Some(d) => vol.desc.brick_size / d,
+                None => vol.desc.brick_size,
+            };
+            let lo = [seg.cell[0] * s, seg.cell[1] * s, seg.cell[2] * s];
+            let hi = [lo[0] + s, lo[1] + s, lo[2] + s];
+            let cells = self
+                .bricks
+                .within(size as f32, lo, hi, self.cell_budget, seg.t0, seg.t1);
+            if cells.done {
+                self.done = self.bricks.done;
+                return (seg, b);
+            }
+            self.cells = cells;
+            self.first_cell = b.cells;
+            self.lo = lo;
+            self.in_cells = true;
+        }
+        let seg = self.cells.step();
+        self.cell_budget = self.cells.budget_left();
+        let local = [
+            seg.cell[0] - self.lo[0],
+            seg.cell[1] - self.lo[1],
+            seg.cell[2] - self.lo[2],
+        ];
+        let b = vol.cell(self.first_cell, local);
+        if self.cells.done {
+            self.in_cells = false;
+            if self.cells.exhausted() {
+                self.cells_exhausted = true;
+                self.done = true;
+            } else {
+                self.done = self.bricks.done;
+            }
+        }
+        (seg, b)
+    }
+}
