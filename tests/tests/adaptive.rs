@@ -97,7 +97,8 @@ fn adaptive_supervoxels_render_identically_on_gpu_and_cpu() {
                 let ids: Vec<u32> = (0..c.len() as u32).collect();
                 assert_bytes_equal(&label, &ids, &g, &c);
                 assert!(c.iter().all(|px| px.capped == 0), "{label}: capped rays");
-                if e != Estimator::RegularTracking {
+                // (The MIS image has no lights here: its radiance is 0 either way.)
+                if e != Estimator::RegularTracking && integrator == Integrator::Transmittance {
                     let f = host::render::render(&Backend::Cpu, &fixed, &p, false).unwrap();
                     assert!(
                         c.iter().zip(&f).any(|(a, b)| a.t_mean != b.t_mean),
