@@ -6,7 +6,8 @@
 # Writes docs/results/adaptive/<volume>_<lookup>_<format>_<structure>.json and prints excess
 # bias (mean |bias| minus its noise floor), std, time, super-voxel reads per ray and table size.
 # Usage: scripts/eval_adaptive.sh [host binary] [volumes] [lookups] [formats] [structures]
-# (structures: fixed16 fixed12 fixed8 adaptive, or adaptive:CELL:RATIO on 16^3 bricks).
+# (structures: fixed16 fixed12 fixed8 adaptive, or adaptive:CELL:RATIO[:OCCUPANCY] on 16^3
+# bricks).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 host=${1:-target/release/host}
@@ -26,8 +27,9 @@ for vol in $volumes; do
           fixed*) flags=(--brick-size "${s#fixed}") ;;
           adaptive) flags=(--brick-size 16 --supervoxels adaptive) ;;
           adaptive:*)
-            IFS=: read -r _ cell ratio <<<"$s"
-            flags=(--brick-size 16 --supervoxels adaptive --cell-size "$cell" --split-ratio "$ratio") ;;
+            IFS=: read -r _ cell ratio occupancy <<<"$s"
+            flags=(--brick-size 16 --supervoxels adaptive --cell-size "$cell" --split-ratio "$ratio")
+            if [ -n "${occupancy:-}" ]; then flags+=(--split-occupancy "$occupancy"); fi ;;
           *) echo "unknown structure $s" >&2; exit 2 ;;
         esac
         json="$out/${vol}_${lookup}_${fmt}_${s//:/_}.json"

@@ -199,6 +199,7 @@ fn rng_on_gpu(g: &Gpu, count: u32, seed: u32) -> Result<Vec<RngDraws>, GpuError>
     g.submit(Work {
         kernel: &gpu::RNG_DRAWS,
         buffers: [&output],
+        specialization: &gpu::unspecialized,
         uploads: vec![],
         steps: vec![Step::Run {
             push,
@@ -226,6 +227,7 @@ fn map_on_gpu<I: Pod, O: Pod>(
         g.submit(Work {
             kernel,
             buffers: buffers.slots(),
+            specialization: &gpu::unspecialized,
             uploads: vec![(buffers.input, bytes)],
             steps: vec![Step::Run {
                 push: Launch::default(),

@@ -980,6 +980,12 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         write_png(&png, args.width, args.height, &preview)?;
     }
     let radiance = args.integrator.is_some();
+    let sv = crate::eval::SupervoxelInfo::of(
+        packed,
+        args.scene.supervoxels.mode()?,
+        args.scene.supervoxel_format,
+        &params,
+    );
     let summary = RenderSummary {
         backend: backend.kind().into(),
         device: backend.device(),
@@ -997,26 +1003,16 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         n: args.n,
         density_scale,
         brick_size: args.scene.brick_size,
-        supervoxel_format: args.scene.supervoxel_format.name().into(),
-        bc4_brick_table_bytes: (args.scene.supervoxel_format == jackknife::SupervoxelFormat::Bc4)
-            .then(|| packed.bc4_table_bytes()),
-        supervoxels: args.scene.supervoxels.name().into(),
-        supervoxel_cell_size: match args.scene.supervoxels.mode()? {
-            jackknife::Supervoxels::Adaptive { cell, .. } => Some(cell),
-            jackknife::Supervoxels::Fixed => None,
-        },
-        split_ratio: match args.scene.supervoxels.mode()? {
-            jackknife::Supervoxels::Adaptive { ratio, .. } => Some(ratio),
-            jackknife::Supervoxels::Fixed => None,
-        },
-        split_occupancy: match args.scene.supervoxels.mode()? {
-            jackknife::Supervoxels::Adaptive { occupancy, .. } => Some(occupancy),
-            jackknife::Supervoxels::Fixed => None,
-        },
-        subdivided_bricks: packed.subdivided_bricks(),
+        supervoxel_format: sv.format,
+        bc4_brick_table_bytes: sv.bc4_table_bytes,
+        supervoxels: sv.mode,
+        supervoxel_cell_size: sv.cell_size,
+        split_ratio: sv.split_ratio,
+        split_occupancy: sv.split_occupancy,
+        subdivided_bricks: sv.subdivided_bricks,
         supervoxel_cells: packed.bricks.len() - packed.grid_bricks().len(),
         cell_traversal_steps: packed.desc.cell_budget(),
-        supervoxel_reads_per_ray: crate::traversal::reads_per_ray(packed, &params),
+        supervoxel_reads_per_ray: sv.reads_per_ray,
         elapsed_ms,
         mean_samples_per_ray: samples / rays,
         mean_t: (!radiance).then_some(mean),

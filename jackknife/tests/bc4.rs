@@ -5,18 +5,12 @@
 //! exact optical depth, and ratio tracking's mean matches exp(-tau), at z < 4.5 (trials and seeds
 //! below; 24 rays x 3 checks: a false alarm has probability about 5e-4).
 
-use jackknife::{GridBuilder, HashRng, Importance, Jitter, Lookup, Ray, SupervoxelFormat, V3};
-use shared::estimators::optical_depth::{estimate_pair, prepare};
-use shared::estimators::tracking::{ratio_tracking, regular_tracking_tau};
-use shared::rng::{pcg_hash, unit_f32};
+mod common;
 
-/// Mean and standard error of `xs`.
-fn mean_se(xs: &[f64]) -> (f64, f64) {
-    let n = xs.len() as f64;
-    let m = xs.iter().sum::<f64>() / n;
-    let v = xs.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0);
-    (m, (v / n).sqrt())
-}
+use common::assert_unbiased_on_ray;
+use jackknife::{GridBuilder, Lookup, Ray, SupervoxelFormat, V3};
+use shared::estimators::tracking::regular_tracking_tau;
+use shared::rng::{pcg_hash, unit_f32};
 
 #[test]
 fn bc4_statistics_keep_optical_depth_and_ratio_tracking_unbiased() {
@@ -79,34 +73,7 @@ fn bc4_statistics_keep_optical_depth_and_ratio_tracking_unbiased() {
         if !(tau > 0.05) {
             continue;
         }
-        let prep = prepare(&vol, &ray, t0, t1, Importance::VarianceAware);
-        let (mut xs, mut ts) = (Vec::new(), Vec::new());
-        for k in 0..trials {
-            let rng = HashRng::for_sample(r, k, 11);
-            let (e, _) = estimate_pair(
-                &vol,
-                &ray,
-                &prep,
-                10,
-                Importance::VarianceAware,
-                Jitter::Stratified,
-                Lookup::Nearest,
-                rng,
-            );
-            assert!(!e.capped);
-            // One sample per trial: the pair's mean (x0 and x1 share the ray's traversal).
-            xs.push(0.5 * (e.x0 as f64 + e.x1 as f64));
-            let (t, tally, _) = ratio_tracking(&vol, &ray, t0, t1, Lookup::Nearest, false, rng);
-            assert_eq!(tally.capped, 0);
-            ts.push(t as f64);
-        }
-        let (m, se) = mean_se(&xs);
-        let z = (m - tau as f64) / se.max(1e-9 * tau as f64);
-        assert!(z.abs() < 4.5, "ray {r}: mean X {m} vs tau {tau} (z {z})");
-        let (m, se) = mean_se(&ts);
-        let exact = (-(tau as f64)).exp();
-        let z = (m - exact) / se.max(1e-9);
-        assert!(z.abs() < 4.5, "ray {r}: mean T {m} vs {exact} (z {z})");
+        assert_unbiased_on_ray(&vol, &ray, t0, t1, tau, trials, r, 11, &format!("ray {r}"));
         rays += 1;
         if rays == 24 {
             break;

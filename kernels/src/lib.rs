@@ -13,7 +13,7 @@ use shared::kernels::launch::Launch;
 use shared::kernels::probe::{self, DepthPair, MathValues, RngDraws, TransmittancePair};
 use shared::kernels::render::{self, PathPass, PixelSums, RenderPass};
 use shared::kernels::shadow_map::{self, MsmPass};
-use shared::params::RenderParams;
+use shared::params::{RenderParams, UNSPECIALIZED};
 use shared::sampling::lighting::{Lighting, Scene};
 use shared::sampling::lights::PointLight;
 use shared::shadows::map::RAW_PER_TEXEL;
@@ -129,6 +129,9 @@ macro_rules! render_kernel {
             #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] voxels_6: &[u32],
             // bindings::render::VOXEL_PAGES + 6
             #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] voxels_7: &[u32],
+            // Specialization constants (host: gpu::render::specialization): integrator, estimator.
+            #[spirv(spec_constant(id = 0, default = 4294967295))] integrator: u32,
+            #[spirv(spec_constant(id = 1, default = 4294967295))] estimator: u32,
         ) {
             if let Some(i) = pass.launch.id(gid.x) {
                 let vol = VolumeView {
@@ -152,9 +155,9 @@ macro_rules! render_kernel {
                 } else {
                     sums[slot]
                 };
-                let p = &params[0];
+                let p = params[0].specialized(integrator, estimator);
                 sums[slot] =
-                    render::render_pixel_pass(&vol, p, lights, i as u32, pass.s_begin, pass.s_end, prev);
+                    render::render_pixel_pass(&vol, &p, lights, i as u32, pass.s_begin, pass.s_end, prev);
             }
         }
     };
@@ -178,7 +181,7 @@ render_kernel!(
 /// `pass.mode` of sample `pass.sample`. With `reuse = $reuse`, a stage for which `$is_reuse`
 /// holds instead calls `$reuse` with every state and stores what it changed (`$store`).
 macro_rules! wave_kernel {
-    ($(#[$doc:meta])* $name:ident, $state:ty, $step:path, $single:literal
+    ($(#[$doc:meta])* $name:ident, $state:ty, $step:path, $kind:expr, $single:literal
      $(, reuse = $reuse:path, $is_reuse:path, $store:path)?) => {
         $(#[$doc])*
         #[allow(clippy::too_many_arguments)] // one argument per binding
@@ -220,6 +223,11 @@ macro_rules! wave_kernel {
             #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] voxels_6: &[u32],
             // bindings::path::VOXEL_PAGES + 6
             #[spirv(storage_buffer, descriptor_set = 0, binding = 16)] voxels_7: &[u32],
+            // Specialization constants (host: gpu::render::wave_specialization): integrator,
+            // estimator and the stage's kind (`$kind` of the stage).
+            #[spirv(spec_constant(id = 0, default = 4294967295))] integrator: u32,
+            #[spirv(spec_constant(id = 1, default = 4294967295))] estimator: u32,
+            #[spirv(spec_constant(id = 2, default = 4294967295))] stage_kind: u32,
         ) {
             if let Some(i) = pass.launch.id(gid.x) {
                 let vol = VolumeView {
@@ -238,7 +246,7 @@ macro_rules! wave_kernel {
                     bricks,
                 };
                 let slot = i - pass.sums_base as usize;
-                let p = &params[0];
+                let p = &params[0].specialized(integrator, estimator);
                 let scene = Scene {
                     lighting: &lighting[0],
                     points: lights,
@@ -246,10 +254,15 @@ macro_rules! wave_kernel {
                     env,
                     shadow_map,
                 };
+                let kind = if stage_kind == UNSPECIALIZED {
+                    $kind(p, pass.mode)
+                } else {
+                    stage_kind
+                };
                 #[allow(unused_mut)]
                 let mut whole = true;
                 $(
-                    if $is_reuse(p, pass.mode) {
+                    if $is_reuse(kind) {
                         whole = false;
                         let st = $reuse(
                             &vol,
@@ -272,6 +285,7 @@ macro_rules! wave_kernel {
                         i as u32,
                         pass.sample,
                         pass.mode,
+                        kind,
                         states[slot],
                         sums[slot],
                     );
@@ -288,7 +302,8 @@ wave_kernel!(
     /// sample at the camera (mode 0), or estimate one of its three transmittance queries.
     direct_cs,
     DirectState,
-    render::direct_step,
+    render::direct_wave_step,
+    render::wave_kind,
     true
 );
 
@@ -296,7 +311,8 @@ wave_kernel!(
     /// `direct_cs` with the voxel pool in up to eight pages.
     direct_paged_cs,
     DirectState,
-    render::direct_step,
+    render::direct_wave_step,
+    render::wave_kind,
     false
 );
 
@@ -306,10 +322,11 @@ wave_kernel!(
     /// neighbours' reservoirs, resolve the reservoir, or estimate one transmittance query.
     restir_cs,
     RestirState,
-    render::restir_step,
+    render::restir_wave_step,
+    render::restir_stage_kind,
     true,
     reuse = render::restir_reuse_step,
-    render::is_reuse_stage,
+    render::is_reuse_kind,
     render::restir_store_reuse
 );
 
@@ -317,10 +334,11 @@ wave_kernel!(
     /// `restir_cs` with the voxel pool in up to eight pages.
     restir_paged_cs,
     RestirState,
-    render::restir_step,
+    render::restir_wave_step,
+    render::restir_stage_kind,
     false,
     reuse = render::restir_reuse_step,
-    render::is_reuse_stage,
+    render::is_reuse_kind,
     render::restir_store_reuse
 );
 
@@ -330,6 +348,7 @@ wave_kernel!(
     path_cs,
     PathState,
     render::path_wave_step,
+    render::wave_kind,
     true
 );
 
@@ -338,6 +357,7 @@ wave_kernel!(
     path_paged_cs,
     PathState,
     render::path_wave_step,
+    render::wave_kind,
     false
 );
 

@@ -279,6 +279,28 @@ pub struct RenderParams {
     pub restir_m_cap: u32,
 }
 
+/// The value of a kernel's specialization constant that keeps the params buffer's field (the
+/// constants' default: a pipeline built without specialization runs every integrator and
+/// estimator).
+pub const UNSPECIALIZED: u32 = u32::MAX;
+
+impl RenderParams {
+    /// `self` with `integrator` and `estimator` replaced by a pipeline's specialization constants
+    /// ([`UNSPECIALIZED`] keeps the field): the driver folds them, so a pipeline compiles only
+    /// the code of one integrator and estimator instead of the whole render kernel.
+    #[inline]
+    pub fn specialized(&self, integrator: u32, estimator: u32) -> RenderParams {
+        let mut p = *self;
+        if integrator != UNSPECIALIZED {
+            p.integrator = integrator;
+        }
+        if estimator != UNSPECIALIZED {
+            p.estimator = estimator;
+        }
+        p
+    }
+}
+
 /// The enums of [`RenderParams`] (and the volume's lookup), decoded once per pixel pass.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Config {

@@ -87,7 +87,9 @@ pub fn run(cli: &Cli) -> Result<()> {
 }
 
 /// Prints the library's diagnostics on stderr as before: `warning: <message>` for warnings,
-/// the bare message for progress and info lines; only events of this crate, INFO and above.
+/// the bare message for progress and info lines; only events of this crate, INFO and above, or
+/// down to the level that the environment variable `JK_LOG` names (`debug`: e.g. each GPU
+/// pipeline's build time).
 pub fn init_tracing() {
     use tracing_subscriber::layer::SubscriberExt;
     use tracing_subscriber::util::SubscriberInitExt;
@@ -95,8 +97,24 @@ pub fn init_tracing() {
         .with_ansi(false)
         .with_writer(std::io::stderr)
         .event_format(PlainFormat);
-    let filter =
-        tracing_subscriber::filter::Targets::new().with_target("host", tracing::Level::INFO);
+    let level = match std::env::var("JK_LOG") {
+        Err(_) => tracing::Level::INFO,
+        Ok(v) => match v.to_ascii_lowercase().as_str() {
+            "" | "info" => tracing::Level::INFO,
+            "error" => tracing::Level::ERROR,
+            "warn" => tracing::Level::WARN,
+            "debug" => tracing::Level::DEBUG,
+            "trace" => tracing::Level::TRACE,
+            _ => {
+                eprintln!(
+                    "warning: JK_LOG={v:?} is not a level (error, warn, info, debug, trace); \
+                     using info"
+                );
+                tracing::Level::INFO
+            }
+        },
+    };
+    let filter = tracing_subscriber::filter::Targets::new().with_target("host", level);
     // A second call (a subscriber already set) keeps the first one.
     let _ = tracing_subscriber::registry()
         .with(layer)

@@ -32,7 +32,8 @@ use std::sync::{Arc, Mutex};
 /// A Vulkan device with each kernel's pipeline built on first use from its own module.
 pub struct Gpu {
     owner: Arc<DeviceOwner>,
-    pipelines: Mutex<HashMap<Kernel, Arc<Pipeline>>>,
+    /// Pipelines by kernel and specialization-constant values.
+    pipelines: Mutex<HashMap<(Kernel, Vec<u32>), Arc<Pipeline>>>,
     submitter: Mutex<Submitter>,
     /// Kernel time measured by timestamp queries since the last [`Gpu::take_kernel_ns`].
     kernel_ns: std::sync::atomic::AtomicU64,
@@ -44,6 +45,10 @@ pub struct Work<'a, P, const N: usize> {
     pub kernel: &'a KernelDef<P, N>,
     /// Its storage buffers in binding order (see [`RenderBuffers::slots`]).
     pub buffers: [&'a Buffer; N],
+    /// Values of the kernel's specialization constants by id for each dispatch, from its push
+    /// constants ([`unspecialized`]: none, the module's defaults); each distinct set of values
+    /// is its own pipeline, built on first use.
+    pub specialization: &'a dyn Fn(&P) -> Vec<u32>,
     /// Host bytes copied into device buffers before the first dispatch.
     pub uploads: Vec<(&'a Buffer, &'a [u8])>,
     /// Dispatches and barriers, in order.
@@ -55,9 +60,16 @@ pub struct Work<'a, P, const N: usize> {
 /// The kernel part of a submission after planning, with Pod pushes as bytes.
 struct Recording {
     kernel: Kernel,
-    pipeline: Arc<Pipeline>,
+    /// The pipelines of the dispatches (the kernel's specializations; identical layouts).
+    pipelines: Vec<Arc<Pipeline>>,
     buffers: Vec<(vk::Buffer, u64)>,
-    commands: Vec<Command<Vec<u8>>>,
+    /// Each command with the index of its pipeline (dispatches only).
+    commands: Vec<(Command<Vec<u8>>, usize)>,
+}
+
+/// The specialization of a kernel without specialization constants (or with their defaults).
+pub fn unspecialized<P>(_: &P) -> Vec<u32> {
+    Vec::new()
 }
 
 impl Gpu {
@@ -78,13 +90,15 @@ impl Gpu {
         self.owner.description()
     }
 
-    /// The pipeline of `kernel`, built on first use from the layout the module declares.
-    fn pipeline(&self, kernel: Kernel) -> Result<Arc<Pipeline>, GpuError> {
+    /// The pipeline of `kernel` with its specialization constants `spec` (by id), built on first
+    /// use from the layout the module declares.
+    fn pipeline(&self, kernel: Kernel, spec: &[u32]) -> Result<Arc<Pipeline>, GpuError> {
         let mut cache = self
             .pipelines
             .lock()
             .map_err(|_| GpuError::Internal("poisoned".into()))?;
-        if let Some(p) = cache.get(&kernel) {
+        let key = (kernel, spec.to_vec());
+        if let Some(p) = cache.get(&key) {
             return Ok(p.clone());
         }
         let bindings = kernel.strides().len() as u32;
@@ -106,17 +120,24 @@ impl Gpu {
         // after the pipeline is built (Vulkan allows it).
         let module = unsafe { self.owner.device.create_shader_module(&info, None) }
             .map_err(|e| GpuError::Vulkan("vkCreateShaderModule", e))?;
+        let start = std::time::Instant::now();
         let p = Pipeline::new(
             &self.owner,
             module,
             kernel.c_name(),
             bindings,
             kernel.push_size(),
+            spec,
         );
         // SAFETY: no pipeline creation is in flight; the pipeline does not need its module.
         unsafe { self.owner.device.destroy_shader_module(module, None) };
         let p = Arc::new(p?);
-        cache.insert(kernel, p.clone());
+        tracing::debug!(
+            "built the pipeline of {} with specialization {spec:?} in {:.1} s",
+            kernel.name(),
+            start.elapsed().as_secs_f64()
+        );
+        cache.insert(key, p.clone());
         Ok(p)
     }
 
@@ -195,19 +216,35 @@ impl Gpu {
         work: Work<'_, P, N>,
     ) -> Result<(), GpuError> {
         let kernel = work.kernel.kernel;
-        let commands = plan(work.steps, self.max_groups())
-            .into_iter()
-            .map(|c| match c {
-                Command::Dispatch { push, groups } => Command::Dispatch {
-                    push: bytemuck::bytes_of(&push).to_vec(),
-                    groups,
-                },
-                Command::Barrier => Command::Barrier,
-            })
-            .collect();
+        let mut specs: Vec<Vec<u32>> = Vec::new();
+        let mut commands = Vec::new();
+        for c in plan(work.steps, self.max_groups()) {
+            commands.push(match c {
+                Command::Dispatch { push, groups } => {
+                    let spec = (work.specialization)(&push);
+                    let index = match specs.iter().position(|s| *s == spec) {
+                        Some(i) => i,
+                        None => {
+                            specs.push(spec);
+                            specs.len() - 1
+                        }
+                    };
+                    let push = bytemuck::bytes_of(&push).to_vec();
+                    (Command::Dispatch { push, groups }, index)
+                }
+                Command::Barrier => (Command::Barrier, 0),
+            });
+        }
+        if specs.is_empty() {
+            specs.push(Vec::new());
+        }
+        let pipelines = specs
+            .iter()
+            .map(|s| self.pipeline(kernel, s))
+            .collect::<Result<Vec<_>, _>>()?;
         let recording = Recording {
             kernel,
-            pipeline: self.pipeline(kernel)?,
+            pipelines,
             buffers: work.buffers.iter().map(|b| (b.buffer, b.size)).collect(),
             commands,
         };
@@ -380,19 +417,26 @@ impl Gpu {
             d.cmd_reset_query_pool(sub.cmd, q, 0, 2);
             d.cmd_write_timestamp(sub.cmd, S::TOP_OF_PIPE, q, 0);
         }
-        let (pipeline, layout) = (r.pipeline.pipeline, r.pipeline.layout);
-        d.cmd_bind_pipeline(sub.cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
-        d.cmd_bind_descriptor_sets(
-            sub.cmd,
-            vk::PipelineBindPoint::COMPUTE,
-            layout,
-            0,
-            &[set],
-            &[],
-        );
-        for c in &r.commands {
+        // The pipelines' layouts are identically defined (one kernel), so the set stays valid
+        // across them; it is bound again with each pipeline all the same.
+        let mut bound = None;
+        for (c, index) in &r.commands {
             match c {
                 Command::Dispatch { push, groups } => {
+                    let p = &r.pipelines[*index];
+                    if bound != Some(*index) {
+                        d.cmd_bind_pipeline(sub.cmd, vk::PipelineBindPoint::COMPUTE, p.pipeline);
+                        d.cmd_bind_descriptor_sets(
+                            sub.cmd,
+                            vk::PipelineBindPoint::COMPUTE,
+                            p.layout,
+                            0,
+                            &[set],
+                            &[],
+                        );
+                        bound = Some(*index);
+                    }
+                    let layout = p.layout;
                     d.cmd_push_constants(sub.cmd, layout, vk::ShaderStageFlags::COMPUTE, 0, push);
                     d.cmd_dispatch(sub.cmd, *groups, 1, 1);
                 }
@@ -423,7 +467,7 @@ impl Gpu {
         let d = &self.owner.device;
         d.reset_descriptor_pool(sub.descriptors, vk::DescriptorPoolResetFlags::empty())
             .map_err(|e| GpuError::Vulkan("vkResetDescriptorPool", e))?;
-        let layouts = [r.pipeline.set_layout];
+        let layouts = [r.pipelines[0].set_layout];
         let alloc = vk::DescriptorSetAllocateInfo::default()
             .descriptor_pool(sub.descriptors)
             .set_layouts(&layouts);

@@ -144,6 +144,7 @@ impl RenderBackend for GpuVolume<'_> {
         gpu.submit(Work {
             kernel,
             buffers: build.slots(),
+            specialization: &super::unspecialized,
             uploads: vec![
                 (&p, bytemuck::bytes_of(params)),
                 (&l, bytemuck::bytes_of(lighting)),
@@ -161,6 +162,7 @@ impl RenderBackend for GpuVolume<'_> {
         gpu.submit(Work {
             kernel: &MSM_STORE,
             buffers: store.slots(),
+            specialization: &super::unspecialized,
             uploads: vec![],
             steps: steps(),
             readbacks: vec![(&map, bytemuck::cast_slice_mut::<u32, u8>(&mut words))],
@@ -168,6 +170,13 @@ impl RenderBackend for GpuVolume<'_> {
         .with_context(|| format!("GPU kernel {}", MSM_STORE.kernel.name()))?;
         Ok(words)
     }
+}
+
+/// The specialization constants of the render and wavefront kernels (ids 0 and 1 of
+/// `kernels/src/lib.rs`): the integrator and the estimator, so each pipeline holds the code of
+/// one of each (the whole render kernel took lavapipe 261 s to compile; see README, Testing).
+fn specialization(params: &RenderParams) -> [u32; 2] {
+    [params.integrator, params.estimator]
 }
 
 /// [`GpuVolume::render_sums`].
@@ -272,6 +281,7 @@ fn render_tiles(
                 gpu,
                 wave.kernel(dev.paged()),
                 wave.modes(params),
+                wave.stage_kind(),
                 params,
                 ids,
                 chunk,
@@ -299,6 +309,7 @@ fn render_tiles(
             gpu.submit(Work {
                 kernel,
                 buffers: buffers.slots(),
+                specialization: &|_: &RenderPass| specialization(params).to_vec(),
                 uploads: std::mem::take(&mut uploads),
                 steps,
                 readbacks,
@@ -344,6 +355,14 @@ impl Wave {
         }
     }
 
+    /// The kind of each stage: the kernel's stage specialization constant (id 2).
+    fn stage_kind(self) -> fn(&RenderParams, u32) -> u32 {
+        match self {
+            Wave::Direct | Wave::Path => shared::kernels::render::wave_kind,
+            Wave::Restir => shared::kernels::render::restir_stage_kind,
+        }
+    }
+
     /// Its kernel (all take `LitBuffers`' layout), for a pool in one page or several.
     fn kernel(self, paged: bool) -> &'static super::KernelDef<PathPass, { path::COUNT }> {
         match (self, paged) {
@@ -365,6 +384,7 @@ fn render_wave(
     gpu: &Gpu,
     kernel: &super::KernelDef<PathPass, { path::COUNT }>,
     modes: Vec<u32>,
+    stage_kind: fn(&RenderParams, u32) -> u32,
     params: &RenderParams,
     ids: std::ops::Range<u32>,
     chunk: u32,
@@ -388,6 +408,10 @@ fn render_wave(
         gpu.submit(Work {
             kernel,
             buffers: buffers.slots(),
+            specialization: &|push: &PathPass| {
+                let [integrator, estimator] = specialization(params);
+                vec![integrator, estimator, stage_kind(params, push.mode)]
+            },
             uploads: uploads.take().unwrap_or_default(),
             steps,
             readbacks,

@@ -178,13 +178,15 @@ pub struct Pipeline {
 
 impl Pipeline {
     /// Builds the pipeline of `entry` in `module`, with `bindings` storage buffers at bindings
-    /// 0..bindings of set 0 and `push_size` bytes of push constants.
+    /// 0..bindings of set 0, `push_size` bytes of push constants and the u32 specialization
+    /// constants `spec` (constant id i = `spec[i]`; ids the module lacks are ignored).
     pub fn new(
         owner: &Arc<DeviceOwner>,
         module: vk::ShaderModule,
         entry: &std::ffi::CStr,
         bindings: u32,
         push_size: u32,
+        spec: &[u32],
     ) -> Result<Self, GpuError> {
         let device = &owner.device;
         let binding_info: Vec<_> = (0..bindings)
@@ -217,10 +219,22 @@ impl Pipeline {
                 return Err(GpuError::Vulkan("vkCreatePipelineLayout", e));
             }
         };
+        let entries: Vec<vk::SpecializationMapEntry> = (0..spec.len() as u32)
+            .map(|id| {
+                vk::SpecializationMapEntry::default()
+                    .constant_id(id)
+                    .offset(id * 4)
+                    .size(4)
+            })
+            .collect();
+        let spec_info = vk::SpecializationInfo::default()
+            .map_entries(&entries)
+            .data(bytemuck::cast_slice(spec));
         let stage = vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::COMPUTE)
             .module(module)
-            .name(entry);
+            .name(entry)
+            .specialization_info(&spec_info);
         let info = [vk::ComputePipelineCreateInfo::default()
             .stage(stage)
             .layout(layout)];

@@ -119,6 +119,36 @@ pub fn is_reuse_stage(params: &RenderParams, stage: u32) -> bool {
     stage > params.restir_candidates && stage <= params.restir_candidates + params.restir_passes
 }
 
+/// Stage kinds of a sample, in stage order (the value of the wavefront kernel's stage
+/// specialization constant, so that one pipeline compiles one kind's code).
+pub const KIND_START: u32 = 0;
+/// Streams one light candidate (stages 1..=M).
+pub const KIND_CANDIDATE: u32 = 1;
+/// Spatial reuse (stages M + 1 ..= M + P).
+pub const KIND_REUSE: u32 = 2;
+/// Resolves the reservoir (stage M + P + 1).
+pub const KIND_RESOLVE: u32 = 3;
+/// Estimates one transmittance query (the last four stages).
+pub const KIND_QUERY: u32 = 4;
+
+/// The kind of stage `stage` (one of the `KIND_*` constants).
+#[inline]
+pub fn stage_kind(params: &RenderParams, stage: u32) -> u32 {
+    let m = params.restir_candidates;
+    let p = params.restir_passes;
+    if stage == 0 {
+        KIND_START
+    } else if stage <= m {
+        KIND_CANDIDATE
+    } else if stage <= m + p {
+        KIND_REUSE
+    } else if stage == m + p + 1 {
+        KIND_RESOLVE
+    } else {
+        KIND_QUERY
+    }
+}
+
 /// The reuse pass of reuse stage `stage` (0-based).
 #[inline]
 pub fn reuse_pass(params: &RenderParams, stage: u32) -> u32 {
@@ -182,16 +212,33 @@ pub fn restir_stage(
     st: RestirState,
     stage: u32,
 ) -> RestirState {
-    let m = params.restir_candidates;
-    let p = params.restir_passes;
-    if stage <= m {
+    let kind = stage_kind(params, stage);
+    restir_stage_of_kind(vol, cfg, params, scene, id, sample, st, stage, kind)
+}
+
+/// [`restir_stage`] with its kind ([`stage_kind`]) given: branching on the kind, so that a
+/// kernel specialized to one kind holds only that kind's code.
+#[allow(clippy::too_many_arguments)]
+pub fn restir_stage_of_kind(
+    vol: &VolumeView,
+    cfg: &Config,
+    params: &RenderParams,
+    scene: &Scene,
+    id: u32,
+    sample: u32,
+    st: RestirState,
+    stage: u32,
+    kind: u32,
+) -> RestirState {
+    if kind == KIND_CANDIDATE {
         candidate(vol, cfg, params, scene, id, sample, st)
-    } else if stage <= m + p {
-        st
-    } else if stage == m + p + 1 {
+    } else if kind == KIND_RESOLVE {
         resolve(scene, params, st)
+    } else if kind == KIND_QUERY {
+        let first = params.restir_candidates + params.restir_passes + 2;
+        estimate_query(vol, cfg, params, scene, st, stage - first)
     } else {
-        estimate_query(vol, cfg, params, scene, st, stage - m - p - 2)
+        st
     }
 }
 

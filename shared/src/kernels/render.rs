@@ -5,9 +5,16 @@ use crate::estimators::estimate;
 use crate::geometry::{to_index_space, Ray, V3};
 use crate::integrators::direct::{direct_estimate, direct_radiance, direct_start, DirectState};
 use crate::integrators::path::{path_bounce, path_radiance, path_start, PathState};
-pub use crate::integrators::restir::is_reuse_stage;
+pub use crate::integrators::restir::{is_reuse_stage, stage_kind as restir_stage_kind};
+
+/// Whether a `restir` stage of kind `kind` is a reuse pass (reads the other pixels' states).
+#[inline]
+pub fn is_reuse_kind(kind: u32) -> bool {
+    kind == KIND_REUSE
+}
 use crate::integrators::restir::{
-    restir_radiance, restir_stage, restir_start, reuse_pass, stage_count, RestirState,
+    restir_radiance, restir_stage_of_kind, restir_start, reuse_pass, stage_count, RestirState,
+    KIND_REUSE, KIND_START,
 };
 use crate::integrators::restir_reuse::reuse;
 use crate::integrators::restir_reuse::store_reuse;
@@ -278,8 +285,41 @@ pub fn direct_step(
     st: DirectState,
     sums: PixelSums,
 ) -> (DirectState, PixelSums) {
+    direct_wave_step(
+        vol,
+        params,
+        scene,
+        id,
+        sample,
+        stage,
+        wave_kind(params, stage),
+        st,
+        sums,
+    )
+}
+
+/// The kind of wavefront stage `stage` of `direct` and `path`: 0 starts the sample, 1 is any
+/// later stage (the stage specialization constant of `direct_cs` and `path_cs`).
+#[inline]
+pub fn wave_kind(_params: &RenderParams, stage: u32) -> u32 {
+    (stage != 0) as u32
+}
+
+/// [`direct_step`] with the stage's [`wave_kind`] given (`direct_cs`).
+#[allow(clippy::too_many_arguments)]
+pub fn direct_wave_step(
+    vol: &VolumeView,
+    params: &RenderParams,
+    scene: &Scene,
+    id: u32,
+    sample: u32,
+    stage: u32,
+    kind: u32,
+    st: DirectState,
+    sums: PixelSums,
+) -> (DirectState, PixelSums) {
     let cfg = Config::decode(params, vol.desc);
-    if stage == 0 {
+    if kind == 0 {
         let (world, rng) = camera_ray(params, id, sample);
         return (
             direct_start(vol, &cfg, params, scene, &world, rng),
@@ -325,15 +365,32 @@ pub fn restir_step(
     st: RestirState,
     sums: PixelSums,
 ) -> (RestirState, PixelSums) {
+    let kind = restir_stage_kind(params, stage);
+    restir_wave_step(vol, params, scene, id, sample, stage, kind, st, sums)
+}
+
+/// [`restir_step`] with the stage's kind ([`restir_stage_kind`]) given (`restir_cs`).
+#[allow(clippy::too_many_arguments)]
+pub fn restir_wave_step(
+    vol: &VolumeView,
+    params: &RenderParams,
+    scene: &Scene,
+    id: u32,
+    sample: u32,
+    stage: u32,
+    kind: u32,
+    st: RestirState,
+    sums: PixelSums,
+) -> (RestirState, PixelSums) {
     let cfg = Config::decode(params, vol.desc);
-    if stage == 0 {
+    if kind == KIND_START {
         let (world, rng) = camera_ray(params, id, sample);
         return (
             restir_start(vol, &cfg, params, scene, &world, rng),
             sums_before(sample, sums),
         );
     }
-    let next = restir_stage(vol, &cfg, params, scene, id, sample, st, stage);
+    let next = restir_stage_of_kind(vol, &cfg, params, scene, id, sample, st, stage, kind);
     if stage + 1 < stage_count(params) {
         return (next, sums);
     }
@@ -372,8 +429,8 @@ pub fn restir_store_reuse(
     store_reuse(dst, src, reuse_pass(params, stage));
 }
 
-/// [`path_step`] with the wavefront's stage number (0: start, else bounce), the signature the
-/// wavefront kernels share with [`direct_step`].
+/// [`path_step`] with the wavefront's stage and its [`wave_kind`] (0: start, else bounce), the
+/// signature the wavefront kernels share with [`direct_wave_step`].
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn path_wave_step(
@@ -383,10 +440,12 @@ pub fn path_wave_step(
     id: u32,
     sample: u32,
     stage: u32,
+    kind: u32,
     st: PathState,
     sums: PixelSums,
 ) -> (PathState, PixelSums) {
-    path_step(vol, params, scene, id, sample, stage == 0, st, sums)
+    let _ = stage; // every bounce is the same step
+    path_step(vol, params, scene, id, sample, kind == 0, st, sums)
 }
 
 /// [`render_pixel_pass`] of the `path` integrator on the CPU: each sample's whole path, the same
