@@ -4,6 +4,10 @@
 //! Binding numbers follow `shared::kernels::launch::bindings` (rust-gpu needs integer literals in
 //! `#[spirv(binding = N)]`; the host checks them against its named bindings at compile time);
 //! push constants are one `shared` struct per kernel (`Launch`, or `RenderPass` for `render_cs`).
+//! Specialization constants by id (host: `gpu::render::specialization`): 0 the integrator, 1 the
+//! estimator, 2 a wavefront stage's kind, 3 whether the voxel pool spans several pages (0: the
+//! whole pool is binding `VOXELS`; 1: pages of `GridDesc::page_log2` words at `VOXELS` and
+//! `VOXEL_PAGES`), so one module serves both and each pipeline holds one variant's code.
 #![cfg_attr(target_arch = "spirv", no_std)]
 
 use shared::integrators::direct::DirectState;
@@ -96,7 +100,7 @@ pub fn rng_draws_cs(
 }
 
 macro_rules! render_kernel {
-    ($(#[$doc:meta])* $name:ident, $single:literal) => {
+    ($(#[$doc:meta])* $name:ident) => {
         $(#[$doc])*
         #[allow(clippy::too_many_arguments)] // one argument per binding
         #[spirv(compute(threads(64)))]
@@ -129,9 +133,11 @@ macro_rules! render_kernel {
             #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] voxels_6: &[u32],
             // bindings::render::VOXEL_PAGES + 6
             #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] voxels_7: &[u32],
-            // Specialization constants (host: gpu::render::specialization): integrator, estimator.
+            // Specialization constants (host: gpu::render::specialization): integrator,
+            // estimator, whether the pool spans several pages.
             #[spirv(spec_constant(id = 0, default = 4294967295))] integrator: u32,
             #[spirv(spec_constant(id = 1, default = 4294967295))] estimator: u32,
+            #[spirv(spec_constant(id = 3, default = 0))] paged: u32,
         ) {
             if let Some(i) = pass.launch.id(gid.x) {
                 let vol = VolumeView {
@@ -145,7 +151,7 @@ macro_rules! render_kernel {
                         p5: voxels_5,
                         p6: voxels_6,
                         p7: voxels_7,
-                        single: $single,
+                        single: paged == 0,
                     },
                     bricks,
                 };
@@ -165,15 +171,8 @@ macro_rules! render_kernel {
 
 render_kernel!(
     /// One pass of a transmittance or single-scattering image: adds samples s_begin..s_end of
-    /// each pixel (the voxel pool in one page).
-    render_cs,
-    true
-);
-
-render_kernel!(
-    /// `render_cs` with the voxel pool in up to eight pages.
-    render_paged_cs,
-    false
+    /// each pixel.
+    render_cs
 );
 
 /// A wavefront kernel (`direct_cs`, `path_cs`): the bindings of `bindings::direct` ==
@@ -181,7 +180,7 @@ render_kernel!(
 /// `pass.mode` of sample `pass.sample`. With `reuse = $reuse`, a stage for which `$is_reuse`
 /// holds instead calls `$reuse` with every state and stores what it changed (`$store`).
 macro_rules! wave_kernel {
-    ($(#[$doc:meta])* $name:ident, $state:ty, $step:path, $kind:expr, $single:literal
+    ($(#[$doc:meta])* $name:ident, $state:ty, $step:path, $kind:expr
      $(, reuse = $reuse:path, $is_reuse:path, $store:path)?) => {
         $(#[$doc])*
         #[allow(clippy::too_many_arguments)] // one argument per binding
@@ -224,10 +223,12 @@ macro_rules! wave_kernel {
             // bindings::path::VOXEL_PAGES + 6
             #[spirv(storage_buffer, descriptor_set = 0, binding = 16)] voxels_7: &[u32],
             // Specialization constants (host: gpu::render::wave_specialization): integrator,
-            // estimator and the stage's kind (`$kind` of the stage).
+            // estimator, the stage's kind (`$kind` of the stage), whether the pool spans several
+            // pages.
             #[spirv(spec_constant(id = 0, default = 4294967295))] integrator: u32,
             #[spirv(spec_constant(id = 1, default = 4294967295))] estimator: u32,
             #[spirv(spec_constant(id = 2, default = 4294967295))] stage_kind: u32,
+            #[spirv(spec_constant(id = 3, default = 0))] paged: u32,
         ) {
             if let Some(i) = pass.launch.id(gid.x) {
                 let vol = VolumeView {
@@ -241,7 +242,7 @@ macro_rules! wave_kernel {
                 p5: voxels_5,
                 p6: voxels_6,
                 p7: voxels_7,
-                single: $single,
+                single: paged == 0,
             },
                     bricks,
                 };
@@ -303,17 +304,7 @@ wave_kernel!(
     direct_cs,
     DirectState,
     render::direct_wave_step,
-    render::wave_kind,
-    true
-);
-
-wave_kernel!(
-    /// `direct_cs` with the voxel pool in up to eight pages.
-    direct_paged_cs,
-    DirectState,
-    render::direct_wave_step,
-    render::wave_kind,
-    false
+    render::wave_kind
 );
 
 wave_kernel!(
@@ -324,19 +315,6 @@ wave_kernel!(
     RestirState,
     render::restir_wave_step,
     render::restir_stage_kind,
-    true,
-    reuse = render::restir_reuse_step,
-    render::is_reuse_kind,
-    render::restir_store_reuse
-);
-
-wave_kernel!(
-    /// `restir_cs` with the voxel pool in up to eight pages.
-    restir_paged_cs,
-    RestirState,
-    render::restir_wave_step,
-    render::restir_stage_kind,
-    false,
     reuse = render::restir_reuse_step,
     render::is_reuse_kind,
     render::restir_store_reuse
@@ -348,21 +326,11 @@ wave_kernel!(
     path_cs,
     PathState,
     render::path_wave_step,
-    render::wave_kind,
-    true
-);
-
-wave_kernel!(
-    /// `path_cs` with the voxel pool in up to eight pages.
-    path_paged_cs,
-    PathState,
-    render::path_wave_step,
-    render::wave_kind,
-    false
+    render::wave_kind
 );
 
 macro_rules! msm_build_kernel {
-    ($(#[$doc:meta])* $name:ident, $single:literal) => {
+    ($(#[$doc:meta])* $name:ident) => {
         $(#[$doc])*
         #[allow(clippy::too_many_arguments)] // one argument per binding
         #[spirv(compute(threads(64)))]
@@ -395,6 +363,9 @@ macro_rules! msm_build_kernel {
             #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] voxels_6: &[u32],
             // bindings::msm_build::VOXEL_PAGES + 6
             #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] voxels_7: &[u32],
+            // Specialization constant (host: gpu::render::specialization): whether the
+            // pool spans several pages.
+            #[spirv(spec_constant(id = 3, default = 0))] paged: u32,
         ) {
             if let Some(k) = pass.launch.id(gid.x) {
                 let vol = VolumeView {
@@ -408,7 +379,7 @@ macro_rules! msm_build_kernel {
                         p5: voxels_5,
                         p6: voxels_6,
                         p7: voxels_7,
-                        single: $single,
+                        single: paged == 0,
                     },
                     bricks,
                 };
@@ -425,15 +396,8 @@ macro_rules! msm_build_kernel {
 
 msm_build_kernel!(
     /// Pass 1 of the sun's moment shadow map: the raw moments b_1 .. b_6 of each texel (the
-    /// voxel pool in one page).
-    msm_build_cs,
-    true
-);
-
-msm_build_kernel!(
-    /// `msm_build_cs` with the voxel pool in up to eight pages.
-    msm_build_paged_cs,
-    false
+    /// voxel pool in one page or several: specialization constant 3).
+    msm_build_cs
 );
 
 /// Pass 2 of the sun's moment shadow map: each texel prefiltered and stored.

@@ -2,7 +2,7 @@
 //! entry-point metadata and the compiled module (names, bindings, push sizes), and for each kernel
 //! its push-constant struct and named bindings, checked against the module at compile time.
 
-use super::Buffer;
+use super::resources::Buffer;
 use bytemuck::Pod;
 use shared::integrators::direct::DirectState;
 use shared::integrators::path::PathState;
@@ -123,7 +123,7 @@ pub const RNG_DRAWS: KernelDef<Launch, { rng_draws::COUNT }> =
         s[rng_draws::OUTPUT] = size_of::<RngDraws>();
         s
     });
-/// Element sizes of the bindings of `render_cs` and `render_paged_cs`.
+/// Element sizes of the bindings of `render_cs`.
 const RENDER_SIZES: [usize; render::COUNT] = {
     let mut s = [0; render::COUNT];
     s[render::PARAMS] = size_of::<RenderParams>();
@@ -139,13 +139,10 @@ const RENDER_SIZES: [usize; render::COUNT] = {
     s[render::SUMS] = size_of::<PixelSums>();
     s
 };
-/// `render_cs` (the voxel pool in one page; the other pages' bindings are declared, never read).
+/// `render_cs` (the pool's pages: specialization constant 3; a pool in one page leaves the other page bindings unread).
 pub const RENDER: KernelDef<RenderPass, { render::COUNT }> =
     KernelDef::checked(Kernel::RenderCs, RENDER_SIZES);
-/// `render_paged_cs`.
-pub const RENDER_PAGED: KernelDef<RenderPass, { render::COUNT }> =
-    KernelDef::checked(Kernel::RenderPagedCs, RENDER_SIZES);
-/// Element sizes of the bindings of `direct_cs` and `direct_paged_cs`.
+/// Element sizes of the bindings of `direct_cs`.
 const DIRECT_SIZES: [usize; direct::COUNT] = {
     let mut s = [0; direct::COUNT];
     s[direct::PARAMS] = size_of::<RenderParams>();
@@ -165,25 +162,19 @@ const DIRECT_SIZES: [usize; direct::COUNT] = {
     s[direct::SHADOW_MAP] = size_of::<u32>();
     s
 };
-/// `direct_cs` (the voxel pool in one page; the other pages' bindings are declared, never read).
+/// `direct_cs` (the pool's pages: specialization constant 3; a pool in one page leaves the other page bindings unread).
 pub const DIRECT: KernelDef<PathPass, { direct::COUNT }> =
     KernelDef::checked(Kernel::DirectCs, DIRECT_SIZES);
-/// `direct_paged_cs`.
-pub const DIRECT_PAGED: KernelDef<PathPass, { direct::COUNT }> =
-    KernelDef::checked(Kernel::DirectPagedCs, DIRECT_SIZES);
 /// `restir_cs`: `direct_cs`'s layout with `RestirState`s.
 const RESTIR_SIZES: [usize; direct::COUNT] = {
     let mut s = DIRECT_SIZES;
     s[direct::STATES] = size_of::<RestirState>();
     s
 };
-/// `restir_cs` (one page).
+/// `restir_cs`.
 pub const RESTIR: KernelDef<PathPass, { direct::COUNT }> =
     KernelDef::checked(Kernel::RestirCs, RESTIR_SIZES);
-/// `restir_paged_cs`.
-pub const RESTIR_PAGED: KernelDef<PathPass, { direct::COUNT }> =
-    KernelDef::checked(Kernel::RestirPagedCs, RESTIR_SIZES);
-/// Element sizes of the bindings of `path_cs` and `path_paged_cs`.
+/// Element sizes of the bindings of `path_cs`.
 const PATH_SIZES: [usize; path::COUNT] = {
     let mut s = [0; path::COUNT];
     s[path::PARAMS] = size_of::<RenderParams>();
@@ -203,13 +194,10 @@ const PATH_SIZES: [usize; path::COUNT] = {
     s[path::SHADOW_MAP] = size_of::<u32>();
     s
 };
-/// `path_cs` (the voxel pool in one page; the other pages' bindings are declared, never read).
+/// `path_cs` (the pool's pages: specialization constant 3; a pool in one page leaves the other page bindings unread).
 pub const PATH: KernelDef<PathPass, { path::COUNT }> =
     KernelDef::checked(Kernel::PathCs, PATH_SIZES);
-/// `path_paged_cs`.
-pub const PATH_PAGED: KernelDef<PathPass, { path::COUNT }> =
-    KernelDef::checked(Kernel::PathPagedCs, PATH_SIZES);
-/// Element sizes of the bindings of `msm_build_cs` and `msm_build_paged_cs`.
+/// Element sizes of the bindings of `msm_build_cs`.
 const MSM_BUILD_SIZES: [usize; msm_build::COUNT] = {
     let mut s = [0; msm_build::COUNT];
     s[msm_build::PARAMS] = size_of::<RenderParams>();
@@ -225,12 +213,9 @@ const MSM_BUILD_SIZES: [usize; msm_build::COUNT] = {
     s[msm_build::RAW] = size_of::<f32>();
     s
 };
-/// `msm_build_cs` (the voxel pool in one page; the other pages' bindings are declared, never read).
+/// `msm_build_cs` (the pool's pages: specialization constant 3; a pool in one page leaves the other page bindings unread).
 pub const MSM_BUILD: KernelDef<MsmPass, { msm_build::COUNT }> =
     KernelDef::checked(Kernel::MsmBuildCs, MSM_BUILD_SIZES);
-/// `msm_build_paged_cs`.
-pub const MSM_BUILD_PAGED: KernelDef<MsmPass, { msm_build::COUNT }> =
-    KernelDef::checked(Kernel::MsmBuildPagedCs, MSM_BUILD_SIZES);
 /// `msm_store_cs`.
 pub const MSM_STORE: KernelDef<MsmPass, { msm_store::COUNT }> =
     KernelDef::checked(Kernel::MsmStoreCs, {

@@ -8,32 +8,31 @@
 mod device;
 mod error;
 mod kernels;
+mod pipelines;
 mod plan;
 pub mod render;
 mod resources;
 
-use device::MAX_BINDINGS;
 pub use device::{pick_memory_type, DeviceOwner, MemoryChoice, MemoryRole};
 pub use error::GpuError;
 pub use kernels::{
     Kernel, KernelDef, LitBuffers, MapBuffers, MsmBuildBuffers, MsmStoreBuffers, PushConstants,
-    RenderBuffers, DIRECT, DIRECT_PAGED, EQUIANGULAR, MATH_VALUES, MSM_BUILD, MSM_BUILD_PAGED,
-    MSM_LOOKUP, MSM_STORE, PATH, PATH_PAGED, PHASE, RENDER, RENDER_PAGED, RESTIR, RESTIR_PAGED,
-    RNG_DRAWS, TRANSMITTANCE_PAIR,
+    RenderBuffers, DIRECT, EQUIANGULAR, MATH_VALUES, MSM_BUILD, MSM_LOOKUP, MSM_STORE, PATH, PHASE,
+    RENDER, RESTIR, RNG_DRAWS, TRANSMITTANCE_PAIR,
 };
+use pipelines::Pipelines;
 pub use plan::{plan, Command, Step};
 pub use resources::Buffer;
 use resources::{Pipeline, Staging, Submitter};
 
 use ash::vk;
-use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 
 /// A Vulkan device with each kernel's pipeline built on first use from its own module.
 pub struct Gpu {
     owner: Arc<DeviceOwner>,
     /// Pipelines by kernel and specialization-constant values.
-    pipelines: Mutex<HashMap<(Kernel, Vec<u32>), Arc<Pipeline>>>,
+    pipelines: Pipelines,
     submitter: Mutex<Submitter>,
     /// Kernel time measured by timestamp queries since the last [`Gpu::take_kernel_ns`].
     kernel_ns: std::sync::atomic::AtomicU64,
@@ -79,7 +78,7 @@ impl Gpu {
         let submitter = Submitter::new(&owner)?;
         Ok(Gpu {
             owner,
-            pipelines: Mutex::new(HashMap::new()),
+            pipelines: Pipelines::new(),
             submitter: Mutex::new(submitter),
             kernel_ns: std::sync::atomic::AtomicU64::new(0),
         })
@@ -88,57 +87,6 @@ impl Gpu {
     /// Device name, type and Vulkan version.
     pub fn description(&self) -> &str {
         self.owner.description()
-    }
-
-    /// The pipeline of `kernel` with its specialization constants `spec` (by id), built on first
-    /// use from the layout the module declares.
-    fn pipeline(&self, kernel: Kernel, spec: &[u32]) -> Result<Arc<Pipeline>, GpuError> {
-        let mut cache = self
-            .pipelines
-            .lock()
-            .map_err(|_| GpuError::Internal("poisoned".into()))?;
-        let key = (kernel, spec.to_vec());
-        if let Some(p) = cache.get(&key) {
-            return Ok(p.clone());
-        }
-        let bindings = kernel.strides().len() as u32;
-        if bindings > MAX_BINDINGS {
-            return Err(GpuError::Internal(format!(
-                "{} binds {bindings} buffers, more than {MAX_BINDINGS}",
-                kernel.name()
-            )));
-        }
-        let words =
-            ash::util::read_spv(&mut std::io::Cursor::new(kernel.spirv())).map_err(|e| {
-                GpuError::Internal(format!(
-                    "embedded SPIR-V of {} is malformed: {e}",
-                    kernel.name()
-                ))
-            })?;
-        let info = vk::ShaderModuleCreateInfo::default().code(&words);
-        // SAFETY: valid SPIR-V produced by rust-gpu and validated by build.rs; destroyed below,
-        // after the pipeline is built (Vulkan allows it).
-        let module = unsafe { self.owner.device.create_shader_module(&info, None) }
-            .map_err(|e| GpuError::Vulkan("vkCreateShaderModule", e))?;
-        let start = std::time::Instant::now();
-        let p = Pipeline::new(
-            &self.owner,
-            module,
-            kernel.c_name(),
-            bindings,
-            kernel.push_size(),
-            spec,
-        );
-        // SAFETY: no pipeline creation is in flight; the pipeline does not need its module.
-        unsafe { self.owner.device.destroy_shader_module(module, None) };
-        let p = Arc::new(p?);
-        tracing::debug!(
-            "built the pipeline of {} with specialization {spec:?} in {:.1} s",
-            kernel.name(),
-            start.elapsed().as_secs_f64()
-        );
-        cache.insert(key, p.clone());
-        Ok(p)
     }
 
     /// A device-local storage buffer holding `data`, kept on the device across submissions.
@@ -238,10 +186,7 @@ impl Gpu {
         if specs.is_empty() {
             specs.push(Vec::new());
         }
-        let pipelines = specs
-            .iter()
-            .map(|s| self.pipeline(kernel, s))
-            .collect::<Result<Vec<_>, _>>()?;
+        let pipelines = self.pipelines.get_all(&self.owner, kernel, &specs)?;
         let recording = Recording {
             kernel,
             pipelines,

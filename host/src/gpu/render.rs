@@ -2,8 +2,7 @@
 
 use super::{
     Buffer, Gpu, LitBuffers, MsmBuildBuffers, MsmStoreBuffers, RenderBuffers, Step, Work, DIRECT,
-    DIRECT_PAGED, MSM_BUILD, MSM_BUILD_PAGED, MSM_STORE, PATH, PATH_PAGED, RENDER, RENDER_PAGED,
-    RESTIR, RESTIR_PAGED,
+    MSM_BUILD, MSM_STORE, PATH, RENDER, RESTIR,
 };
 use crate::bricks::PackedVolume;
 use crate::lighting::SceneLights;
@@ -17,7 +16,7 @@ use shared::kernels::launch::bindings::path;
 use shared::kernels::launch::Launch;
 use shared::kernels::render::{PathPass, PixelSums, RenderPass};
 use shared::kernels::shadow_map::MsmPass;
-use shared::params::{Integrator, RenderParams};
+use shared::params::{Integrator, RenderParams, UNSPECIALIZED};
 use shared::sampling::lighting::Lighting;
 use shared::sampling::lights::PointLight;
 use shared::shadows::map::{Shadows, RAW_PER_TEXEL};
@@ -67,7 +66,8 @@ impl GpuVolume<'_> {
         std::array::from_fn(|k| self.pages.get(k).unwrap_or(&self.pages[0]))
     }
 
-    /// Whether the pool spans several pages (the kernels' paged variants read it).
+    /// Whether the pool spans several pages (specialization constant 3 of the kernels that read
+    /// it).
     fn paged(&self) -> bool {
         self.pages.len() > 1
     }
@@ -136,15 +136,12 @@ impl RenderBackend for GpuVolume<'_> {
             lighting: &l,
             raw: &raw,
         };
-        let kernel = if self.paged() {
-            &MSM_BUILD_PAGED
-        } else {
-            &MSM_BUILD
-        };
+        let kernel = &MSM_BUILD;
+        let paged = self.paged();
         gpu.submit(Work {
             kernel,
             buffers: build.slots(),
-            specialization: &super::unspecialized,
+            specialization: &|_: &MsmPass| specialization(None, UNSPECIALIZED, paged),
             uploads: vec![
                 (&p, bytemuck::bytes_of(params)),
                 (&l, bytemuck::bytes_of(lighting)),
@@ -172,11 +169,16 @@ impl RenderBackend for GpuVolume<'_> {
     }
 }
 
-/// The specialization constants of the render and wavefront kernels (ids 0 and 1 of
-/// `kernels/src/lib.rs`): the integrator and the estimator, so each pipeline holds the code of
-/// one of each (the whole render kernel took lavapipe 261 s to compile; see README, Testing).
-fn specialization(params: &RenderParams) -> [u32; 2] {
-    [params.integrator, params.estimator]
+/// The specialization constants of the render, wavefront and shadow-map kernels by id
+/// (`kernels/src/lib.rs`): 0 the integrator and 1 the estimator of `params` (none: the kernel
+/// has neither), 2 the wavefront stage's kind, 3 whether the voxel pool spans several pages. Each
+/// pipeline holds one variant's code (the whole render kernel took lavapipe 261 s to compile;
+/// see README, Testing); ids a module lacks are ignored.
+fn specialization(params: Option<&RenderParams>, stage_kind: u32, paged: bool) -> Vec<u32> {
+    let (integrator, estimator) = params.map_or((UNSPECIALIZED, UNSPECIALIZED), |p| {
+        (p.integrator, p.estimator)
+    });
+    vec![integrator, estimator, stage_kind, u32::from(paged)]
 }
 
 /// [`GpuVolume::render_sums`].
@@ -279,7 +281,8 @@ fn render_tiles(
             let uploads_now = std::mem::take(&mut uploads);
             render_wave(
                 gpu,
-                wave.kernel(dev.paged()),
+                wave.kernel(),
+                dev.paged(),
                 wave.modes(params),
                 wave.stage_kind(),
                 params,
@@ -305,11 +308,14 @@ fn render_tiles(
             } else {
                 vec![]
             };
-            let kernel = if dev.paged() { &RENDER_PAGED } else { &RENDER };
+            let kernel = &RENDER;
+            let paged = dev.paged();
             gpu.submit(Work {
                 kernel,
                 buffers: buffers.slots(),
-                specialization: &|_: &RenderPass| specialization(params).to_vec(),
+                specialization: &|_: &RenderPass| {
+                    specialization(Some(params), UNSPECIALIZED, paged)
+                },
                 uploads: std::mem::take(&mut uploads),
                 steps,
                 readbacks,
@@ -363,15 +369,12 @@ impl Wave {
         }
     }
 
-    /// Its kernel (all take `LitBuffers`' layout), for a pool in one page or several.
-    fn kernel(self, paged: bool) -> &'static super::KernelDef<PathPass, { path::COUNT }> {
-        match (self, paged) {
-            (Wave::Direct, false) => &DIRECT,
-            (Wave::Direct, true) => &DIRECT_PAGED,
-            (Wave::Path, false) => &PATH,
-            (Wave::Path, true) => &PATH_PAGED,
-            (Wave::Restir, false) => &RESTIR,
-            (Wave::Restir, true) => &RESTIR_PAGED,
+    /// Its kernel (all take `LitBuffers`' layout).
+    fn kernel(self) -> &'static super::KernelDef<PathPass, { path::COUNT }> {
+        match self {
+            Wave::Direct => &DIRECT,
+            Wave::Path => &PATH,
+            Wave::Restir => &RESTIR,
         }
     }
 }
@@ -383,6 +386,7 @@ impl Wave {
 fn render_wave(
     gpu: &Gpu,
     kernel: &super::KernelDef<PathPass, { path::COUNT }>,
+    paged: bool,
     modes: Vec<u32>,
     stage_kind: fn(&RenderParams, u32) -> u32,
     params: &RenderParams,
@@ -409,8 +413,7 @@ fn render_wave(
             kernel,
             buffers: buffers.slots(),
             specialization: &|push: &PathPass| {
-                let [integrator, estimator] = specialization(params);
-                vec![integrator, estimator, stage_kind(params, push.mode)]
+                specialization(Some(params), stage_kind(params, push.mode), paged)
             },
             uploads: uploads.take().unwrap_or_default(),
             steps,

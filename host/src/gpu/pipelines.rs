@@ -1,0 +1,166 @@
+//! The pipelines of a device by kernel and specialization: each built once, on first use, by the
+//! thread that first needs it; distinct pipelines build in parallel, at most
+//! [`PARALLEL_BUILDS`] at once.
+//!
+//! A driver compiles one pipeline on one core, and lavapipe takes up to minutes and gigabytes
+//! for one of our wavefront stages (README, Testing): a submission that needs several new
+//! pipelines (one per `restir` stage kind) builds them side by side, and a thread that needs a
+//! built pipeline never waits for another's build.
+
+use super::device::{DeviceOwner, MAX_BINDINGS};
+use super::error::GpuError;
+use super::kernels::Kernel;
+use super::resources::Pipeline;
+use ash::vk;
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, Condvar, Mutex};
+
+/// Most pipelines one device builds at once: lavapipe needs up to 3.4 GB for one `restir` stage
+/// (measured, README), so more would risk a small machine's memory for little gain on few cores.
+pub const PARALLEL_BUILDS: usize = 2;
+
+/// One pipeline's slot: empty until its first build succeeds.
+type Slot = Arc<Mutex<Option<Arc<Pipeline>>>>;
+
+/// The pipelines of one device.
+pub struct Pipelines {
+    slots: Mutex<HashMap<(Kernel, Vec<u32>), Slot>>,
+    /// Builds in flight (at most [`PARALLEL_BUILDS`]) and its condition variable.
+    building: (Mutex<usize>, Condvar),
+}
+
+/// Holds one of the [`PARALLEL_BUILDS`] build permits until dropped.
+struct Permit<'a>(&'a (Mutex<usize>, Condvar));
+
+impl Drop for Permit<'_> {
+    fn drop(&mut self) {
+        let (count, freed) = self.0;
+        if let Ok(mut n) = count.lock() {
+            *n -= 1;
+        }
+        freed.notify_one();
+    }
+}
+
+fn poisoned<T>(_: T) -> GpuError {
+    GpuError::Internal("a thread panicked while building a pipeline".into())
+}
+
+impl Pipelines {
+    pub fn new() -> Self {
+        Pipelines {
+            slots: Mutex::new(HashMap::new()),
+            building: (Mutex::new(0), Condvar::new()),
+        }
+    }
+
+    /// Waits for one of the build permits.
+    fn permit(&self) -> Result<Permit<'_>, GpuError> {
+        let (count, freed) = &self.building;
+        let mut n = count.lock().map_err(poisoned)?;
+        while *n >= PARALLEL_BUILDS {
+            n = freed.wait(n).map_err(poisoned)?;
+        }
+        *n += 1;
+        Ok(Permit(&self.building))
+    }
+
+    /// The pipeline of `kernel` with its specialization constants `spec` (by id), built on first
+    /// use from the layout the module declares.
+    pub fn get(
+        &self,
+        owner: &Arc<DeviceOwner>,
+        kernel: Kernel,
+        spec: &[u32],
+    ) -> Result<Arc<Pipeline>, GpuError> {
+        let slot = {
+            let mut slots = self.slots.lock().map_err(poisoned)?;
+            slots.entry((kernel, spec.to_vec())).or_default().clone()
+        };
+        let mut built = slot.lock().map_err(poisoned)?;
+        if let Some(p) = built.as_ref() {
+            return Ok(p.clone());
+        }
+        let _permit = self.permit()?;
+        let p = Arc::new(build(owner, kernel, spec)?);
+        *built = Some(p.clone());
+        Ok(p)
+    }
+
+    /// The pipelines of `kernel` for each of `specs`, the missing ones built on up to
+    /// [`PARALLEL_BUILDS`] threads.
+    pub fn get_all(
+        &self,
+        owner: &Arc<DeviceOwner>,
+        kernel: Kernel,
+        specs: &[Vec<u32>],
+    ) -> Result<Vec<Arc<Pipeline>>, GpuError> {
+        let threads = PARALLEL_BUILDS.min(specs.len());
+        if threads <= 1 {
+            return specs.iter().map(|s| self.get(owner, kernel, s)).collect();
+        }
+        let next = AtomicUsize::new(0);
+        let results: Vec<Mutex<Option<Result<Arc<Pipeline>, GpuError>>>> =
+            specs.iter().map(|_| Mutex::new(None)).collect();
+        std::thread::scope(|scope| {
+            for _ in 0..threads {
+                scope.spawn(|| loop {
+                    let i = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(spec) = specs.get(i) else { break };
+                    let r = self.get(owner, kernel, spec);
+                    if let Ok(mut slot) = results[i].lock() {
+                        *slot = Some(r);
+                    }
+                });
+            }
+        });
+        results
+            .into_iter()
+            .map(|r| {
+                r.into_inner()
+                    .map_err(poisoned)?
+                    .unwrap_or_else(|| Err(poisoned(())))
+            })
+            .collect()
+    }
+}
+
+/// Builds the pipeline of `kernel` with specialization `spec` from its embedded module.
+fn build(owner: &Arc<DeviceOwner>, kernel: Kernel, spec: &[u32]) -> Result<Pipeline, GpuError> {
+    let bindings = kernel.strides().len() as u32;
+    if bindings > MAX_BINDINGS {
+        return Err(GpuError::Internal(format!(
+            "{} binds {bindings} buffers, more than {MAX_BINDINGS}",
+            kernel.name()
+        )));
+    }
+    let words = ash::util::read_spv(&mut std::io::Cursor::new(kernel.spirv())).map_err(|e| {
+        GpuError::Internal(format!(
+            "embedded SPIR-V of {} is malformed: {e}",
+            kernel.name()
+        ))
+    })?;
+    let info = vk::ShaderModuleCreateInfo::default().code(&words);
+    // SAFETY: valid SPIR-V produced by rust-gpu and validated by build.rs; destroyed below, after
+    // the pipeline is built (Vulkan allows it).
+    let module = unsafe { owner.device.create_shader_module(&info, None) }
+        .map_err(|e| GpuError::Vulkan("vkCreateShaderModule", e))?;
+    let start = std::time::Instant::now();
+    let p = Pipeline::new(
+        owner,
+        module,
+        kernel.c_name(),
+        bindings,
+        kernel.push_size(),
+        spec,
+    );
+    // SAFETY: no pipeline creation with this module is in flight; the pipeline does not need it.
+    unsafe { owner.device.destroy_shader_module(module, None) };
+    tracing::debug!(
+        "built the pipeline of {} with specialization {spec:?} in {:.1} s",
+        kernel.name(),
+        start.elapsed().as_secs_f64()
+    );
+    p
+}
