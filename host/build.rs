@@ -9,9 +9,12 @@
 //! (lavapipe built each pipeline from the whole 22 MB module: ~20 s each). Optimizing here, not in
 //! rust-gpu's linker (`--no-spirv-opt`), because the linker runs spirv-opt on one thread and that
 //! was three quarters of the kernel build (1297 of 1684 s with `-Ztime-passes` on 2 cores).
+//! Validated once, after optimizing: SPIRV-Tools' validator is far above linear in a module's
+//! size, and rust-gpu's unoptimized modules (validated by its linker and again by spirv-opt
+//! before it starts) cost minutes each; `--no-spirv-val` and [`spirv_opt_unvalidated`] leave
+//! that out (the kernel build: about 35 -> 15 minutes on 2 cores, the same optimized bytes).
 
 use spirv_builder::{Capability, CompileResult, ModuleResult, SpirvBuilder};
-use spirv_tools::opt::{Optimizer, Passes};
 use spirv_tools::val::Validator;
 use spirv_tools::TargetEnv;
 use std::collections::HashMap;
@@ -32,8 +35,10 @@ fn main() -> Result<(), BoxError> {
         // Keep every declared binding in each entry point's module: the host's layouts name them
         // all, and the one-page variants leave the other pages' bindings unread.
         .preserve_bindings(true)
-        // spirv-opt runs below, in parallel; rust-gpu still validates each unoptimized module.
-        .extra_arg("--no-spirv-opt");
+        // spirv-opt runs below, in parallel, and validates the optimized modules; validating the
+        // unoptimized ones in the linker was about a third of the kernel build.
+        .extra_arg("--no-spirv-opt")
+        .extra_arg("--no-spirv-val");
     builder.build_script.defaults = true;
     builder.build_script.env_shader_spv_path = Some(false);
     // rustc's warnings for the SPIR-V target would only repeat that spirv-opt is off in the
@@ -94,32 +99,77 @@ fn optimize_all(result: &CompileResult, out: &Path) -> Result<HashMap<String, Pa
 fn optimize_one(input: &Path, output: &Path) -> Result<PathBuf, BoxError> {
     let bytes = std::fs::read(input)?;
     let words = spirv_tools::binary::to_binary(&bytes)?.to_vec();
+    let optimized = spirv_opt_unvalidated(&words)?;
     let target = Some(TargetEnv::Vulkan_1_2);
-    let mut optimizer = spirv_tools::opt::create(target);
-    optimizer
-        .register_performance_passes()
-        .register_pass(Passes::EliminateDeadConstant)
-        .register_pass(Passes::StripDebugInfo);
-    let mut messages = String::new();
-    let options = spirv_tools::opt::Options {
-        validator_options: Some(Default::default()),
-        preserve_bindings: true,
-        ..Default::default()
-    };
-    let optimized = optimizer
-        .optimize(
-            &words,
-            &mut |m: spirv_tools::error::Message| {
-                let _ = writeln!(messages, "{:?}: {}", m.level, m.message);
-            },
-            Some(options),
-        )
-        .map_err(|e| format!("spirv-opt failed: {e}\n{messages}"))?;
     spirv_tools::val::create(target)
-        .validate(optimized.as_words(), Some(Default::default()))
+        .validate(&optimized, Some(Default::default()))
         .map_err(|e| format!("the optimized module is invalid: {e}"))?;
-    std::fs::write(output, optimized.as_bytes())?;
+    let bytes: Vec<u8> = optimized.iter().flat_map(|w| w.to_le_bytes()).collect();
+    std::fs::write(output, bytes)?;
     Ok(output.to_path_buf())
+}
+
+/// spirv-opt's performance passes, dead constants and debug info removed, bindings kept, WITHOUT
+/// validating the input: SPIRV-Tools' validator is far above linear in a module's size, and on
+/// rust-gpu's unoptimized output it was nearly all of the kernel build's spirv-opt time (`spirv-val`
+/// on the unoptimized render_cs: 362 s; on the optimized one: 5 s). The output is validated by the
+/// caller. The `spirv-tools` crate always validates the input (it cannot clear SPIRV-Tools'
+/// `run_validator`), hence the C API of the same library here.
+fn spirv_opt_unvalidated(words: &[u32]) -> Result<Vec<u32>, BoxError> {
+    use spirv_tools_sys::{diagnostics, opt, shared};
+    use std::os::raw::{c_char, c_void};
+
+    extern "C" fn on_message(
+        level: diagnostics::MessageLevel,
+        _source: *const c_char,
+        _position: *const diagnostics::Position,
+        message: *const c_char,
+        ctx: *mut c_void,
+    ) {
+        // SAFETY: `ctx` is the `String` passed to `optimizer_run` below, alive for the call;
+        // SPIRV-Tools passes a NUL-terminated message or null.
+        let messages = unsafe { &mut *ctx.cast::<String>() };
+        let text = if message.is_null() {
+            std::borrow::Cow::Borrowed("")
+        } else {
+            unsafe { std::ffi::CStr::from_ptr(message) }.to_string_lossy()
+        };
+        let _ = writeln!(messages, "{level:?}: {text}");
+    }
+
+    let mut messages = String::new();
+    // SAFETY: every object is created, used and destroyed here; `binary` is only read when
+    // SPIRV-Tools reports success and returned non-null, and destroyed once.
+    unsafe {
+        let optimizer = opt::optimizer_create(shared::TargetEnv::Vulkan_1_2);
+        opt::optimizer_register_performance_passes(optimizer);
+        opt::optimizer_register_pass(optimizer, opt::Passes::EliminateDeadConstant);
+        opt::optimizer_register_pass(optimizer, opt::Passes::StripDebugInfo);
+        let options = opt::optimizer_options_create();
+        opt::optimizer_options_run_validator(options, false);
+        opt::optimizer_options_preserve_bindings(options, true);
+        let mut binary: *mut shared::Binary = std::ptr::null_mut();
+        let result = opt::optimizer_run(
+            optimizer,
+            words.as_ptr(),
+            words.len(),
+            &mut binary,
+            on_message,
+            (&mut messages as *mut String).cast::<c_void>(),
+            options,
+        );
+        opt::optimizer_options_destroy(options);
+        opt::optimizer_destroy(optimizer);
+        if !matches!(result, shared::SpirvResult::Success) || binary.is_null() {
+            if !binary.is_null() {
+                shared::binary_destroy(binary);
+            }
+            return Err(format!("spirv-opt failed ({result:?})\n{messages}").into());
+        }
+        let out = std::slice::from_raw_parts((*binary).code, (*binary).size).to_vec();
+        shared::binary_destroy(binary);
+        Ok(out)
+    }
 }
 
 /// What the host needs to know about one entry point.
