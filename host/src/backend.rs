@@ -197,9 +197,8 @@ fn rng_on_gpu(g: &Gpu, count: u32, seed: u32) -> Result<Vec<RngDraws>, GpuError>
         ..Launch::default()
     };
     g.submit(Work {
-        kernel: &gpu::RNG_DRAWS,
+        pipeline: &|_: &Launch| (&gpu::RNG_DRAWS, Vec::new()),
         buffers: [&output],
-        specialization: &gpu::unspecialized,
         uploads: vec![],
         steps: vec![Step::Run {
             push,
@@ -225,9 +224,8 @@ fn map_on_gpu<I: Pod, O: Pod>(
             output: &g.buffer(std::mem::size_of_val(out.as_slice()) as u64)?,
         };
         g.submit(Work {
-            kernel,
+            pipeline: &|_: &Launch| (kernel, Vec::new()),
             buffers: buffers.slots(),
-            specialization: &gpu::unspecialized,
             uploads: vec![(buffers.input, bytes)],
             steps: vec![Step::Run {
                 push: Launch::default(),

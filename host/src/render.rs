@@ -236,7 +236,7 @@ pub fn loop_iterations_per_ray(
     if params.integrator == shared::params::Integrator::Direct as u32
         || params.integrator == shared::params::Integrator::Restir as u32
     {
-        // A wavefront (`direct_cs`, `restir_cs`): one invocation runs either the camera ray's
+        // A wavefront (`direct_cs`, `restir_*_cs`): one invocation runs either the camera ray's
         // free flight and two CDF searches, or one transmittance estimate by the chosen
         // estimator (restir: or one candidate's target estimate, of at most as many loops: a
         // jackknife of restir_n <= n samples or ratio tracking under the same cap).

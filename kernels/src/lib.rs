@@ -307,17 +307,51 @@ wave_kernel!(
     render::wave_kind
 );
 
+// A `restir` image (direct illumination with resampled point lights, wavefront) runs one kernel
+// per stage kind, so that each module holds one kind's code: lavapipe built each pipeline of a
+// module of every kind in 110-240 s (README, Testing).
+
 wave_kernel!(
-    /// One stage of a `restir` image (direct illumination with resampled point lights,
-    /// wavefront): start each pixel's sample (mode 0), stream one light candidate, reuse its
-    /// neighbours' reservoirs, resolve the reservoir, or estimate one transmittance query.
-    restir_cs,
+    /// `restir` stage 0: start each pixel's sample at the camera.
+    restir_start_cs,
     RestirState,
-    render::restir_wave_step,
+    render::restir_start_step,
+    render::restir_stage_kind
+);
+
+wave_kernel!(
+    /// A `restir` candidate stage: stream one light candidate into each pixel's reservoir.
+    restir_candidate_cs,
+    RestirState,
+    render::restir_candidate_step,
+    render::restir_stage_kind
+);
+
+wave_kernel!(
+    /// A `restir` reuse stage: resample each pixel's neighbours' reservoirs.
+    restir_reuse_cs,
+    RestirState,
+    render::restir_unchanged_step,
     render::restir_stage_kind,
     reuse = render::restir_reuse_step,
     render::is_reuse_kind,
     render::restir_store_reuse
+);
+
+wave_kernel!(
+    /// The `restir` resolve stage: the kept light sample's contribution and shadow query.
+    restir_resolve_cs,
+    RestirState,
+    render::restir_resolve_step,
+    render::restir_stage_kind
+);
+
+wave_kernel!(
+    /// A `restir` query stage: estimate one transmittance query.
+    restir_query_cs,
+    RestirState,
+    render::restir_query_step,
+    render::restir_stage_kind
 );
 
 wave_kernel!(

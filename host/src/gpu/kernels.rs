@@ -165,15 +165,27 @@ const DIRECT_SIZES: [usize; direct::COUNT] = {
 /// `direct_cs` (the pool's pages: specialization constant 3; a pool in one page leaves the other page bindings unread).
 pub const DIRECT: KernelDef<PathPass, { direct::COUNT }> =
     KernelDef::checked(Kernel::DirectCs, DIRECT_SIZES);
-/// `restir_cs`: `direct_cs`'s layout with `RestirState`s.
+/// The `restir_*_cs` kernels: `direct_cs`'s layout with `RestirState`s.
 const RESTIR_SIZES: [usize; direct::COUNT] = {
     let mut s = DIRECT_SIZES;
     s[direct::STATES] = size_of::<RestirState>();
     s
 };
-/// `restir_cs`.
-pub const RESTIR: KernelDef<PathPass, { direct::COUNT }> =
-    KernelDef::checked(Kernel::RestirCs, RESTIR_SIZES);
+/// `restir_start_cs` (`restir` stage 0).
+pub const RESTIR_START: KernelDef<PathPass, { direct::COUNT }> =
+    KernelDef::checked(Kernel::RestirStartCs, RESTIR_SIZES);
+/// `restir_candidate_cs` (the candidate stages).
+pub const RESTIR_CANDIDATE: KernelDef<PathPass, { direct::COUNT }> =
+    KernelDef::checked(Kernel::RestirCandidateCs, RESTIR_SIZES);
+/// `restir_reuse_cs` (the spatial reuse passes).
+pub const RESTIR_REUSE: KernelDef<PathPass, { direct::COUNT }> =
+    KernelDef::checked(Kernel::RestirReuseCs, RESTIR_SIZES);
+/// `restir_resolve_cs` (the resolve stage).
+pub const RESTIR_RESOLVE: KernelDef<PathPass, { direct::COUNT }> =
+    KernelDef::checked(Kernel::RestirResolveCs, RESTIR_SIZES);
+/// `restir_query_cs` (the transmittance queries).
+pub const RESTIR_QUERY: KernelDef<PathPass, { direct::COUNT }> =
+    KernelDef::checked(Kernel::RestirQueryCs, RESTIR_SIZES);
 /// Element sizes of the bindings of `path_cs`.
 const PATH_SIZES: [usize; path::COUNT] = {
     let mut s = [0; path::COUNT];

@@ -18,7 +18,8 @@ pub use error::GpuError;
 pub use kernels::{
     Kernel, KernelDef, LitBuffers, MapBuffers, MsmBuildBuffers, MsmStoreBuffers, PushConstants,
     RenderBuffers, DIRECT, EQUIANGULAR, MATH_VALUES, MSM_BUILD, MSM_LOOKUP, MSM_STORE, PATH, PHASE,
-    RENDER, RESTIR, RNG_DRAWS, TRANSMITTANCE_PAIR,
+    RENDER, RESTIR_CANDIDATE, RESTIR_QUERY, RESTIR_RESOLVE, RESTIR_REUSE, RESTIR_START, RNG_DRAWS,
+    TRANSMITTANCE_PAIR,
 };
 use pipelines::Pipelines;
 pub use plan::{plan, Command, Step};
@@ -40,14 +41,13 @@ pub struct Gpu {
 
 /// GPU work submitted at once: uploads, then the kernel's steps, then readbacks.
 pub struct Work<'a, P, const N: usize> {
-    /// The kernel the steps run.
-    pub kernel: &'a KernelDef<P, N>,
-    /// Its storage buffers in binding order (see [`RenderBuffers::slots`]).
+    /// The pipeline of each dispatch, from its push constants: its kernel (all of one push-constant
+    /// type and binding layout: one kernel, or one per stage kind of a wavefront, `restir_*_cs`)
+    /// and the values of that kernel's specialization constants by id (empty: the module's
+    /// defaults). Each distinct pair is its own pipeline, built on first use.
+    pub pipeline: &'a dyn Fn(&P) -> (&'a KernelDef<P, N>, Vec<u32>),
+    /// The storage buffers in binding order (see [`RenderBuffers::slots`]).
     pub buffers: [&'a Buffer; N],
-    /// Values of the kernel's specialization constants by id for each dispatch, from its push
-    /// constants ([`unspecialized`]: none, the module's defaults); each distinct set of values
-    /// is its own pipeline, built on first use.
-    pub specialization: &'a dyn Fn(&P) -> Vec<u32>,
     /// Host bytes copied into device buffers before the first dispatch.
     pub uploads: Vec<(&'a Buffer, &'a [u8])>,
     /// Dispatches and barriers, in order.
@@ -58,17 +58,13 @@ pub struct Work<'a, P, const N: usize> {
 
 /// The kernel part of a submission after planning, with Pod pushes as bytes.
 struct Recording {
-    kernel: Kernel,
-    /// The pipelines of the dispatches (the kernel's specializations; identical layouts).
+    /// The kernels it runs, for messages (`restir_start_cs, restir_candidate_cs`).
+    name: String,
+    /// The pipelines of the dispatches (identical layouts).
     pipelines: Vec<Arc<Pipeline>>,
     buffers: Vec<(vk::Buffer, u64)>,
     /// Each command with the index of its pipeline (dispatches only).
     commands: Vec<(Command<Vec<u8>>, usize)>,
-}
-
-/// The specialization of a kernel without specialization constants (or with their defaults).
-pub fn unspecialized<P>(_: &P) -> Vec<u32> {
-    Vec::new()
 }
 
 impl Gpu {
@@ -163,18 +159,18 @@ impl Gpu {
         &self,
         work: Work<'_, P, N>,
     ) -> Result<(), GpuError> {
-        let kernel = work.kernel.kernel;
-        let mut specs: Vec<Vec<u32>> = Vec::new();
+        let mut keys: Vec<(Kernel, Vec<u32>)> = Vec::new();
         let mut commands = Vec::new();
         for c in plan(work.steps, self.max_groups()) {
             commands.push(match c {
                 Command::Dispatch { push, groups } => {
-                    let spec = (work.specialization)(&push);
-                    let index = match specs.iter().position(|s| *s == spec) {
+                    let (def, spec) = (work.pipeline)(&push);
+                    let key = (def.kernel, spec);
+                    let index = match keys.iter().position(|k| *k == key) {
                         Some(i) => i,
                         None => {
-                            specs.push(spec);
-                            specs.len() - 1
+                            keys.push(key);
+                            keys.len() - 1
                         }
                     };
                     let push = bytemuck::bytes_of(&push).to_vec();
@@ -183,17 +179,24 @@ impl Gpu {
                 Command::Barrier => (Command::Barrier, 0),
             });
         }
-        if specs.is_empty() {
-            specs.push(Vec::new());
+        let mut readbacks = work.readbacks;
+        if keys.is_empty() {
+            // Nothing to dispatch: the uploads and readbacks only.
+            return self.submit_raw(&work.uploads, None, &mut readbacks);
         }
-        let pipelines = self.pipelines.get_all(&self.owner, kernel, &specs)?;
+        let pipelines = self.pipelines.get_all(&self.owner, &keys)?;
+        let mut names: Vec<&str> = Vec::new();
+        for (k, _) in &keys {
+            if !names.contains(&k.name()) {
+                names.push(k.name());
+            }
+        }
         let recording = Recording {
-            kernel,
+            name: names.join(", "),
             pipelines,
             buffers: work.buffers.iter().map(|b| (b.buffer, b.size)).collect(),
             commands,
         };
-        let mut readbacks = work.readbacks;
         self.submit_raw(&work.uploads, Some(&recording), &mut readbacks)
     }
 
@@ -213,7 +216,7 @@ impl Gpu {
         }
         let staged: u64 = uploads.iter().map(|(_, d)| d.len() as u64).sum::<u64>()
             + readbacks.iter().map(|(_, o)| o.len() as u64).sum::<u64>();
-        let what = recording.map_or("a transfer", |r| r.kernel.name());
+        let what = recording.map_or("a transfer", |r| r.name.as_str());
         let mut sub = self
             .submitter
             .lock()
@@ -362,7 +365,7 @@ impl Gpu {
             d.cmd_reset_query_pool(sub.cmd, q, 0, 2);
             d.cmd_write_timestamp(sub.cmd, S::TOP_OF_PIPE, q, 0);
         }
-        // The pipelines' layouts are identically defined (one kernel), so the set stays valid
+        // The pipelines' layouts are identically defined (one push type and binding count), so the set stays valid
         // across them; it is bound again with each pipeline all the same.
         let mut bound = None;
         for (c, index) in &r.commands {

@@ -88,27 +88,28 @@ impl Pipelines {
         Ok(p)
     }
 
-    /// The pipelines of `kernel` for each of `specs`, the missing ones built on up to
+    /// The pipeline of each (kernel, specialization) of `keys`, the missing ones built on up to
     /// [`PARALLEL_BUILDS`] threads.
     pub fn get_all(
         &self,
         owner: &Arc<DeviceOwner>,
-        kernel: Kernel,
-        specs: &[Vec<u32>],
+        keys: &[(Kernel, Vec<u32>)],
     ) -> Result<Vec<Arc<Pipeline>>, GpuError> {
-        let threads = PARALLEL_BUILDS.min(specs.len());
+        let threads = PARALLEL_BUILDS.min(keys.len());
         if threads <= 1 {
-            return specs.iter().map(|s| self.get(owner, kernel, s)).collect();
+            return keys.iter().map(|(k, s)| self.get(owner, *k, s)).collect();
         }
         let next = AtomicUsize::new(0);
         let results: Vec<Mutex<Option<Result<Arc<Pipeline>, GpuError>>>> =
-            specs.iter().map(|_| Mutex::new(None)).collect();
+            keys.iter().map(|_| Mutex::new(None)).collect();
         std::thread::scope(|scope| {
             for _ in 0..threads {
                 scope.spawn(|| loop {
                     let i = next.fetch_add(1, Ordering::Relaxed);
-                    let Some(spec) = specs.get(i) else { break };
-                    let r = self.get(owner, kernel, spec);
+                    let Some((kernel, spec)) = keys.get(i) else {
+                        break;
+                    };
+                    let r = self.get(owner, *kernel, spec);
                     if let Ok(mut slot) = results[i].lock() {
                         *slot = Some(r);
                     }

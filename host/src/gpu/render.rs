@@ -2,7 +2,8 @@
 
 use super::{
     Buffer, Gpu, LitBuffers, MsmBuildBuffers, MsmStoreBuffers, RenderBuffers, Step, Work, DIRECT,
-    MSM_BUILD, MSM_STORE, PATH, RENDER, RESTIR,
+    MSM_BUILD, MSM_STORE, PATH, RENDER, RESTIR_CANDIDATE, RESTIR_QUERY, RESTIR_RESOLVE,
+    RESTIR_REUSE, RESTIR_START,
 };
 use crate::bricks::PackedVolume;
 use crate::lighting::SceneLights;
@@ -139,9 +140,8 @@ impl RenderBackend for GpuVolume<'_> {
         let kernel = &MSM_BUILD;
         let paged = self.paged();
         gpu.submit(Work {
-            kernel,
+            pipeline: &|_: &MsmPass| (kernel, specialization(None, UNSPECIALIZED, paged)),
             buffers: build.slots(),
-            specialization: &|_: &MsmPass| specialization(None, UNSPECIALIZED, paged),
             uploads: vec![
                 (&p, bytemuck::bytes_of(params)),
                 (&l, bytemuck::bytes_of(lighting)),
@@ -157,9 +157,8 @@ impl RenderBackend for GpuVolume<'_> {
             map: &map,
         };
         gpu.submit(Work {
-            kernel: &MSM_STORE,
+            pipeline: &|_: &MsmPass| (&MSM_STORE, Vec::new()),
             buffers: store.slots(),
-            specialization: &super::unspecialized,
             uploads: vec![],
             steps: steps(),
             readbacks: vec![(&map, bytemuck::cast_slice_mut::<u32, u8>(&mut words))],
@@ -281,10 +280,8 @@ fn render_tiles(
             let uploads_now = std::mem::take(&mut uploads);
             render_wave(
                 gpu,
-                wave.kernel(),
+                wave,
                 dev.paged(),
-                wave.modes(params),
-                wave.stage_kind(),
                 params,
                 ids,
                 chunk,
@@ -311,11 +308,10 @@ fn render_tiles(
             let kernel = &RENDER;
             let paged = dev.paged();
             gpu.submit(Work {
-                kernel,
-                buffers: buffers.slots(),
-                specialization: &|_: &RenderPass| {
-                    specialization(Some(params), UNSPECIALIZED, paged)
+                pipeline: &|_: &RenderPass| {
+                    (kernel, specialization(Some(params), UNSPECIALIZED, paged))
                 },
+                buffers: buffers.slots(),
                 uploads: std::mem::take(&mut uploads),
                 steps,
                 readbacks,
@@ -336,7 +332,8 @@ enum Wave {
     Direct,
     /// `path_cs`: a start and `max_depth + 1` bounces.
     Path,
-    /// `restir_cs`: a start, M candidates, the resolve and four estimates.
+    /// `restir_*_cs`, a kernel per stage kind: a start, M candidates, P reuse passes, the resolve
+    /// and four estimates.
     Restir,
 }
 
@@ -369,12 +366,27 @@ impl Wave {
         }
     }
 
-    /// Its kernel (all take `LitBuffers`' layout).
-    fn kernel(self) -> &'static super::KernelDef<PathPass, { path::COUNT }> {
+    /// The kernel of a stage of kind `kind` (all take `LitBuffers`' layout).
+    fn kernel(self, kind: u32) -> &'static super::KernelDef<PathPass, { path::COUNT }> {
+        use shared::integrators::restir::{KIND_CANDIDATE, KIND_RESOLVE, KIND_REUSE, KIND_START};
+        match (self, kind) {
+            (Wave::Direct, _) => &DIRECT,
+            (Wave::Path, _) => &PATH,
+            (Wave::Restir, KIND_START) => &RESTIR_START,
+            (Wave::Restir, KIND_CANDIDATE) => &RESTIR_CANDIDATE,
+            (Wave::Restir, KIND_REUSE) => &RESTIR_REUSE,
+            (Wave::Restir, KIND_RESOLVE) => &RESTIR_RESOLVE,
+            // KIND_QUERY, restir::stage_kind's only other value.
+            (Wave::Restir, _) => &RESTIR_QUERY,
+        }
+    }
+
+    /// Its kernels' name, for messages.
+    fn name(self) -> &'static str {
         match self {
-            Wave::Direct => &DIRECT,
-            Wave::Path => &PATH,
-            Wave::Restir => &RESTIR,
+            Wave::Direct => "direct_cs",
+            Wave::Path => "path_cs",
+            Wave::Restir => "restir_*_cs",
         }
     }
 }
@@ -385,10 +397,8 @@ impl Wave {
 #[allow(clippy::too_many_arguments)]
 fn render_wave(
     gpu: &Gpu,
-    kernel: &super::KernelDef<PathPass, { path::COUNT }>,
+    wave: Wave,
     paged: bool,
-    modes: Vec<u32>,
-    stage_kind: fn(&RenderParams, u32) -> u32,
     params: &RenderParams,
     ids: std::ops::Range<u32>,
     chunk: u32,
@@ -397,6 +407,8 @@ fn render_wave(
     slice: &mut [PixelSums],
     bar: Option<&ProgressBar>,
 ) -> Result<()> {
+    let modes = wave.modes(params);
+    let stage_kind = wave.stage_kind();
     let mut uploads = Some(uploads);
     let mut readback = Some(bytemuck::cast_slice_mut::<PixelSums, u8>(slice));
     for s in 0..params.spp {
@@ -410,16 +422,16 @@ fn render_wave(
             vec![]
         };
         gpu.submit(Work {
-            kernel,
-            buffers: buffers.slots(),
-            specialization: &|push: &PathPass| {
-                specialization(Some(params), stage_kind(params, push.mode), paged)
+            pipeline: &|push: &PathPass| {
+                let kind = stage_kind(params, push.mode);
+                (wave.kernel(kind), specialization(Some(params), kind, paged))
             },
+            buffers: buffers.slots(),
             uploads: uploads.take().unwrap_or_default(),
             steps,
             readbacks,
         })
-        .with_context(|| format!("GPU kernel {}", kernel.kernel.name()))?;
+        .with_context(|| format!("GPU kernel {}", wave.name()))?;
         if let Some(bar) = bar {
             bar.inc(u64::from(ids.end - ids.start));
         }

@@ -231,15 +231,48 @@ pub fn restir_stage_of_kind(
     kind: u32,
 ) -> RestirState {
     if kind == KIND_CANDIDATE {
-        candidate(vol, cfg, params, scene, id, sample, st)
+        candidate_stage(vol, cfg, params, scene, id, sample, st)
     } else if kind == KIND_RESOLVE {
-        resolve(scene, params, st)
+        resolve_stage(scene, params, st)
     } else if kind == KIND_QUERY {
-        let first = params.restir_candidates + params.restir_passes + 2;
-        estimate_query(vol, cfg, params, scene, st, stage - first)
+        query_stage(vol, cfg, params, scene, st, stage)
     } else {
         st
     }
+}
+
+/// A [`KIND_CANDIDATE`] stage: streams one light candidate into the reservoir.
+#[inline]
+pub fn candidate_stage(
+    vol: &VolumeView,
+    cfg: &Config,
+    params: &RenderParams,
+    scene: &Scene,
+    id: u32,
+    sample: u32,
+    st: RestirState,
+) -> RestirState {
+    candidate(vol, cfg, params, scene, id, sample, st)
+}
+
+/// A [`KIND_RESOLVE`] stage: the kept sample's unshadowed contribution and its shadow query.
+#[inline]
+pub fn resolve_stage(scene: &Scene, params: &RenderParams, st: RestirState) -> RestirState {
+    resolve(scene, params, st)
+}
+
+/// A [`KIND_QUERY`] stage `stage`: transmittance query stage - M - P - 2.
+#[inline]
+pub fn query_stage(
+    vol: &VolumeView,
+    cfg: &Config,
+    params: &RenderParams,
+    scene: &Scene,
+    st: RestirState,
+    stage: u32,
+) -> RestirState {
+    let first = params.restir_candidates + params.restir_passes + 2;
+    estimate_query(vol, cfg, params, scene, st, stage - first)
 }
 
 /// One candidate: a light by power, its target p̂ and resampling weight p̂ / (M p), streamed

@@ -13,8 +13,8 @@ pub fn is_reuse_kind(kind: u32) -> bool {
     kind == KIND_REUSE
 }
 use crate::integrators::restir::{
-    restir_radiance, restir_stage_of_kind, restir_start, reuse_pass, stage_count, RestirState,
-    KIND_REUSE, KIND_START,
+    candidate_stage, query_stage, resolve_stage, restir_radiance, restir_stage_of_kind,
+    restir_start, reuse_pass, stage_count, RestirState, KIND_REUSE, KIND_START,
 };
 use crate::integrators::restir_reuse::reuse;
 use crate::integrators::restir_reuse::store_reuse;
@@ -351,9 +351,10 @@ pub fn restir_pixel_pass(
     })
 }
 
-/// One stage of the wavefront `restir` render of pixel `id` (`restir_cs`): stage 0 starts sample
-/// `sample` at the camera, then the candidates, the resolve and the four estimates
-/// ([`restir_stage`]); after the last the radiance is added to the pixel's sums.
+/// One stage of the wavefront `restir` render of pixel `id` (on the GPU `restir_*_cs`, one
+/// kernel per kind): stage 0 starts sample `sample` at the camera, then the candidates, the
+/// resolve and the four estimates ([`restir_stage`]); after the last the radiance is added to the
+/// pixel's sums.
 #[allow(clippy::too_many_arguments)]
 pub fn restir_step(
     vol: &VolumeView,
@@ -369,7 +370,10 @@ pub fn restir_step(
     restir_wave_step(vol, params, scene, id, sample, stage, kind, st, sums)
 }
 
-/// [`restir_step`] with the stage's kind ([`restir_stage_kind`]) given (`restir_cs`).
+/// [`restir_step`] with the stage's kind ([`restir_stage_kind`]) given. The GPU runs each kind
+/// as its own kernel (`restir_start_cs`, `restir_candidate_cs`, `restir_reuse_cs`,
+/// `restir_resolve_cs`, `restir_query_cs`), each calling only its kind's step below, so that a
+/// module holds one kind's code (one module of every kind took lavapipe 110-240 s per pipeline).
 #[allow(clippy::too_many_arguments)]
 pub fn restir_wave_step(
     vol: &VolumeView,
@@ -382,15 +386,23 @@ pub fn restir_wave_step(
     st: RestirState,
     sums: PixelSums,
 ) -> (RestirState, PixelSums) {
-    let cfg = Config::decode(params, vol.desc);
     if kind == KIND_START {
-        let (world, rng) = camera_ray(params, id, sample);
-        return (
-            restir_start(vol, &cfg, params, scene, &world, rng),
-            sums_before(sample, sums),
-        );
+        return restir_start_step(vol, params, scene, id, sample, stage, kind, st, sums);
     }
+    let cfg = Config::decode(params, vol.desc);
     let next = restir_stage_of_kind(vol, &cfg, params, scene, id, sample, st, stage, kind);
+    restir_finish(params, stage, next, sums)
+}
+
+/// After stage `stage` left `next`: the pixel's sums, with the sample's radiance added after the
+/// last stage.
+#[inline]
+fn restir_finish(
+    params: &RenderParams,
+    stage: u32,
+    next: RestirState,
+    sums: PixelSums,
+) -> (RestirState, PixelSums) {
     if stage + 1 < stage_count(params) {
         return (next, sums);
     }
@@ -398,7 +410,100 @@ pub fn restir_wave_step(
     (next, sums.add(l, l.luminance(), next.direct.tally()))
 }
 
-/// One reuse stage of the wavefront `restir` render of pixel `id` (`restir_cs` when
+/// A `restir` start stage ([`restir_wave_step`]'s signature; `restir_start_cs`): sample
+/// `sample`'s camera ray, scattering vertex and `direct`'s light and phase samples.
+#[allow(clippy::too_many_arguments)]
+pub fn restir_start_step(
+    vol: &VolumeView,
+    params: &RenderParams,
+    scene: &Scene,
+    id: u32,
+    sample: u32,
+    _stage: u32,
+    _kind: u32,
+    _st: RestirState,
+    sums: PixelSums,
+) -> (RestirState, PixelSums) {
+    let cfg = Config::decode(params, vol.desc);
+    let (world, rng) = camera_ray(params, id, sample);
+    (
+        restir_start(vol, &cfg, params, scene, &world, rng),
+        sums_before(sample, sums),
+    )
+}
+
+/// A `restir` candidate stage (`restir_candidate_cs`).
+#[allow(clippy::too_many_arguments)]
+pub fn restir_candidate_step(
+    vol: &VolumeView,
+    params: &RenderParams,
+    scene: &Scene,
+    id: u32,
+    sample: u32,
+    stage: u32,
+    _kind: u32,
+    st: RestirState,
+    sums: PixelSums,
+) -> (RestirState, PixelSums) {
+    let cfg = Config::decode(params, vol.desc);
+    let next = candidate_stage(vol, &cfg, params, scene, id, sample, st);
+    restir_finish(params, stage, next, sums)
+}
+
+/// A `restir` resolve stage (`restir_resolve_cs`).
+#[allow(clippy::too_many_arguments)]
+pub fn restir_resolve_step(
+    _vol: &VolumeView,
+    params: &RenderParams,
+    scene: &Scene,
+    _id: u32,
+    _sample: u32,
+    stage: u32,
+    _kind: u32,
+    st: RestirState,
+    sums: PixelSums,
+) -> (RestirState, PixelSums) {
+    let next = resolve_stage(scene, params, st);
+    restir_finish(params, stage, next, sums)
+}
+
+/// A `restir` transmittance-query stage (`restir_query_cs`).
+#[allow(clippy::too_many_arguments)]
+pub fn restir_query_step(
+    vol: &VolumeView,
+    params: &RenderParams,
+    scene: &Scene,
+    _id: u32,
+    _sample: u32,
+    stage: u32,
+    _kind: u32,
+    st: RestirState,
+    sums: PixelSums,
+) -> (RestirState, PixelSums) {
+    let cfg = Config::decode(params, vol.desc);
+    let next = query_stage(vol, &cfg, params, scene, st, stage);
+    restir_finish(params, stage, next, sums)
+}
+
+/// What `restir_reuse_cs` does in a stage that is not a reuse stage (the host never dispatches
+/// it so): leaves the state and sums as they are.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn restir_unchanged_step(
+    _vol: &VolumeView,
+    _params: &RenderParams,
+    _scene: &Scene,
+    _id: u32,
+    _sample: u32,
+    _stage: u32,
+    _kind: u32,
+    st: RestirState,
+    sums: PixelSums,
+) -> (RestirState, PixelSums) {
+    (st, sums)
+}
+
+/// One reuse stage of the wavefront `restir` render of pixel `id` (`restir_reuse_cs`, when
 /// [`is_reuse_stage`]): its new state from every pixel's (`states[j - base]` is pixel j's);
 /// [`store_reuse`] writes what changed.
 #[allow(clippy::too_many_arguments)]
