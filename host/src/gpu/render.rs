@@ -366,6 +366,30 @@ impl Wave {
         }
     }
 
+    /// Whether a stage of kind `kind` reads the render's estimator: `direct`'s start (free flight
+    /// by delta tracking, light and phase samples: `direct_start`) and `restir`'s start,
+    /// candidates, reuse and resolve (their targets' T̂ has its own estimator,
+    /// `--restir-target`) do not, so their pipelines leave specialization constant 1 at
+    /// [`UNSPECIALIZED`] (the kernel then reads the params buffer's value, which they ignore)
+    /// and one pipeline serves every `--estimator`.
+    fn reads_estimator(self, kind: u32) -> bool {
+        use shared::integrators::restir::KIND_QUERY;
+        match self {
+            Wave::Direct => kind != 0,
+            Wave::Path => true,
+            Wave::Restir => kind == KIND_QUERY,
+        }
+    }
+
+    /// The specialization constants of a stage of kind `kind` ([`specialization`]).
+    fn specialization(self, params: &RenderParams, kind: u32, paged: bool) -> Vec<u32> {
+        let mut spec = specialization(Some(params), kind, paged);
+        if !self.reads_estimator(kind) {
+            spec[1] = UNSPECIALIZED;
+        }
+        spec
+    }
+
     /// The kernel of a stage of kind `kind` (all take `LitBuffers`' layout).
     fn kernel(self, kind: u32) -> &'static super::KernelDef<PathPass, { path::COUNT }> {
         use shared::integrators::restir::{KIND_CANDIDATE, KIND_RESOLVE, KIND_REUSE, KIND_START};
@@ -424,7 +448,7 @@ fn render_wave(
         gpu.submit(Work {
             pipeline: &|push: &PathPass| {
                 let kind = stage_kind(params, push.mode);
-                (wave.kernel(kind), specialization(Some(params), kind, paged))
+                (wave.kernel(kind), wave.specialization(params, kind, paged))
             },
             buffers: buffers.slots(),
             uploads: uploads.take().unwrap_or_default(),
@@ -557,6 +581,46 @@ mod tests {
             Step::Run { push, .. } => push.sums_base == 64 && push.launch.seed == 9,
             Step::Barrier => true,
         }));
+    }
+
+    /// Stages that ignore the render's estimator share one pipeline across estimators; the
+    /// others are specialized to it.
+    #[test]
+    fn only_stages_that_read_the_estimator_are_specialized_to_it() {
+        use shared::integrators::restir::{
+            KIND_CANDIDATE, KIND_QUERY, KIND_RESOLVE, KIND_REUSE, KIND_START,
+        };
+        use shared::params::Estimator;
+        let with = |e: Estimator| RenderParams {
+            estimator: e as u32,
+            ..RenderParams::default()
+        };
+        let (a, b) = (with(Estimator::Jackknife), with(Estimator::RatioTracking));
+        let cases = [
+            (Wave::Direct, 0, false),
+            (Wave::Direct, 1, true),
+            (Wave::Path, 0, true),
+            (Wave::Path, 1, true),
+            (Wave::Restir, KIND_START, false),
+            (Wave::Restir, KIND_CANDIDATE, false),
+            (Wave::Restir, KIND_REUSE, false),
+            (Wave::Restir, KIND_RESOLVE, false),
+            (Wave::Restir, KIND_QUERY, true),
+        ];
+        for (wave, kind, reads) in cases {
+            let (sa, sb) = (
+                wave.specialization(&a, kind, false),
+                wave.specialization(&b, kind, false),
+            );
+            assert_eq!(sa[2], kind, "{wave:?} {kind}");
+            if reads {
+                assert_eq!(sa[1], Estimator::Jackknife as u32, "{wave:?} {kind}");
+                assert_ne!(sa, sb, "{wave:?} {kind}");
+            } else {
+                assert_eq!(sa[1], UNSPECIALIZED, "{wave:?} {kind}");
+                assert_eq!(sa, sb, "{wave:?} {kind}");
+            }
+        }
     }
 
     #[test]
