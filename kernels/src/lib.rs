@@ -3,7 +3,7 @@
 //!
 //! Binding numbers follow `shared::kernels::launch::bindings` (rust-gpu needs integer literals in
 //! `#[spirv(binding = N)]`; the host checks them against its named bindings at compile time);
-//! push constants are one `shared` struct per kernel (`Launch`, or `RenderPass` for `render_cs`).
+//! push constants are one `shared` struct per kernel (`Launch`, or `RenderPass` for `transmittance_cs` and `scattering_cs`).
 //! Specialization constants by id (host: `gpu::render::specialization`): 0 the integrator, 1 the
 //! estimator, 2 a wavefront stage's kind, 3 whether the voxel pool spans several pages (0: the
 //! whole pool is binding `VOXELS`; 1: pages of `GridDesc::page_log2` words at `VOXELS` and
@@ -100,7 +100,7 @@ pub fn rng_draws_cs(
 }
 
 macro_rules! render_kernel {
-    ($(#[$doc:meta])* $name:ident) => {
+    ($(#[$doc:meta])* $name:ident, |$vol:ident, $p:ident, $lights:ident, $i:ident, $pass:ident, $prev:ident| $call:expr) => {
         $(#[$doc])*
         #[allow(clippy::too_many_arguments)] // one argument per binding
         #[spirv(compute(threads(64)))]
@@ -162,17 +162,23 @@ macro_rules! render_kernel {
                     sums[slot]
                 };
                 let p = params[0].specialized(integrator, estimator);
-                sums[slot] =
-                    render::render_pixel_pass(&vol, &p, lights, i as u32, pass.s_begin, pass.s_end, prev);
+                let ($vol, $p, $lights, $i, $pass, $prev) = (&vol, &p, lights, i as u32, pass, prev);
+                sums[slot] = $call;
             }
         }
     };
 }
 
 render_kernel!(
-    /// One pass of a transmittance or single-scattering image: adds samples s_begin..s_end of
-    /// each pixel.
-    render_cs
+    /// One pass of a primary-ray transmittance image: adds samples s_begin..s_end of each pixel.
+    transmittance_cs,
+    |vol, p, _lights, i, pass, prev| render::transmittance_pixel_pass(vol, p, i, pass.s_begin, pass.s_end, prev)
+);
+
+render_kernel!(
+    /// One pass of a single-scattering image: adds samples s_begin..s_end of each pixel.
+    scattering_cs,
+    |vol, p, lights, i, pass, prev| render::scattering_pixel_pass(vol, p, lights, i, pass.s_begin, pass.s_end, prev)
 );
 
 /// A wavefront kernel (`direct_cs`, `path_cs`): the bindings of `bindings::direct` ==

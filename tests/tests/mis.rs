@@ -306,7 +306,7 @@ fn gpu_and_cpu_render_identical_images_for_every_integrator() {
                 let c = render_scene(&Backend::Cpu, &packed, &p, &test_lights(), false).unwrap();
                 let ids: Vec<u32> = (0..g.len() as u32).collect();
                 assert_bytes_equal(
-                    &format!("render_cs {integrator:?} {t_hat:?} {lookup:?}"),
+                    &format!("scattering_cs {integrator:?} {t_hat:?} {lookup:?}"),
                     &ids,
                     &g,
                     &c,

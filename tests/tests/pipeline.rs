@@ -246,7 +246,7 @@ fn gpu_and_cpu_render_identical_images_for_every_estimator_and_lookup() {
                 let c = render(&Backend::Cpu, &packed, &p, false).unwrap();
                 let ids: Vec<u32> = (0..g.len() as u32).collect();
                 assert_bytes_equal(
-                    &format!("render_cs {lookup:?} {est:?} {importance:?} {jitter:?}"),
+                    &format!("transmittance_cs {lookup:?} {est:?} {importance:?} {jitter:?}"),
                     &ids,
                     &g,
                     &c,
@@ -379,7 +379,12 @@ fn gpu_and_cpu_agree_for_every_estimator_and_many_samples_per_pixel() {
             let g = render(&gpu, &packed, &p, false).unwrap();
             let c = render(&Backend::Cpu, &packed, &p, false).unwrap();
             let ids: Vec<u32> = (0..g.len() as u32).collect();
-            assert_bytes_equal(&format!("render_cs {} {lookup:?}", spec.name), &ids, &g, &c);
+            assert_bytes_equal(
+                &format!("transmittance_cs {} {lookup:?}", spec.name),
+                &ids,
+                &g,
+                &c,
+            );
             if spec.name == "jackknife" {
                 let full: Vec<_> = c.iter().filter(|px| px.samples > 0).collect();
                 assert!(!full.is_empty());
@@ -413,7 +418,7 @@ fn dense_media_with_long_loops_still_agree_between_gpu_and_cpu() {
         let g = render(&gpu, &packed, &p, false).unwrap();
         let c = render(&Backend::Cpu, &packed, &p, false).unwrap();
         let ids: Vec<u32> = (0..g.len() as u32).collect();
-        assert_bytes_equal(&format!("render_cs dense {name}"), &ids, &g, &c);
+        assert_bytes_equal(&format!("transmittance_cs dense {name}"), &ids, &g, &c);
         let per_ray = c.iter().map(|px| px.samples as u64).sum::<u64>() as f64 / (16.0 * 48.0);
         println!("{name}: {per_ray:.1} lookups per ray");
         if name.ends_with("rm2") {

@@ -322,7 +322,7 @@ fn patchy_paged(vol: &DenseVolume, page_log2: u32) -> host::bricks::PackedVolume
 /// The pool in pages as a GPU binds it (here pages of a few bricks, so a small volume spans
 /// several): no brick's run crosses a page, every voxel reads as in the one-page layout, and
 /// transmittance, direct and path images are the same bytes on the CPU, paged or not, and on the
-/// GPU (pages bound as separate buffers) for transmittance and path (`render_cs` and `path_cs`
+/// GPU (pages bound as separate buffers) for transmittance and path (`transmittance_cs` and `path_cs`
 /// specialized with paged = 1; `direct_cs` comes from the same macro as `path_cs`, and each
 /// paged pipeline takes lavapipe ~30 s to compile).
 #[test]

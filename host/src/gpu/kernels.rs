@@ -123,7 +123,7 @@ pub const RNG_DRAWS: KernelDef<Launch, { rng_draws::COUNT }> =
         s[rng_draws::OUTPUT] = size_of::<RngDraws>();
         s
     });
-/// Element sizes of the bindings of `render_cs`.
+/// Element sizes of the bindings of `transmittance_cs` and `scattering_cs`.
 const RENDER_SIZES: [usize; render::COUNT] = {
     let mut s = [0; render::COUNT];
     s[render::PARAMS] = size_of::<RenderParams>();
@@ -139,9 +139,13 @@ const RENDER_SIZES: [usize; render::COUNT] = {
     s[render::SUMS] = size_of::<PixelSums>();
     s
 };
-/// `render_cs` (the pool's pages: specialization constant 3; a pool in one page leaves the other page bindings unread).
-pub const RENDER: KernelDef<RenderPass, { render::COUNT }> =
-    KernelDef::checked(Kernel::RenderCs, RENDER_SIZES);
+/// `transmittance_cs`: primary-ray transmittance (the pool's pages: specialization constant 3; a
+/// pool in one page leaves the other page bindings unread).
+pub const TRANSMITTANCE: KernelDef<RenderPass, { render::COUNT }> =
+    KernelDef::checked(Kernel::TransmittanceCs, RENDER_SIZES);
+/// `scattering_cs`: the single-scattering integrators (bindings and pages as `transmittance_cs`).
+pub const SCATTERING: KernelDef<RenderPass, { render::COUNT }> =
+    KernelDef::checked(Kernel::ScatteringCs, RENDER_SIZES);
 /// Element sizes of the bindings of `direct_cs`.
 const DIRECT_SIZES: [usize; direct::COUNT] = {
     let mut s = [0; direct::COUNT];
@@ -254,7 +258,7 @@ impl<'a> MapBuffers<'a> {
     }
 }
 
-/// The buffers of `render_cs`, by name.
+/// The buffers of `transmittance_cs` and `scattering_cs`, by name.
 #[derive(Clone, Copy)]
 pub struct RenderBuffers<'a> {
     pub params: &'a Buffer,
@@ -284,7 +288,7 @@ impl<'a> RenderBuffers<'a> {
 }
 
 /// The buffers of `direct_cs` and `path_cs` (one layout: `bindings::path` re-exports
-/// `bindings::direct`): those of `render_cs`, the lights', then the samples' states.
+/// `bindings::direct`): those of `transmittance_cs`, the lights', then the samples' states.
 pub struct LitBuffers<'a> {
     pub render: RenderBuffers<'a>,
     pub lighting: &'a Buffer,

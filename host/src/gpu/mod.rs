@@ -18,8 +18,8 @@ pub use error::GpuError;
 pub use kernels::{
     Kernel, KernelDef, LitBuffers, MapBuffers, MsmBuildBuffers, MsmStoreBuffers, PushConstants,
     RenderBuffers, DIRECT, EQUIANGULAR, MATH_VALUES, MSM_BUILD, MSM_LOOKUP, MSM_STORE, PATH, PHASE,
-    RENDER, RESTIR_CANDIDATE, RESTIR_QUERY, RESTIR_RESOLVE, RESTIR_REUSE, RESTIR_START, RNG_DRAWS,
-    TRANSMITTANCE_PAIR,
+    RESTIR_CANDIDATE, RESTIR_QUERY, RESTIR_RESOLVE, RESTIR_REUSE, RESTIR_START, RNG_DRAWS,
+    SCATTERING, TRANSMITTANCE, TRANSMITTANCE_PAIR,
 };
 use pipelines::Pipelines;
 pub use plan::{plan, Command, Step};

@@ -2,8 +2,8 @@
 
 use super::{
     Buffer, Gpu, LitBuffers, MsmBuildBuffers, MsmStoreBuffers, RenderBuffers, Step, Work, DIRECT,
-    MSM_BUILD, MSM_STORE, PATH, RENDER, RESTIR_CANDIDATE, RESTIR_QUERY, RESTIR_RESOLVE,
-    RESTIR_REUSE, RESTIR_START,
+    MSM_BUILD, MSM_STORE, PATH, RESTIR_CANDIDATE, RESTIR_QUERY, RESTIR_RESOLVE, RESTIR_REUSE,
+    RESTIR_START, SCATTERING, TRANSMITTANCE,
 };
 use crate::bricks::PackedVolume;
 use crate::lighting::SceneLights;
@@ -202,7 +202,7 @@ fn render_tiles(
     };
     let l = gpu.buffer(std::mem::size_of_val(points) as u64)?;
     // `direct_cs` and `path_cs` (wavefronts) also read the lights' block, the map and the
-    // samples' states; `render_cs` none of them.
+    // samples' states; `transmittance_cs` and `scattering_cs` none of them.
     let wave = match Integrator::from_u32(params.integrator) {
         Integrator::Direct => Some(Wave::Direct),
         Integrator::Path => Some(Wave::Path),
@@ -305,7 +305,11 @@ fn render_tiles(
             } else {
                 vec![]
             };
-            let kernel = &RENDER;
+            let kernel = if params.integrator == 0 {
+                &TRANSMITTANCE
+            } else {
+                &SCATTERING
+            };
             let paged = dev.paged();
             gpu.submit(Work {
                 pipeline: &|_: &RenderPass| {

@@ -241,26 +241,6 @@ pub fn restir_stage_of_kind(
     }
 }
 
-/// A [`KIND_CANDIDATE`] stage: streams one light candidate into the reservoir.
-#[inline]
-pub fn candidate_stage(
-    vol: &VolumeView,
-    cfg: &Config,
-    params: &RenderParams,
-    scene: &Scene,
-    id: u32,
-    sample: u32,
-    st: RestirState,
-) -> RestirState {
-    candidate(vol, cfg, params, scene, id, sample, st)
-}
-
-/// A [`KIND_RESOLVE`] stage: the kept sample's unshadowed contribution and its shadow query.
-#[inline]
-pub fn resolve_stage(scene: &Scene, params: &RenderParams, st: RestirState) -> RestirState {
-    resolve(scene, params, st)
-}
-
 /// A [`KIND_QUERY`] stage `stage`: transmittance query stage - M - P - 2.
 #[inline]
 pub fn query_stage(
@@ -275,9 +255,9 @@ pub fn query_stage(
     estimate_query(vol, cfg, params, scene, st, stage - first)
 }
 
-/// One candidate: a light by power, its target p̂ and resampling weight p̂ / (M p), streamed
-/// into the reservoir.
-fn candidate(
+/// A [`KIND_CANDIDATE`] stage: one candidate, a light by power, its target p̂ and resampling
+/// weight p̂ / (M p), streamed into the reservoir.
+pub fn candidate_stage(
     vol: &VolumeView,
     cfg: &Config,
     params: &RenderParams,
@@ -360,9 +340,10 @@ pub fn p_hat(
     (f * clamped, tally)
 }
 
-/// Stage M + P + 1: the kept light's query with weight albedo tint I phase / d^2 W (its T to
-/// come), from the reservoir of the last reuse pass.
-fn resolve(scene: &Scene, params: &RenderParams, st: RestirState) -> RestirState {
+/// A [`KIND_RESOLVE`] stage (M + P + 1): the kept light's unshadowed contribution and its shadow
+/// query, with weight albedo tint I phase / d^2 W (its T to come), from the reservoir of the last
+/// reuse pass.
+pub fn resolve_stage(scene: &Scene, params: &RenderParams, st: RestirState) -> RestirState {
     let kept = st.input(params.restir_passes);
     let big_w = kept.contribution_weight();
     if st.found == 0 || !(big_w > 0.0) {

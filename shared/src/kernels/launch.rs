@@ -59,7 +59,7 @@ pub mod bindings {
         pub const COUNT: usize = 1;
     }
 
-    /// `render_cs`: one pass of a primary-ray image.
+    /// `transmittance_cs` and `scattering_cs`: one pass of a primary-ray image.
     pub mod render {
         /// One `RenderParams`.
         pub const PARAMS: usize = 0;
@@ -79,10 +79,10 @@ pub mod bindings {
         pub const COUNT: usize = 13;
     }
 
-    /// `direct_cs`: one stage of a `direct` image: the bindings of `render_cs`, the lights', then
+    /// `direct_cs`: one stage of a `direct` image: the bindings of `transmittance_cs`, the lights', then
     /// the samples' states.
     pub mod direct {
-        /// One `RenderParams` (as `render_cs`).
+        /// One `RenderParams` (as `transmittance_cs`).
         pub const PARAMS: usize = 0;
         /// One `GridDesc`.
         pub const DESC: usize = 1;
