@@ -31,6 +31,12 @@ impl<'a> ByteReader<'a> {
         ByteReader::with_source(Box::new(std::io::Cursor::new(data)), data.len() as u64)
     }
 
+    /// A cursor at the start of the first `len` bytes of any reader (tests that count reads).
+    #[cfg(test)]
+    pub fn from_source(src: impl Read + Seek + 'a, len: u64) -> Self {
+        ByteReader::with_source(Box::new(src), len)
+    }
+
     /// A cursor at the start of the first `len` bytes of `file`, read through a window.
     pub fn stream(file: std::fs::File, len: u64) -> Self {
         ByteReader::with_source(Box::new(file), len)

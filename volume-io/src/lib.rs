@@ -140,20 +140,9 @@ impl Format {
     }
 }
 
-/// Reads a whole regular file, never more than the size it had when opened, with an error
-/// naming it; directories, FIFOs and devices (a symlink to `/dev/zero`) are refused unread.
-fn read_file(path: &Path) -> Result<Vec<u8>> {
-    use std::io::Read;
-    let (file, len) = open_file(path)?;
-    let mut bytes = Vec::with_capacity(usize::try_from(len).unwrap_or(0));
-    file.take(len)
-        .read_to_end(&mut bytes)
-        .with_context(|| format!("cannot read {}: check the path", path.display()))?;
-    Ok(bytes)
-}
-
-/// A reader over a regular file (checked as [`read_file`] does) that streams it through a
-/// window: its size when opened is its length, and only the window and each read are held.
+/// A reader over a regular file (directories, FIFOs and devices, e.g. a symlink to `/dev/zero`,
+/// are refused unread) that streams it through a window: its size when opened is its length, and
+/// only the window and each read are held.
 fn stream_file(path: &Path) -> Result<bytes::ByteReader<'static>> {
     let (file, len) = open_file(path)?;
     Ok(bytes::ByteReader::stream(file, len))

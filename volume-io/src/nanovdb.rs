@@ -6,6 +6,7 @@
 //! bounding box voxel by voxel; the dense load asks the crate's accessor for every voxel of the
 //! index bounding box. The two read the same voxels (tested on every fixture).
 
+use super::bytes::ByteReader;
 use super::topology::{bit, child_origin, ones, Survey, TopologySink};
 use super::{select_grid, DenseBuilder, GridEntry, LinearMap, Loaded, Voxels};
 use anyhow::{ensure, Context, Result};
@@ -29,7 +30,7 @@ const ZLIB_MAX_RATIO: u64 = 1032;
 /// more than `cap` voxels; `sparse`: keep it sparse where it can be (see
 /// [`super::LoadOptions::sparse`]).
 pub fn load(path: &Path, grid: Option<&str>, cap: u64, sparse: bool) -> Result<Loaded> {
-    preflight(&super::read_file(path)?)?;
+    preflight(&mut super::stream_file(path)?)?;
     let file = NvdbFile::open(path).map_err(explain)?;
     let entries: Vec<GridEntry> = file.grids().iter().map(entry).collect();
     let chosen = &file.grids()[select_grid(&entries, grid)?];
@@ -38,17 +39,25 @@ pub fn load(path: &Path, grid: Option<&str>, cap: u64, sparse: bool) -> Result<L
 
 /// Walks the file's segments and grid metadata as `nanovdb-rs` will, refusing what would make it
 /// index past the end of the file or decompress more than the file can hold: the crate trusts
-/// these sizes.
-fn preflight(bytes: &[u8]) -> Result<()> {
-    let len = bytes.len() as u64;
-    let field = |at: u64, n: u64, what: &str| -> Result<&[u8]> {
+/// these sizes. Reads only the headers and metadata through `r` (a streamed file); the grids
+/// themselves are only bounds-checked, so the file is never held in memory twice (`nanovdb-rs`
+/// maps it).
+fn preflight(r: &mut ByteReader) -> Result<()> {
+    let len = r.remaining() as u64;
+    // Whether [at, at + n) lies within the file, with the error naming `what`.
+    let within = |at: u64, n: u64, what: &str| -> Result<()> {
         let end = at.checked_add(n).filter(|&e| e <= len);
-        let end = end.with_context(|| {
+        end.map(|_| ()).with_context(|| {
             format!(
                 "the file is truncated: {what} at byte {at} needs {n} bytes, the file has {len}"
             )
-        })?;
-        Ok(&bytes[at as usize..end as usize])
+        })
+    };
+    // The `n` bytes at `at` (headers and metadata only: `n` is a small constant).
+    let mut field = |at: u64, n: u64, what: &str| -> Result<Vec<u8>> {
+        within(at, n, what)?;
+        r.seek(at)?;
+        Ok(r.bytes(n as usize)?.to_vec())
     };
     let u64_at = |b: &[u8], i: usize| u64::from_le_bytes(b[i..i + 8].try_into().expect("8 bytes"));
     ensure!(len > 0, "the file is empty");
@@ -56,7 +65,7 @@ fn preflight(bytes: &[u8]) -> Result<()> {
     while cursor < len {
         let head = field(cursor, SEGMENT_HEADER_BYTES, "a segment header")?;
         ensure!(
-            u64_at(head, 0) == GRID_MAGIC,
+            u64_at(&head, 0) == GRID_MAGIC,
             "not a NanoVDB file: bad magic number at byte {cursor} (expected \"NanoVDB0\")"
         );
         let grid_count = u16::from_le_bytes([head[12], head[13]]);
@@ -69,22 +78,22 @@ fn preflight(bytes: &[u8]) -> Result<()> {
         let mut grid_sizes = Vec::with_capacity(usize::from(grid_count));
         for _ in 0..grid_count {
             let meta = field(cursor, META_FIXED_BYTES, "grid metadata")?;
-            grid_sizes.push(u64_at(meta, 0));
+            grid_sizes.push(u64_at(&meta, 0));
             let name_size = u64::from(u32::from_le_bytes(meta[136..140].try_into().expect("4")));
             cursor += META_FIXED_BYTES;
-            field(cursor, name_size, "a grid name")?;
+            within(cursor, name_size, "a grid name")?;
             cursor += name_size;
         }
         for grid_size in grid_sizes {
             match codec {
                 0 => {
-                    field(cursor, grid_size, "a grid")?;
+                    within(cursor, grid_size, "a grid")?;
                     cursor += grid_size;
                 }
                 1 => {
-                    let compressed = u64_at(field(cursor, 8, "a compressed grid's size")?, 0);
+                    let compressed = u64_at(&field(cursor, 8, "a compressed grid's size")?, 0);
                     cursor += 8;
-                    field(cursor, compressed, "a compressed grid")?;
+                    within(cursor, compressed, "a compressed grid")?;
                     ensure!(
                         grid_size / ZLIB_MAX_RATIO <= compressed,
                         "a grid claims {grid_size} bytes from {compressed} compressed bytes, more \
@@ -419,5 +428,73 @@ impl<'a> Tree<'a> {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::cell::Cell;
+    use std::io::{Cursor, Read, Seek, SeekFrom};
+    use std::rc::Rc;
+
+    /// A reader over bytes in memory that counts the bytes read.
+    struct Counting {
+        inner: Cursor<Vec<u8>>,
+        read: Rc<Cell<u64>>,
+    }
+
+    impl Read for Counting {
+        fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+            let n = self.inner.read(buf)?;
+            self.read.set(self.read.get() + n as u64);
+            Ok(n)
+        }
+    }
+
+    impl Seek for Counting {
+        fn seek(&mut self, pos: SeekFrom) -> std::io::Result<u64> {
+            self.inner.seek(pos)
+        }
+    }
+
+    /// A one-segment, one-grid, uncompressed file whose grid is `grid` zero bytes.
+    fn file_with_grid(grid: u64) -> Vec<u8> {
+        let mut file = Vec::new();
+        file.extend(GRID_MAGIC.to_le_bytes());
+        file.extend(0u32.to_le_bytes()); // version (the crate checks it)
+        file.extend(1u16.to_le_bytes()); // grid count
+        file.extend(0u16.to_le_bytes()); // codec: none
+        let mut meta = vec![0u8; META_FIXED_BYTES as usize];
+        meta[0..8].copy_from_slice(&grid.to_le_bytes());
+        meta[136..140].copy_from_slice(&4u32.to_le_bytes());
+        file.extend(meta);
+        file.extend(b"test");
+        file.resize(file.len() + grid as usize, 0);
+        file
+    }
+
+    /// The preflight reads the headers, not the grids (`nanovdb-rs` maps the file; reading it
+    /// whole as well held it in memory twice): a file with a 64 MiB grid is checked reading at
+    /// most one 1 MiB window, and the same file one byte short is refused naming the grid.
+    #[test]
+    fn preflight_reads_the_headers_not_the_grids() {
+        let file = file_with_grid(64 << 20);
+        let read = Rc::new(Cell::new(0u64));
+        let len = file.len() as u64;
+        let src = Counting {
+            inner: Cursor::new(file.clone()),
+            read: read.clone(),
+        };
+        preflight(&mut ByteReader::from_source(src, len)).unwrap();
+        assert!(read.get() <= 1 << 20, "read {} bytes", read.get());
+
+        let short = file[..file.len() - 1].to_vec();
+        let n = short.len() as u64;
+        let err = preflight(&mut ByteReader::from_source(Cursor::new(short), n)).unwrap_err();
+        assert!(
+            err.to_string().contains("a grid at byte"),
+            "unexpected error: {err:#}"
+        );
     }
 }
