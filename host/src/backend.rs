@@ -120,6 +120,30 @@ impl Backend {
         })
     }
 
+    /// The GPU pipeline builds so far (none on the CPU): take one reading before and one after
+    /// a timed render, and [`gpu::BuildTime::since`] is the driver's compile time in it.
+    pub fn pipeline_builds(&self) -> gpu::BuildTime {
+        match self {
+            Backend::Cpu => gpu::BuildTime::default(),
+            Backend::Gpu(g) => g.pipeline_builds(),
+        }
+    }
+
+    /// Runs `render` and returns its result, its wall time in ms without the GPU pipeline
+    /// builds it waited for (each kernel variant compiles on first use), and those builds.
+    pub fn timed<T>(&self, render: impl FnOnce() -> Result<T>) -> Result<(T, f64, gpu::BuildTime)> {
+        let before = self.pipeline_builds();
+        let start = std::time::Instant::now();
+        let out = render()?;
+        let wall = start.elapsed();
+        let built = self.pipeline_builds().since(before);
+        Ok((
+            out,
+            wall.saturating_sub(built.wall).as_secs_f64() * 1e3,
+            built,
+        ))
+    }
+
     /// "cpu" or "gpu".
     pub fn kind(&self) -> &'static str {
         match self {

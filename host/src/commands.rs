@@ -426,7 +426,13 @@ pub struct RenderSummary {
     /// Super-voxel (and, for comparison, brick) reads of one traversal per pixel-centre
     /// camera ray that meets the grid; the estimators' lookups are counted apart.
     pub supervoxel_reads_per_ray: crate::traversal::ReadsPerRay,
+    /// Render time, without the GPU pipeline builds it waited for.
     pub elapsed_ms: f64,
+    /// Wall time of the GPU pipeline builds during the render (each kernel variant compiles on
+    /// first use: seconds to minutes on lavapipe, less with the driver's disk cache), and how
+    /// many were built.
+    pub pipeline_build_ms: f64,
+    pub pipeline_builds: u64,
     pub mean_samples_per_ray: f64,
     /// Mean transmittance (transmittance renders only).
     #[serde(rename = "mean_T", skip_serializing_if = "Option::is_none")]
@@ -944,10 +950,9 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
     } else {
         None
     };
-    let start = Instant::now();
-    let pixels =
-        crate::render::render_resident_lit(&resident, &params, &scene_lights, !args.quiet)?;
-    let elapsed_ms = start.elapsed().as_secs_f64() * 1e3;
+    let (pixels, elapsed_ms, built) = backend.timed(|| {
+        crate::render::render_resident_lit(&resident, &params, &scene_lights, !args.quiet)
+    })?;
 
     let flags = crate::diagnostics::RayFlags::of(&pixels, args.spp);
     flags.warn(&params);
@@ -1014,6 +1019,8 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         cell_traversal_steps: packed.desc.cell_budget(),
         supervoxel_reads_per_ray: sv.reads_per_ray,
         elapsed_ms,
+        pipeline_build_ms: built.wall.as_secs_f64() * 1e3,
+        pipeline_builds: built.count,
         mean_samples_per_ray: samples / rays,
         mean_t: (!radiance).then_some(mean),
         exr: args.out.display().to_string(),
@@ -1067,8 +1074,16 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
     if let Some(path) = &args.json {
         write_json(path, &summary)?;
     }
+    let compiled = match built.count {
+        0 => String::new(),
+        n => format!(
+            " (+ {:.1} s compiling {n} GPU pipeline{} on first use)",
+            built.wall.as_secs_f64(),
+            if n == 1 { "" } else { "s" }
+        ),
+    };
     println!(
-        "{} {}x{} spp {} on {}: {:.1} ms, {:.2} samples/ray, mean {} {:.5} -> {} (volume {volume_label})",
+        "{} {}x{} spp {} on {}: {:.1} ms{compiled}, {:.2} samples/ray, mean {} {:.5} -> {} (volume {volume_label})",
         summary.estimator,
         args.width,
         args.height,

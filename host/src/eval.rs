@@ -10,7 +10,6 @@ use anyhow::{Context, Result};
 use shared::kernels::render::PixelOut;
 use shared::params::RenderParams;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
 /// Statistics of one estimator over the pixels whose reference transmittance is below 1.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
@@ -34,8 +33,11 @@ pub struct EstimatorReport {
     /// Rays traced, rays a loop bound changed, rays outside the jackknife's regime (all pixels).
     #[serde(flatten)]
     pub flags: crate::diagnostics::RayFlags,
-    /// Render time of all spp for the whole image.
+    /// Render time of all spp for the whole image, without the GPU pipeline builds it waited
+    /// for (`pipeline_build_ms`: a kernel variant compiles on its first use).
     pub elapsed_ms: f64,
+    #[serde(default)]
+    pub pipeline_build_ms: f64,
     pub bias_exr: String,
     pub bias_png: String,
     pub std_exr: String,
@@ -351,10 +353,10 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
         let mut params = setup.params;
         spec.apply(&mut params);
         step(setup, k + 1, estimators.len(), spec.name, params.spp);
-        let start = Instant::now();
-        let pixels = render(setup.backend, setup.volume, &params, setup.progress)
+        let (pixels, elapsed_ms, built) = setup
+            .backend
+            .timed(|| render(setup.backend, setup.volume, &params, setup.progress))
             .with_context(|| format!("rendering {}", spec.name))?;
-        let elapsed_ms = start.elapsed().as_secs_f64() * 1e3;
         let bias: Vec<f32> = pixels
             .iter()
             .zip(&ref_t)
@@ -396,6 +398,7 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
             mean_samples_per_ray: masked(&|i| pixels[i].samples as f64) / params.spp as f64,
             flags: crate::diagnostics::RayFlags::of(&pixels, params.spp),
             elapsed_ms,
+            pipeline_build_ms: built.wall.as_secs_f64() * 1e3,
             bias_exr: file("bias.exr"),
             bias_png: file("bias.png"),
             std_exr: file("std.exr"),
@@ -477,8 +480,11 @@ pub struct IntegratorReport {
     pub mean_abs_error: f64,
     /// Mean radiance of the image.
     pub mean_radiance: f64,
-    /// Time to render all spp of the image.
+    /// Time to render all spp of the image, without the GPU pipeline builds it waited for
+    /// (`pipeline_build_ms`: a kernel variant compiles on its first use).
     pub elapsed_ms: f64,
+    #[serde(default)]
+    pub pipeline_build_ms: f64,
     /// Time per spp (one frame of 1 spp).
     pub ms_per_frame: f64,
     pub mean_samples_per_ray: f64,
@@ -554,16 +560,18 @@ pub fn evaluate_integrators(
         let mut params = setup.params;
         params.integrator = integrator as u32;
         step(setup, k + 1, integrators.len(), name, params.spp);
-        let start = Instant::now();
-        let pixels = crate::render::render_scene(
-            setup.backend,
-            setup.volume,
-            &params,
-            lights,
-            setup.progress,
-        )
-        .with_context(|| format!("rendering {name}"))?;
-        let elapsed_ms = start.elapsed().as_secs_f64() * 1e3;
+        let (pixels, elapsed_ms, built) = setup
+            .backend
+            .timed(|| {
+                crate::render::render_scene(
+                    setup.backend,
+                    setup.volume,
+                    &params,
+                    lights,
+                    setup.progress,
+                )
+            })
+            .with_context(|| format!("rendering {name}"))?;
         let l: Vec<f32> = pixels.iter().map(|p| p.t_mean).collect();
         let exr = setup.out_dir.join(format!("{name}.exr"));
         let png = setup.out_dir.join(format!("{name}.png"));
@@ -582,6 +590,7 @@ pub fn evaluate_integrators(
             mean_abs_error: pairs.map(|(a, b)| (a - b).abs()).sum::<f64>() / n,
             mean_radiance: l.iter().map(|&v| v as f64).sum::<f64>() / n,
             elapsed_ms,
+            pipeline_build_ms: built.wall.as_secs_f64() * 1e3,
             ms_per_frame: elapsed_ms / params.spp as f64,
             mean_samples_per_ray: pixels.iter().map(|p| p.samples as f64).sum::<f64>()
                 / (n * params.spp as f64),

@@ -26,7 +26,6 @@ use anyhow::{Context, Result};
 use shared::kernels::render::PixelOut;
 use shared::params::Integrator;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
 /// SMAPE's epsilon (Fig. 12).
 const SMAPE_EPS: f64 = 0.01;
@@ -44,6 +43,7 @@ pub struct DirectEntry {
     /// Mean over pixels of the standard deviation of one sample's luminance.
     pub mean_std: f64,
     pub mean_radiance: f64,
+    /// Render time, without the GPU pipeline builds it waited for.
     pub elapsed_ms: f64,
     /// Samples per pixel of this entry (`--spp`, or with `--equal-time` the calibrated count).
     #[serde(default)]
@@ -287,10 +287,12 @@ fn render_one(
     stem: &str,
     exposure: f32,
 ) -> Result<(Vec<PixelOut>, f64, String, String)> {
-    let start = Instant::now();
-    let pixels = crate::render::render_resident_lit(resident, params, lights, setup.progress)
+    // Without the GPU pipeline builds (a kernel variant compiles on first use): the equal-time
+    // calibration and the reported times compare renders, not the driver's compiler.
+    let (pixels, elapsed_ms, _) = setup
+        .backend
+        .timed(|| crate::render::render_resident_lit(resident, params, lights, setup.progress))
         .with_context(|| format!("rendering {stem}"))?;
-    let elapsed_ms = start.elapsed().as_secs_f64() * 1e3;
     let rgb: Vec<[f32; 3]> = pixels
         .iter()
         .map(|p| [p.rgb_mean.r, p.rgb_mean.g, p.rgb_mean.b])
@@ -454,10 +456,19 @@ pub fn evaluate_direct(
                     let timing = shared::params::RenderParams { spp, ..params };
                     let what = format!("{name} (timing run)");
                     crate::eval::step(setup, done, total, &what, spp);
-                    let start = Instant::now();
-                    crate::render::render_resident_lit(&resident, &timing, &entry_lights, false)
+                    // The entry's first render: without its pipeline builds (GPU), which
+                    // would otherwise count against its budget.
+                    let (_, ms, _) = setup
+                        .backend
+                        .timed(|| {
+                            crate::render::render_resident_lit(
+                                &resident,
+                                &timing,
+                                &entry_lights,
+                                false,
+                            )
+                        })
                         .with_context(|| format!("timing {name}"))?;
-                    let ms = start.elapsed().as_secs_f64() * 1e3;
                     let (fitted, clamped) = equal_time_spp(budget, ms / spp as f64);
                     if clamped {
                         tracing::warn!(

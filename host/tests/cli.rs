@@ -216,11 +216,13 @@ fn up_z_rotates_the_volume_and_is_recorded() {
     assert_eq!(extent(&z_up, 0), extent(&y_up, 0));
 }
 
+/// Also: the GPU render's time is reported without the pipeline build it waited for (a new
+/// process builds its kernel's pipeline again), which the JSON records apart; the CPU builds none.
 #[test]
 fn render_on_gpu_and_cpu_writes_identical_exr_files() {
     let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
     for (dir, backend) in [(&a, "gpu"), (&b, "cpu")] {
-        let (out, _) = small_render(
+        let (out, json) = small_render(
             dir.path(),
             &["--backend", backend, "--volume", "explosion", "--seed", "3"],
         );
@@ -229,6 +231,14 @@ fn render_on_gpu_and_cpu_writes_identical_exr_files() {
             "{}",
             String::from_utf8_lossy(&out.stderr)
         );
+        let (builds, build_ms) = (&json["pipeline_builds"], &json["pipeline_build_ms"]);
+        if backend == "gpu" {
+            assert_eq!(builds, 1, "{json}");
+            assert!(build_ms.as_f64().unwrap() > 0.0, "{json}");
+        } else {
+            assert_eq!(builds, 0, "{json}");
+            assert_eq!(build_ms, 0.0, "{json}");
+        }
     }
     let ga = std::fs::read(a.path().join("r.exr")).unwrap();
     let gb = std::fs::read(b.path().join("r.exr")).unwrap();

@@ -21,6 +21,7 @@ pub use kernels::{
     RESTIR_CANDIDATE, RESTIR_QUERY, RESTIR_RESOLVE, RESTIR_REUSE, RESTIR_START, RNG_DRAWS,
     SCATTERING, TRANSMITTANCE, TRANSMITTANCE_PAIR,
 };
+pub use pipelines::BuildTime;
 use pipelines::Pipelines;
 pub use plan::{plan, Command, Step};
 pub use resources::Buffer;
@@ -83,6 +84,12 @@ impl Gpu {
     /// Device name, type and Vulkan version.
     pub fn description(&self) -> &str {
         self.owner.description()
+    }
+
+    /// The pipeline builds of this device so far: a render's first use of a kernel variant
+    /// compiles it (lavapipe: seconds to minutes), which timed renders report apart.
+    pub fn pipeline_builds(&self) -> BuildTime {
+        self.pipelines.build_time()
     }
 
     /// A device-local storage buffer holding `data`, kept on the device across submissions.

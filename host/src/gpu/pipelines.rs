@@ -15,6 +15,7 @@ use ash::vk;
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
+use std::time::{Duration, Instant};
 
 /// Most pipelines one device builds at once: lavapipe needs up to 3.4 GB for one `restir` stage
 /// (measured, README), so more would risk a small machine's memory for little gain on few cores.
@@ -26,18 +27,56 @@ type Slot = Arc<Mutex<Option<Arc<Pipeline>>>>;
 /// The pipelines of one device.
 pub struct Pipelines {
     slots: Mutex<HashMap<(Kernel, Vec<u32>), Slot>>,
-    /// Builds in flight (at most [`PARALLEL_BUILDS`]) and its condition variable.
-    building: (Mutex<usize>, Condvar),
+    /// Builds in flight (at most [`PARALLEL_BUILDS`]) and what they took, with the condition
+    /// variable a waiting build sleeps on.
+    building: (Mutex<Building>, Condvar),
+}
+
+/// The builds of one device: in flight, and done so far.
+#[derive(Default)]
+struct Building {
+    /// Builds in flight.
+    active: usize,
+    /// When the current stretch of builds (some build in flight) began.
+    since: Option<Instant>,
+    /// Builds done.
+    done: u64,
+    /// Wall time with at least one build in flight (parallel builds counted once).
+    wall: Duration,
+}
+
+/// Pipeline builds of a device so far: how many, and the wall time they took (overlapping
+/// builds counted once), which a timed render subtracts from its own.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BuildTime {
+    pub count: u64,
+    pub wall: Duration,
+}
+
+impl BuildTime {
+    /// The builds since `before`, an earlier reading of the same device.
+    pub fn since(self, before: BuildTime) -> BuildTime {
+        BuildTime {
+            count: self.count - before.count,
+            wall: self.wall.saturating_sub(before.wall),
+        }
+    }
 }
 
 /// Holds one of the [`PARALLEL_BUILDS`] build permits until dropped.
-struct Permit<'a>(&'a (Mutex<usize>, Condvar));
+struct Permit<'a>(&'a (Mutex<Building>, Condvar));
 
 impl Drop for Permit<'_> {
     fn drop(&mut self) {
-        let (count, freed) = self.0;
-        if let Ok(mut n) = count.lock() {
-            *n -= 1;
+        let (state, freed) = self.0;
+        if let Ok(mut b) = state.lock() {
+            b.active -= 1;
+            b.done += 1;
+            if b.active == 0 {
+                if let Some(since) = b.since.take() {
+                    b.wall += since.elapsed();
+                }
+            }
         }
         freed.notify_one();
     }
@@ -51,18 +90,30 @@ impl Pipelines {
     pub fn new() -> Self {
         Pipelines {
             slots: Mutex::new(HashMap::new()),
-            building: (Mutex::new(0), Condvar::new()),
+            building: (Mutex::new(Building::default()), Condvar::new()),
+        }
+    }
+
+    /// The builds done so far and the wall time they took.
+    pub fn build_time(&self) -> BuildTime {
+        let b = self.building.0.lock().unwrap_or_else(|e| e.into_inner());
+        BuildTime {
+            count: b.done,
+            wall: b.wall,
         }
     }
 
     /// Waits for one of the build permits.
     fn permit(&self) -> Result<Permit<'_>, GpuError> {
-        let (count, freed) = &self.building;
-        let mut n = count.lock().map_err(poisoned)?;
-        while *n >= PARALLEL_BUILDS {
-            n = freed.wait(n).map_err(poisoned)?;
+        let (state, freed) = &self.building;
+        let mut b = state.lock().map_err(poisoned)?;
+        while b.active >= PARALLEL_BUILDS {
+            b = freed.wait(b).map_err(poisoned)?;
         }
-        *n += 1;
+        if b.active == 0 {
+            b.since = Some(Instant::now());
+        }
+        b.active += 1;
         Ok(Permit(&self.building))
     }
 
