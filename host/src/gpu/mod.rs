@@ -40,13 +40,16 @@ pub struct Gpu {
     kernel_ns: std::sync::atomic::AtomicU64,
 }
 
+/// A dispatch's kernel and specialization-constant values, from its push constants.
+pub type PipelineOf<'a, P, const N: usize> = dyn Fn(&P) -> (&'a KernelDef<P, N>, Vec<u32>) + 'a;
+
 /// GPU work submitted at once: uploads, then the kernel's steps, then readbacks.
 pub struct Work<'a, P, const N: usize> {
     /// The pipeline of each dispatch, from its push constants: its kernel (all of one push-constant
     /// type and binding layout: one kernel, or one per stage kind of a wavefront, `restir_*_cs`)
     /// and the values of that kernel's specialization constants by id (empty: the module's
     /// defaults). Each distinct pair is its own pipeline, built on first use.
-    pub pipeline: &'a dyn Fn(&P) -> (&'a KernelDef<P, N>, Vec<u32>),
+    pub pipeline: &'a PipelineOf<'a, P, N>,
     /// The storage buffers in binding order (see [`RenderBuffers::slots`]).
     pub buffers: [&'a Buffer; N],
     /// Host bytes copied into device buffers before the first dispatch.

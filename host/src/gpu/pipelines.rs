@@ -21,6 +21,9 @@ use std::time::{Duration, Instant};
 /// (measured, README), so more would risk a small machine's memory for little gain on few cores.
 pub const PARALLEL_BUILDS: usize = 2;
 
+/// What building (or finding) one pipeline gave.
+type Built = Result<Arc<Pipeline>, GpuError>;
+
 /// One pipeline's slot: empty until its first build succeeds.
 type Slot = Arc<Mutex<Option<Arc<Pipeline>>>>;
 
@@ -151,8 +154,7 @@ impl Pipelines {
             return keys.iter().map(|(k, s)| self.get(owner, *k, s)).collect();
         }
         let next = AtomicUsize::new(0);
-        let results: Vec<Mutex<Option<Result<Arc<Pipeline>, GpuError>>>> =
-            keys.iter().map(|_| Mutex::new(None)).collect();
+        let results: Vec<Mutex<Option<Built>>> = keys.iter().map(|_| Mutex::new(None)).collect();
         std::thread::scope(|scope| {
             for _ in 0..threads {
                 scope.spawn(|| loop {
