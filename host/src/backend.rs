@@ -120,9 +120,8 @@ impl Backend {
         })
     }
 
-    /// The GPU pipeline builds so far (none on the CPU): take one reading before and one after
-    /// a timed render, and [`gpu::BuildTime::since`] is the driver's compile time in it.
-    pub fn pipeline_builds(&self) -> gpu::BuildTime {
+    /// The GPU pipeline builds so far (none on the CPU), for [`Backend::timed`].
+    fn pipeline_builds(&self) -> gpu::BuildTime {
         match self {
             Backend::Cpu => gpu::BuildTime::default(),
             Backend::Gpu(g) => g.pipeline_builds(),
@@ -137,11 +136,8 @@ impl Backend {
         let out = render()?;
         let wall = start.elapsed();
         let built = self.pipeline_builds().since(before);
-        Ok((
-            out,
-            wall.saturating_sub(built.wall).as_secs_f64() * 1e3,
-            built,
-        ))
+        let ms = wall.saturating_sub(built.wall).as_secs_f64() * 1e3;
+        Ok((out, ms, built))
     }
 
     /// "cpu" or "gpu".

@@ -1019,7 +1019,7 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         cell_traversal_steps: packed.desc.cell_budget(),
         supervoxel_reads_per_ray: sv.reads_per_ray,
         elapsed_ms,
-        pipeline_build_ms: built.wall.as_secs_f64() * 1e3,
+        pipeline_build_ms: built.ms(),
         pipeline_builds: built.count,
         mean_samples_per_ray: samples / rays,
         mean_t: (!radiance).then_some(mean),

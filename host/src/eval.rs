@@ -398,7 +398,7 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
             mean_samples_per_ray: masked(&|i| pixels[i].samples as f64) / params.spp as f64,
             flags: crate::diagnostics::RayFlags::of(&pixels, params.spp),
             elapsed_ms,
-            pipeline_build_ms: built.wall.as_secs_f64() * 1e3,
+            pipeline_build_ms: built.ms(),
             bias_exr: file("bias.exr"),
             bias_png: file("bias.png"),
             std_exr: file("std.exr"),
@@ -590,7 +590,7 @@ pub fn evaluate_integrators(
             mean_abs_error: pairs.map(|(a, b)| (a - b).abs()).sum::<f64>() / n,
             mean_radiance: l.iter().map(|&v| v as f64).sum::<f64>() / n,
             elapsed_ms,
-            pipeline_build_ms: built.wall.as_secs_f64() * 1e3,
+            pipeline_build_ms: built.ms(),
             ms_per_frame: elapsed_ms / params.spp as f64,
             mean_samples_per_ray: pixels.iter().map(|p| p.samples as f64).sum::<f64>()
                 / (n * params.spp as f64),

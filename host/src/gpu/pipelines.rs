@@ -57,6 +57,11 @@ pub struct BuildTime {
 }
 
 impl BuildTime {
+    /// The wall time in milliseconds.
+    pub fn ms(self) -> f64 {
+        self.wall.as_secs_f64() * 1e3
+    }
+
     /// The builds since `before`, an earlier reading of the same device.
     pub fn since(self, before: BuildTime) -> BuildTime {
         BuildTime {
