@@ -180,6 +180,17 @@ fn specialization(params: Option<&RenderParams>, stage_kind: u32, paged: bool) -
     vec![integrator, estimator, stage_kind, u32::from(paged)]
 }
 
+/// The specialization of `transmittance_cs` (integrator 0) or `scattering_cs`: single
+/// scattering's shadow rays are always the jackknife (`integrators::lighting`), so one
+/// `scattering_cs` pipeline per integrator serves every `--estimator`.
+fn render_specialization(params: &RenderParams, paged: bool) -> Vec<u32> {
+    let mut spec = specialization(Some(params), UNSPECIALIZED, paged);
+    if params.integrator != 0 {
+        spec[1] = UNSPECIALIZED;
+    }
+    spec
+}
+
 /// [`GpuVolume::render_sums`].
 fn render_tiles(
     dev: &GpuVolume,
@@ -312,9 +323,7 @@ fn render_tiles(
             };
             let paged = dev.paged();
             gpu.submit(Work {
-                pipeline: &|_: &RenderPass| {
-                    (kernel, specialization(Some(params), UNSPECIALIZED, paged))
-                },
+                pipeline: &|_: &RenderPass| (kernel, render_specialization(params, paged)),
                 buffers: buffers.slots(),
                 uploads: std::mem::take(&mut uploads),
                 steps,
@@ -585,6 +594,33 @@ mod tests {
             Step::Run { push, .. } => push.sums_base == 64 && push.launch.seed == 9,
             Step::Barrier => true,
         }));
+    }
+
+    /// Single scattering ignores the render's estimator (its shadow rays are the jackknife):
+    /// one pipeline per integrator; transmittance images are specialized to the estimator.
+    #[test]
+    fn scattering_shares_a_pipeline_across_estimators() {
+        use shared::params::{Estimator, Integrator};
+        let with = |i: Integrator, e: Estimator| RenderParams {
+            integrator: i as u32,
+            estimator: e as u32,
+            ..RenderParams::default()
+        };
+        let (j, r) = (Estimator::Jackknife, Estimator::RatioTracking);
+        let t = Integrator::Transmittance;
+        assert_ne!(
+            render_specialization(&with(t, j), false),
+            render_specialization(&with(t, r), false)
+        );
+        for i in [Integrator::MisJackknife, Integrator::FreeFlight] {
+            let (a, b) = (
+                render_specialization(&with(i, j), false),
+                render_specialization(&with(i, r), false),
+            );
+            assert_eq!(a, b, "{i:?}");
+            assert_eq!(a[0], i as u32, "{i:?}");
+            assert_eq!(a[1], UNSPECIALIZED, "{i:?}");
+        }
     }
 
     /// Stages that ignore the render's estimator share one pipeline across estimators; the

@@ -14,6 +14,7 @@ pub mod path;
 pub mod resampling_mis;
 pub mod restir;
 pub mod restir_reuse;
+mod strategy;
 mod weights;
 
 use crate::geometry::{to_index_space, Ray};
@@ -25,8 +26,7 @@ use crate::tally::Tally;
 use crate::volume::dda::clip_to_box;
 use crate::volume::grid::VolumeView;
 use context::{grid_hi, Context};
-use equiangular::equiangular_strategy;
-use free_flight::free_flight_strategy;
+use strategy::strategy;
 
 /// Radiance along one world-space camera ray; returns (L, tally, rng) (decodes `params`; a render
 /// decodes once per pass and calls [`trace_radiance`]).
@@ -81,17 +81,16 @@ pub fn trace_radiance(
     let mut total = 0.0f32;
     let mut tally = Tally::default();
     let mut rng = rng;
-    if which != Integrator::FreeFlight {
-        let (l, t, r) = equiangular_strategy(&ctx, which, rng);
+    // Strategy 0 (equiangular) unless free-flight only, strategy 1 (free flight) unless
+    // equiangular only: one loop body, so a kernel holds the strategies' estimators once.
+    let mut s = u32::from(which == Integrator::FreeFlight);
+    let last = u32::from(which != Integrator::Equiangular);
+    while s <= last {
+        let (l, t, r) = strategy(&ctx, which, s, rng);
         total += l;
         tally = tally.merge(t);
         rng = r;
-    }
-    if which != Integrator::Equiangular {
-        let (l, t, r) = free_flight_strategy(&ctx, which, rng);
-        total += l;
-        tally = tally.merge(t);
-        rng = r;
+        s += 1;
     }
     (total, tally, rng)
 }

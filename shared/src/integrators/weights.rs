@@ -2,9 +2,7 @@
 //! naive g(X) of Fig. 12d), and the power heuristic through Re g (beyond the paper).
 
 use crate::complex::Complex;
-use crate::estimators::optical_depth::{
-    estimate_pair, estimate_single, prepare, DepthPairEstimate,
-};
+use crate::estimators::optical_depth::{estimate_interleaved, prepare, DepthPairEstimate, Strata};
 use crate::estimators::transmittance;
 use crate::geometry::Ray;
 use crate::math;
@@ -13,14 +11,18 @@ use crate::rng::HashRng;
 use crate::tally::Tally;
 use crate::volume::grid::{Lookup, VolumeView};
 
-/// Two optical depth estimates of [t_start, t_end] of an index-space ray (Alg. 2 + Alg. 1).
+/// Optical depth estimates of [t_start, t_end] of an index-space ray with n0 and n1 samples
+/// (Alg. 2 + Alg. 1): a pair (n1 = n0) for a jackknife, or one estimate X in `x0` (n1 = 0), the
+/// naive MIS weight g(X) of the paper's Fig. 12d.
+#[allow(clippy::too_many_arguments)]
 #[inline]
-pub(super) fn depth_pair(
+pub(super) fn depth(
     vol: &VolumeView,
     ray: &Ray,
     t_start: f32,
     t_end: f32,
-    n: u32,
+    n0: u32,
+    n1: u32,
     lookup: Lookup,
     rng: HashRng,
 ) -> (DepthPairEstimate, HashRng) {
@@ -28,39 +30,12 @@ pub(super) fn depth_pair(
         return (DepthPairEstimate::default(), rng);
     }
     let prep = prepare(vol, ray, t_start, t_end, Importance::VarianceAware);
-    estimate_pair(
+    let plan = Strata::fixed(&prep, n0, n1);
+    estimate_interleaved(
         vol,
         ray,
         &prep,
-        n,
-        Importance::VarianceAware,
-        Jitter::Stratified,
-        lookup,
-        rng,
-    )
-}
-
-/// One optical depth estimate X of [t_start, t_end] with n samples (m = 1; Alg. 2 + Alg. 1):
-/// the naive MIS weight g(X) of the paper's Fig. 12d. Returns (X in `x0`, rng).
-#[inline]
-pub(super) fn depth_single(
-    vol: &VolumeView,
-    ray: &Ray,
-    t_start: f32,
-    t_end: f32,
-    n: u32,
-    lookup: Lookup,
-    rng: HashRng,
-) -> (DepthPairEstimate, HashRng) {
-    if !(t_start < t_end) {
-        return (DepthPairEstimate::default(), rng);
-    }
-    let prep = prepare(vol, ray, t_start, t_end, Importance::VarianceAware);
-    estimate_single(
-        vol,
-        ray,
-        &prep,
-        n,
+        &plan,
         Importance::VarianceAware,
         Jitter::Stratified,
         lookup,
