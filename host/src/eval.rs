@@ -19,10 +19,12 @@ pub struct EstimatorReport {
     pub unbiased: bool,
     /// Mean over pixels of (pixel mean - reference).
     pub mean_bias: f64,
-    /// Mean over pixels of |pixel mean - reference|; includes Monte Carlo noise of the mean.
+    /// Mean over pixels of |pixel mean - reference|; includes the Monte Carlo noise of both.
     pub mean_abs_bias: f64,
-    /// Expected mean |error| of an unbiased estimator with this std and spp: mean of
-    /// std * sqrt(2 / (pi spp)). `mean_abs_bias` near this means bias below the noise.
+    /// Expected mean |error| of an unbiased estimator with this std and spp against this
+    /// reference: mean of sqrt(2 / pi) * sqrt(std^2 / spp + the reference mean's variance)
+    /// (std * sqrt(2 / (pi spp)) against an exact reference). `mean_abs_bias` near this means
+    /// bias below the noise.
     pub abs_bias_noise_floor: f64,
     /// Mean over pixels of the per-sample standard deviation.
     pub mean_std: f64,
@@ -243,6 +245,17 @@ fn write_false_colour(
 }
 
 /// Per-sample standard deviation of one pixel (Bessel-corrected).
+/// E|X - R| of a pixel mean X with per-sample std `std` over `spp` samples and a reference mean
+/// R of variance `ref_var`, both unbiased and normal: sqrt(2 / pi) * sqrt(std^2 / spp + ref_var);
+/// `noise` = sqrt(2 / (pi spp)) gives std * noise for an exact reference (ref_var = 0).
+fn abs_error_floor(std: f64, spp: u32, ref_var: f64, noise: f64) -> f64 {
+    if ref_var == 0.0 {
+        std * noise
+    } else {
+        (2.0 / std::f64::consts::PI).sqrt() * (std * std / f64::from(spp) + ref_var).sqrt()
+    }
+}
+
 fn pixel_std(p: &PixelOut, spp: u32) -> f64 {
     let var = (p.t2_mean as f64 - (p.t_mean as f64).powi(2)).max(0.0);
     let n = spp as f64;
@@ -345,6 +358,12 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
     );
     write_exr(&reference_exr, w, h, &ref_t)?;
     crate::output::write_png(&reference_png, w, h, &ref_t)?;
+    // The variance of each reference pixel's mean (0 for an exact reference: one deterministic
+    // estimate per pixel), part of the noise floor of every |bias|.
+    let ref_var: Vec<f64> = reference
+        .iter()
+        .map(|p| pixel_std(p, setup.reference_spp).powi(2) / f64::from(setup.reference_spp))
+        .collect();
     let mask: Vec<bool> = ref_t.iter().map(|&t| t < 1.0).collect();
     let count = mask.iter().filter(|&&m| m).count().max(1);
 
@@ -392,7 +411,9 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
             unbiased: spec.unbiased,
             mean_bias: masked(&|i| bias[i] as f64),
             mean_abs_bias: masked(&|i| (bias[i] as f64).abs()),
-            abs_bias_noise_floor: masked(&|i| std[i] as f64 * noise),
+            abs_bias_noise_floor: masked(&|i| {
+                abs_error_floor(std[i] as f64, params.spp, ref_var[i], noise)
+            }),
             mean_std: masked(&|i| std[i] as f64),
             rmse: masked(&|i| (bias[i] as f64).powi(2) + (std[i] as f64).powi(2)).sqrt(),
             mean_samples_per_ray: masked(&|i| pixels[i].samples as f64) / params.spp as f64,
@@ -617,4 +638,24 @@ pub fn evaluate_integrators(
         exposure,
         integrators: reports,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::abs_error_floor;
+
+    /// An exact reference leaves the floor at std * sqrt(2 / (pi spp)); a reference mean as
+    /// noisy as the estimate's raises it by sqrt(2) (the difference of two such means).
+    #[test]
+    fn the_noise_floor_counts_the_reference_noise() {
+        let (std, spp) = (0.3, 64);
+        let noise = (2.0 / (std::f64::consts::PI * f64::from(spp))).sqrt();
+        let exact = abs_error_floor(std, spp, 0.0, noise);
+        assert_eq!(exact, std * noise);
+        let noisy = abs_error_floor(std, spp, std * std / f64::from(spp), noise);
+        assert!(
+            (noisy / exact - 2f64.sqrt()).abs() < 1e-12,
+            "{noisy} vs {exact}"
+        );
+    }
 }
