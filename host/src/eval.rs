@@ -244,18 +244,19 @@ fn write_false_colour(
     crate::output::write_rgb_png(path, w, h, &bytes)
 }
 
-/// Per-sample standard deviation of one pixel (Bessel-corrected).
 /// E|X - R| of a pixel mean X with per-sample std `std` over `spp` samples and a reference mean
-/// R of variance `ref_var`, both unbiased and normal: sqrt(2 / pi) * sqrt(std^2 / spp + ref_var);
-/// `noise` = sqrt(2 / (pi spp)) gives std * noise for an exact reference (ref_var = 0).
-fn abs_error_floor(std: f64, spp: u32, ref_var: f64, noise: f64) -> f64 {
+/// R of variance `ref_var`, both unbiased and normal: sqrt(2 / pi) * sqrt(std^2 / spp + ref_var),
+/// written std * sqrt(2 / (pi spp)) for an exact reference (ref_var = 0; the former floor's bits).
+fn abs_error_floor(std: f64, spp: u32, ref_var: f64) -> f64 {
+    let pi = std::f64::consts::PI;
     if ref_var == 0.0 {
-        std * noise
+        std * (2.0 / (pi * f64::from(spp))).sqrt()
     } else {
-        (2.0 / std::f64::consts::PI).sqrt() * (std * std / f64::from(spp) + ref_var).sqrt()
+        (2.0 / pi).sqrt() * (std * std / f64::from(spp) + ref_var).sqrt()
     }
 }
 
+/// Per-sample standard deviation of one pixel (Bessel-corrected).
 fn pixel_std(p: &PixelOut, spp: u32) -> f64 {
     let var = (p.t2_mean as f64 - (p.t_mean as f64).powi(2)).max(0.0);
     let n = spp as f64;
@@ -388,7 +389,6 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
         let masked = |f: &dyn Fn(usize) -> f64| {
             (0..pixels.len()).filter(|&i| mask[i]).map(f).sum::<f64>() / count as f64
         };
-        let noise = (2.0 / (std::f64::consts::PI * params.spp as f64)).sqrt();
         let file = |suffix: &str| {
             estimator_file(setup.out_dir, spec.name, suffix)
                 .display()
@@ -412,7 +412,7 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
             mean_bias: masked(&|i| bias[i] as f64),
             mean_abs_bias: masked(&|i| (bias[i] as f64).abs()),
             abs_bias_noise_floor: masked(&|i| {
-                abs_error_floor(std[i] as f64, params.spp, ref_var[i], noise)
+                abs_error_floor(std[i] as f64, params.spp, ref_var[i])
             }),
             mean_std: masked(&|i| std[i] as f64),
             rmse: masked(&|i| (bias[i] as f64).powi(2) + (std[i] as f64).powi(2)).sqrt(),
@@ -650,9 +650,9 @@ mod tests {
     fn the_noise_floor_counts_the_reference_noise() {
         let (std, spp) = (0.3, 64);
         let noise = (2.0 / (std::f64::consts::PI * f64::from(spp))).sqrt();
-        let exact = abs_error_floor(std, spp, 0.0, noise);
+        let exact = abs_error_floor(std, spp, 0.0);
         assert_eq!(exact, std * noise);
-        let noisy = abs_error_floor(std, spp, std * std / f64::from(spp), noise);
+        let noisy = abs_error_floor(std, spp, std * std / f64::from(spp));
         assert!(
             (noisy / exact - 2f64.sqrt()).abs() < 1e-12,
             "{noisy} vs {exact}"
