@@ -418,7 +418,8 @@ pub struct RenderSummary {
     pub split_ratio: Option<f32>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub split_occupancy: Option<f32>,
-    /// Bricks split into cells, and the cell records they add to the table.
+    /// Bricks split into cells, and the cell records they add to the table (each split brick
+    /// adds a cell box record too, counted in `brick_table_bytes`, not here).
     pub subdivided_bricks: usize,
     pub supervoxel_cells: usize,
     /// Most cell iterations one traversal of the super-voxels may take (0: none subdivided).
@@ -1015,7 +1016,7 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         split_ratio: sv.split_ratio,
         split_occupancy: sv.split_occupancy,
         subdivided_bricks: sv.subdivided_bricks,
-        supervoxel_cells: packed.bricks.len() - packed.grid_bricks().len(),
+        supervoxel_cells: packed.bricks.len() - packed.grid_bricks().len() - sv.subdivided_bricks,
         cell_traversal_steps: packed.desc.cell_budget(),
         supervoxel_reads_per_ray: sv.reads_per_ray,
         elapsed_ms,

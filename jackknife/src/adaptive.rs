@@ -112,3 +112,25 @@ pub(crate) fn split(
     }
     (mass <= ratio as f64 * brick_mass).then_some(cells)
 }
+
+/// The box [lo, hi) of the cells (s^3 records, x fastest) whose statistics are not all 0, in
+/// cell coordinates ([`Brick::cell_box_record`]); lo = hi = 0 when every cell is 0.
+pub(crate) fn cell_box(cells: &[Brick], s: u32) -> ([u32; 3], [u32; 3]) {
+    let (mut lo, mut hi) = ([s; 3], [0; 3]);
+    for (i, c) in cells.iter().enumerate() {
+        if c.has_zero_statistics() {
+            continue;
+        }
+        let i = i as u32;
+        let at = [i % s, i / s % s, i / (s * s)];
+        for a in 0..3 {
+            lo[a] = lo[a].min(at[a]);
+            hi[a] = hi[a].max(at[a] + 1);
+        }
+    }
+    if hi[0] == 0 {
+        ([0; 3], [0; 3])
+    } else {
+        (lo, hi)
+    }
+}

@@ -186,7 +186,8 @@ impl Grid {
 
     /// Bytes the table would take BC4-compressed ([`crate::bc4::bc4_table_bytes`]): the
     /// bricks', plus with subdivided bricks their cells' (each brick's s x s x s cells as s
-    /// slices of s x s) and a 4-byte cell index per brick.
+    /// slices of s x s) and its 8-byte cell box ([`Brick::cell_box_record`]), and a 4-byte cell
+    /// index per brick.
     pub fn bc4_table_bytes(&self) -> u64 {
         let d = self.desc.brick_dims;
         let bricks = crate::bc4::bc4_table_bytes([d[0], d[1], d[2]]);
@@ -195,7 +196,7 @@ impl Grid {
             return bricks;
         }
         let s = self.desc.cells_per_brick();
-        let per_brick = crate::bc4::bc4_table_bytes([s, s, s]) - 4 * (s as u64).pow(3);
+        let per_brick = crate::bc4::bc4_table_bytes([s, s, s]) - 4 * (s as u64).pow(3) + 8;
         bricks + n * per_brick + 4 * self.grid_bricks().len() as u64
     }
 
@@ -525,12 +526,14 @@ impl<'a> GridBuilder<'a> {
                     .collect();
                 let mut bricks = bricks;
                 let mut cells = Vec::new();
+                let per_brick = ((b / cell) as usize).pow(3);
                 for (brick, split) in bricks.iter_mut().zip(split) {
                     if let Some(split) = split {
-                        let first = n_bricks + cells.len();
+                        // Each subdivided brick: its cell box record, then its cells.
+                        let first = n_bricks + cells.len() / per_brick * (per_brick + 1);
                         brick.cells = u32::try_from(first)
                             .ok()
-                            .filter(|&f| f as usize + split.len() <= u32::MAX as usize)
+                            .filter(|&f| f as usize + per_brick < u32::MAX as usize)
                             .ok_or(BuildError::Table(dims))?;
                         cells.extend(split);
                     }
@@ -547,9 +550,14 @@ impl<'a> GridBuilder<'a> {
         if !cells.is_empty() {
             let n = (s * s) as usize;
             let dims = [s, s, (cells.len() / n) as u32];
-            match self.format {
-                SupervoxelFormat::F32 => bricks.extend(cells),
-                SupervoxelFormat::Bc4 => bricks.extend(crate::bc4::compress_bricks(&cells, dims)),
+            let cells = match self.format {
+                SupervoxelFormat::F32 => cells,
+                SupervoxelFormat::Bc4 => crate::bc4::compress_bricks(&cells, dims),
+            };
+            for split in cells.chunks(n * s as usize) {
+                let (lo, hi) = crate::adaptive::cell_box(split, s);
+                bricks.push(Brick::cell_box_record(lo, hi));
+                bricks.extend_from_slice(split);
             }
         }
         let s = if subdivided == 0 { 0 } else { s };
@@ -812,7 +820,7 @@ fn round_up(v: f64) -> f32 {
 /// Whether a traversal may skip brick `b`: no voxels stored and all statistics 0 (adds nothing
 /// to any estimator's sums, takes no sample and no free flight stops in it).
 fn is_zero(b: &Brick) -> bool {
-    !b.stores_voxels() && b.mu_min == 0.0 && b.mu_max == 0.0 && b.mean == 0.0 && b.p == 0.0
+    !b.stores_voxels() && b.has_zero_statistics()
 }
 
 /// Gives every all-zero brick ([`is_zero`]) the slot [`skip_slot`]`(L)` of the largest aligned

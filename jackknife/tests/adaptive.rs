@@ -1,7 +1,8 @@
 //! Adaptive super-voxels (`Supervoxels::Adaptive`): the builder splits the bricks whose
 //! importance is concentrated in thin sheets and keeps the homogeneous ones whole; a traversal
 //! visits the cells of split bricks with their own statistics, crossing every brick boundary at
-//! the same parameter (bits) as the fixed grid's traversal, and the estimators stay unbiased.
+//! the same parameter (bits) as the fixed grid's traversal, passes over the zero cells around a
+//! split brick's cell box without changing any estimate, and the estimators stay unbiased.
 //! Statistics: per ray, the mean of 4000 optical-depth estimates (Alg. 1 + 2, N = 10) matches
 //! regular tracking's exact optical depth and ratio tracking's mean matches exp(-tau) at
 //! z < 4.5 (16 rays x 2 checks x 2 formats: a false alarm has probability about 5e-4).
@@ -9,9 +10,13 @@
 mod common;
 
 use common::assert_unbiased_on_ray;
-use jackknife::{BuildError, Grid, GridBuilder, Lookup, Ray, SupervoxelFormat, Supervoxels, V3};
+use jackknife::{
+    Brick, BuildError, Grid, GridBuilder, HashRng, Lookup, Ray, SupervoxelFormat, Supervoxels,
+    VolumeView, V3,
+};
 use shared::estimators::tracking::regular_tracking_tau;
 use shared::rng::{pcg_hash, unit_f32};
+use shared::volume::dda::Segment;
 use shared::volume::supervoxels::SuperVoxelDda;
 
 const N: u32 = 48;
@@ -100,7 +105,7 @@ fn sheets_are_split_and_the_homogeneous_medium_is_not() {
     assert_eq!(split_low, low, "{split_low} of {low} sheet bricks split");
     assert_eq!(
         grid.bricks.len(),
-        bricks.len() + grid.subdivided_bricks() * (s * s * s) as usize
+        bricks.len() + grid.subdivided_bricks() * (s * s * s + 1) as usize
     );
     assert!(grid.desc.cell_steps > 0);
     // The voxels do not change, nor do the bricks' own records but for the cell index.
@@ -116,43 +121,56 @@ fn sheets_are_split_and_the_homogeneous_medium_is_not() {
     assert_eq!(fixed.desc.cells_per_brick, 0);
 }
 
-/// Bits of the segment boundaries of a traversal, its segments' statistics checked against
-/// nearest lookups at points inside them.
-fn boundaries(grid: &Grid, ray: &Ray, t0: f32, t1: f32) -> (Vec<u32>, usize) {
+/// The segments of a traversal (in order, never overlapping), their statistics checked against
+/// nearest lookups at points inside them; between segments (the zero cells around a subdivided
+/// brick's cell box, which the traversal passes over) the extinction is 0.
+fn segments(grid: &Grid, ray: &Ray, t0: f32, t1: f32) -> Vec<(Segment, Brick)> {
     let vol = grid.view();
+    let inside =
+        |p: V3| p.x > 0.01 && p.y > 0.01 && p.z > 0.01 && p.x < 47.99 && p.y < 47.99 && p.z < 47.99;
     let mut dda = SuperVoxelDda::new(&grid.desc, ray, t0, t1);
-    let mut out = vec![t0.to_bits()];
-    let mut steps = 0;
+    let mut out = Vec::new();
     let mut last = t0;
     while !dda.done {
         let (seg, b) = dda.step(&vol);
-        assert_eq!(seg.t0.to_bits(), last.to_bits(), "segments are contiguous");
+        assert!(seg.t0 >= last, "segments are in order");
         assert!(seg.t1 >= seg.t0);
-        last = seg.t1;
-        out.push(seg.t1.to_bits());
-        steps += 1;
+        assert!(seg.t1 <= t1);
         // Points well inside the segment read voxels within the super-voxel's widened window:
-        // the statistics bound them.
+        // the statistics bound them; points in a gap read 0.
         for k in 1..4 {
-            let t = seg.t0 + (seg.t1 - seg.t0) * (k as f32 * 0.25);
-            let p = ray.at(t);
-            if !(p.x > 0.01 && p.y > 0.01 && p.z > 0.01)
-                || !(p.x < 47.99 && p.y < 47.99 && p.z < 47.99)
-            {
-                continue;
+            let f = k as f32 * 0.25;
+            let p = ray.at(seg.t0 + (seg.t1 - seg.t0) * f);
+            if inside(p) {
+                let mu = vol.mu_nearest(p);
+                assert!(
+                    b.mu_min <= mu && mu <= b.mu_max,
+                    "mu {mu} at {p:?} outside [{}, {}] of segment {seg:?}",
+                    b.mu_min,
+                    b.mu_max
+                );
             }
-            let mu = vol.mu_nearest(p);
-            assert!(
-                b.mu_min <= mu && mu <= b.mu_max,
-                "mu {mu} at {p:?} outside [{}, {}] of segment {seg:?}",
-                b.mu_min,
-                b.mu_max
-            );
+            let p = ray.at(last + (seg.t0 - last) * f);
+            if seg.t0 > last && inside(p) {
+                assert_eq!(vol.mu_nearest(p), 0.0, "a gap at {p:?} holds extinction");
+            }
         }
+        last = seg.t1;
+        out.push((seg, b));
     }
     assert!(!dda.exhausted(), "budget exhausted");
+    out
+}
+
+/// Bits of the segment boundaries of a traversal ([`segments`]), and its steps.
+fn boundaries(grid: &Grid, ray: &Ray, t0: f32, t1: f32) -> (Vec<u32>, Vec<(f32, f32)>) {
+    let segs = segments(grid, ray, t0, t1);
+    let mut out: Vec<u32> = segs
+        .iter()
+        .flat_map(|(s, _)| [s.t0.to_bits(), s.t1.to_bits()])
+        .collect();
     out.dedup();
-    (out, steps)
+    (out, segs.iter().map(|(s, _)| (s.t0, s.t1)).collect())
 }
 
 #[test]
@@ -167,22 +185,146 @@ fn cell_traversal_crosses_every_brick_boundary_where_the_brick_traversal_does() 
             continue;
         }
         rays += 1;
-        let (a, na) = boundaries(&grid, &ray, t0, t1);
-        let (f, nf) = boundaries(&fixed, &ray, t0, t1);
+        let (a, segs) = boundaries(&grid, &ray, t0, t1);
+        let (f, fixed_segs) = boundaries(&fixed, &ray, t0, t1);
         for bits in &f {
+            // A brick boundary is a segment boundary with the same bits, or lies in a gap
+            // (never inside a segment: no cell spans a brick boundary).
+            let t = f32::from_bits(*bits);
+            let found = a
+                .binary_search_by(|x| f32::from_bits(*x).total_cmp(&t))
+                .is_ok();
             assert!(
-                a.binary_search_by(|x| f32::from_bits(*x).total_cmp(&f32::from_bits(*bits)))
-                    .is_ok(),
-                "ray {r}: brick boundary {} missing from the adaptive traversal",
-                f32::from_bits(*bits)
+                found || !segs.iter().any(|&(s0, s1)| s0 < t && t < s1),
+                "ray {r}: brick boundary {t} inside a segment of the adaptive traversal"
             );
         }
-        assert_eq!(a.last(), f.last(), "ray {r}: both end at t1");
-        more += (na > nf) as u32;
+        more += (segs.len() > fixed_segs.len()) as u32;
     }
     assert!(rays > 300);
     // Rays through the sheets visit cells: the test tests the cells.
     assert!(more * 3 > rays, "{more} of {rays} rays visited cells");
+}
+
+/// The grid with every subdivided brick's cell box widened to the whole brick: the traversal
+/// then visits every cell a ray crosses (as before cell boxes).
+fn without_cell_boxes(grid: &Grid) -> Grid {
+    let mut full = grid.clone();
+    let s = grid.desc.cells_per_brick;
+    for i in 0..full.grid_bricks().len() {
+        let first = full.bricks[i].cells as usize;
+        if first != 0 {
+            full.bricks[first] = Brick::cell_box_record([0; 3], [s; 3]);
+        }
+    }
+    full
+}
+
+#[test]
+fn cell_boxes_hold_every_cell_with_statistics_and_fit_them() {
+    for format in [SupervoxelFormat::F32, SupervoxelFormat::Bc4] {
+        let grid = build(adaptive(), format);
+        let s = grid.desc.cells_per_brick;
+        let (mut split, mut smaller) = (0, 0);
+        for b in grid.grid_bricks() {
+            if b.cells == 0 {
+                continue;
+            }
+            split += 1;
+            let (lo, hi) = grid.bricks[b.cells as usize].cell_box();
+            let (mut fit_lo, mut fit_hi) = ([s; 3], [0; 3]);
+            for z in 0..s {
+                for y in 0..s {
+                    for x in 0..s {
+                        let c = grid.view().cell(b.cells, [x, y, z]);
+                        let at = [x, y, z];
+                        let inside = (0..3).all(|a| lo[a] <= at[a] && at[a] < hi[a]);
+                        if !c.has_zero_statistics() {
+                            assert!(inside, "{format:?}: cell {at:?} outside {lo:?}..{hi:?}");
+                            for a in 0..3 {
+                                fit_lo[a] = fit_lo[a].min(at[a]);
+                                fit_hi[a] = fit_hi[a].max(at[a] + 1);
+                            }
+                        }
+                    }
+                }
+            }
+            assert_eq!(
+                (lo, hi),
+                (fit_lo, fit_hi),
+                "{format:?}: the box fits its cells"
+            );
+            smaller += (lo != [0; 3] || hi != [s; 3]) as u32;
+        }
+        // The sheets fill one or two cells of four along x: the boxes are smaller.
+        assert!(split > 0 && smaller * 2 > split, "{smaller} of {split}");
+    }
+}
+
+#[test]
+fn cell_boxes_change_no_estimate() {
+    use shared::estimators::optical_depth::{estimate_pair, prepare};
+    use shared::estimators::tracking::ratio_tracking;
+    use shared::params::{Importance, Jitter};
+    for format in [SupervoxelFormat::F32, SupervoxelFormat::Bc4] {
+        let grid = build(adaptive(), format);
+        let full = without_cell_boxes(&grid);
+        let (vol, full_vol) = (grid.view(), full.view());
+        let (mut fewer, mut rays) = (0, 0);
+        for r in 0..400u32 {
+            let ray = ray(r);
+            let (t0, t1) = grid.clip(&ray);
+            if !(t0 < t1) {
+                continue;
+            }
+            rays += 1;
+            // The same segments with statistics, bit for bit; the others are all 0.
+            let a = segments(&grid, &ray, t0, t1);
+            let b = segments(&full, &ray, t0, t1);
+            let kept = |v: &[(Segment, Brick)]| -> Vec<(Segment, Brick)> {
+                v.iter()
+                    .filter(|(s, b)| s.t0 < s.t1 && !b.has_zero_statistics())
+                    .copied()
+                    .collect()
+            };
+            assert_eq!(kept(&a), kept(&b), "{format:?} ray {r}");
+            fewer += (a.len() < b.len()) as u32;
+            for mode in [Importance::VarianceAware, Importance::Mean] {
+                let (pa, pb) = (
+                    prepare(&vol, &ray, t0, t1, mode),
+                    prepare(&full_vol, &ray, t0, t1, mode),
+                );
+                assert_eq!(pa, pb, "{format:?} ray {r}");
+                for seed in 0..4 {
+                    let rng = HashRng::for_sample(r, seed, 5);
+                    let est = |v: &VolumeView, p| {
+                        estimate_pair(
+                            v,
+                            &ray,
+                            p,
+                            10,
+                            mode,
+                            Jitter::Stratified,
+                            Lookup::Nearest,
+                            rng,
+                        )
+                    };
+                    assert_eq!(est(&vol, &pa).0, est(&full_vol, &pb).0);
+                }
+            }
+            for seed in 0..4 {
+                let rng = HashRng::for_sample(r, seed, 9);
+                let rt =
+                    |v: &VolumeView| ratio_tracking(v, &ray, t0, t1, Lookup::Nearest, false, rng);
+                assert_eq!(rt(&vol).0.to_bits(), rt(&full_vol).0.to_bits(), "ray {r}");
+            }
+        }
+        assert!(rays > 300);
+        assert!(
+            fewer * 3 > rays,
+            "{format:?}: {fewer} of {rays} rays took fewer steps"
+        );
+    }
 }
 
 #[test]

@@ -129,6 +129,48 @@ fn inv_or_zero(d: f32) -> f32 {
     }
 }
 
+/// Along one axis, where a ray moving by `step` from cell c enters and leaves the slab of cells
+/// [l, h) of `size` voxels ([`GridDda::span_in`]): (entry, exit, whether it meets the slab);
+/// -inf / +inf where the slab does not bound it (already inside, or not moving).
+#[inline]
+fn axis_span(size: f32, c: i32, l: u32, h: u32, step: i32, o: f32, inv: f32) -> (f32, f32, bool) {
+    let (l, h) = (l as i32, h as i32);
+    let plane = |k: i32| (k as f32 * size - o) * inv;
+    if step == 0 {
+        (f32::NEG_INFINITY, f32::INFINITY, c >= l && c < h)
+    } else if step > 0 {
+        let entry = if c < l { plane(l) } else { f32::NEG_INFINITY };
+        (entry, plane(h), c < h)
+    } else {
+        let entry = if c >= h { plane(h) } else { f32::NEG_INFINITY };
+        (entry, plane(l), c >= l)
+    }
+}
+
+/// The largest of four values (comparisons in a fixed order).
+#[inline]
+fn max4(a: f32, x: f32, y: f32, z: f32) -> f32 {
+    let m = if x > a { x } else { a };
+    let m = if y > m { y } else { m };
+    if z > m {
+        z
+    } else {
+        m
+    }
+}
+
+/// The smallest of four values (comparisons in a fixed order).
+#[inline]
+fn min4(a: f32, x: f32, y: f32, z: f32) -> f32 {
+    let m = if x < a { x } else { a };
+    let m = if y < m { y } else { m };
+    if z < m {
+        z
+    } else {
+        m
+    }
+}
+
 /// Cell index of coordinate v, clamped to [lo, n-1].
 #[inline]
 fn cell_of(v: f32, size: f32, lo: i32, n: i32) -> i32 {
@@ -252,6 +294,42 @@ impl GridDda {
             done: !valid,
             ..*self
         }
+    }
+
+    /// The part [ta, tb] of the segment [t_start, t_end] of this ray that lies in the box of
+    /// cells [lo, hi) of `size` voxels, as a stepping traversal through the cells [outer_lo,
+    /// outer_hi) that holds the box would enter and leave it: a plane parameter where it crosses
+    /// one of the box's planes, computed as [`GridDda::step`] computes its exits (the same
+    /// bits), t_start where its first cell (clamped into [outer_lo, outer_hi) as
+    /// [`GridDda::within`] clamps it) is already inside the box along an axis. ta >= tb: the
+    /// ray misses the box.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub fn span_in(
+        &self,
+        size: f32,
+        lo: [u32; 3],
+        hi: [u32; 3],
+        outer_lo: [u32; 3],
+        outer_hi: [u32; 3],
+        t_start: f32,
+        t_end: f32,
+    ) -> (f32, f32) {
+        let p = Ray {
+            o: self.o,
+            d: self.d,
+        }
+        .at(t_start);
+        let c = |v: f32, a: usize| cell_of(v, size, outer_lo[a] as i32, outer_hi[a] as i32);
+        let x = axis_span(size, c(p.x, 0), lo[0], hi[0], self.sx, self.o.x, self.inv.x);
+        let y = axis_span(size, c(p.y, 1), lo[1], hi[1], self.sy, self.o.y, self.inv.y);
+        let z = axis_span(size, c(p.z, 2), lo[2], hi[2], self.sz, self.o.z, self.inv.z);
+        if !(x.2 && y.2 && z.2) {
+            return (t_end, t_start);
+        }
+        let ta = max4(t_start, x.0, y.0, z.0);
+        let tb = min4(t_end, x.1, y.1, z.1);
+        (ta, tb)
     }
 
     /// Iterations left of the budget.

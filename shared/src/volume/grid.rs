@@ -175,9 +175,10 @@ pub struct Brick {
     /// per axis around it (clipped to the grid), which a traversal may then skip.
     /// [`EMPTY_BRICK`] in a cell record (the brick's slot locates the voxels).
     pub slot: u32,
-    /// Adaptive super-voxels: index in the table of the first of this brick's s^3 cell records
-    /// (s = [`GridDesc::cells_per_brick`], x fastest, statistics as a brick's over the cell),
-    /// which a traversal visits instead of the brick; 0: the brick is not subdivided.
+    /// Adaptive super-voxels: index in the table of this brick's cell box record
+    /// ([`Brick::cell_box`]), followed by its s^3 cell records (s =
+    /// [`GridDesc::cells_per_brick`], x fastest, statistics as a brick's over the cell), which a
+    /// traversal visits instead of the brick; 0: the brick is not subdivided.
     pub cells: u32,
 }
 
@@ -198,7 +199,52 @@ pub const fn skip_slot(level: u32) -> u32 {
     EMPTY_BRICK - 1 - level
 }
 
+/// Bits per axis of a packed cell coordinate in a cell box record ([`Brick::cell_box`]).
+const CELL_BITS: u32 = 10;
+
+/// Cell coordinates (each at most 2^10 - 1) packed x lowest, 10 bits per axis.
+#[inline]
+const fn pack_cell(c: [u32; 3]) -> u32 {
+    c[0] | c[1] << CELL_BITS | c[2] << (2 * CELL_BITS)
+}
+
+/// The coordinates of [`pack_cell`].
+#[inline]
+const fn unpack_cell(v: u32) -> [u32; 3] {
+    let m = (1 << CELL_BITS) - 1;
+    [v & m, (v >> CELL_BITS) & m, v >> (2 * CELL_BITS)]
+}
+
 impl Brick {
+    /// The record that precedes a subdivided brick's cells ([`Brick::cells`]): the box
+    /// [lo, hi) of its cells whose statistics are not all 0 (local cell coordinates, each at
+    /// most s <= 1023; lo = hi = 0 when there is none), in `slot` and `cells`; statistics 0.
+    /// Every cell outside the box has statistics 0 (no importance, control variate or
+    /// majorant), so a traversal may pass over them without reading them.
+    #[inline]
+    pub const fn cell_box_record(lo: [u32; 3], hi: [u32; 3]) -> Brick {
+        Brick {
+            mu_min: 0.0,
+            mu_max: 0.0,
+            mean: 0.0,
+            p: 0.0,
+            slot: pack_cell(lo),
+            cells: pack_cell(hi),
+        }
+    }
+
+    /// The box [lo, hi) of a cell box record ([`Brick::cell_box_record`]).
+    #[inline]
+    pub const fn cell_box(&self) -> ([u32; 3], [u32; 3]) {
+        (unpack_cell(self.slot), unpack_cell(self.cells))
+    }
+
+    /// Whether every statistic is 0 (nothing to sample, no control variate, no majorant).
+    #[inline]
+    pub fn has_zero_statistics(&self) -> bool {
+        self.mu_min == 0.0 && self.mu_max == 0.0 && self.mean == 0.0 && self.p == 0.0
+    }
+
     /// Whether the pool holds this brick's voxels.
     #[inline]
     pub fn stores_voxels(&self) -> bool {
@@ -314,12 +360,19 @@ impl VolumeView<'_> {
     }
 
     /// Cell `local` (coordinates within its brick, each below s) of the subdivided brick whose
-    /// cell records start at `first` ([`Brick::cells`]).
+    /// cell box record is at `first` ([`Brick::cells`]).
     #[inline]
     pub fn cell(&self, first: u32, local: [u32; 3]) -> Brick {
         let s = self.desc.cells_per_brick() as usize;
         let l = local[0] as usize + s * (local[1] as usize + s * local[2] as usize);
-        self.bricks[first as usize + l]
+        self.bricks[first as usize + 1 + l]
+    }
+
+    /// The box [lo, hi) of the cells with statistics of the subdivided brick whose cell box
+    /// record is at `first` ([`Brick::cell_box_record`]).
+    #[inline]
+    pub fn cell_box(&self, first: u32) -> ([u32; 3], [u32; 3]) {
+        self.bricks[first as usize].cell_box()
     }
 }
 

@@ -3,22 +3,37 @@
 //! the statistics of a brick over the cell. Every estimator that walks the importance or the
 //! majorant (Alg. 2, Alg. 1, the majorant sampler of delta and ratio tracking) sees one sequence
 //! of segments with constant statistics, from the fixed grid or from the adaptive one alike.
+//!
+//! In a subdivided brick only the cells inside its cell box ([`Brick::cell_box`]) are visited:
+//! the cells around the box have statistics 0, and a span of them adds 0 to every sum (F and
+//! the control variate of Alg. 2 and Alg. 1), takes no sample and stops no free flight, so
+//! leaving them out changes no estimate, only the number of steps.
 
 use crate::geometry::Ray;
 use crate::volume::dda::{GridDda, Segment};
-use crate::volume::grid::{Brick, GridDesc, VolumeView};
+use crate::volume::grid::{Brick, GridDesc, VolumeView, EMPTY_BRICK};
 use core::num::NonZeroU32;
 
+/// The statistics of a span of cells that are all 0 (outside a subdivided brick's cell box).
+const ZERO: Brick = Brick {
+    mu_min: 0.0,
+    mu_max: 0.0,
+    mean: 0.0,
+    p: 0.0,
+    slot: EMPTY_BRICK,
+    cells: 0,
+};
+
 /// The super-voxels of one ray segment: a skipping traversal of the bricks that, at a
-/// subdivided brick, steps through the brick's cells crossed by the brick's segment before it
-/// moves on. One call of [`SuperVoxelDda::step`] is one iteration of the caller's loop: a skip,
-/// a brick, or a cell.
+/// subdivided brick, steps through the cells of the brick's cell box crossed by the brick's
+/// segment before it moves on. One call of [`SuperVoxelDda::step`] is one iteration of the
+/// caller's loop: a skip, a brick, a cell, or a subdivided brick whose cell box the ray misses.
 #[derive(Clone, Copy, Debug)]
 pub struct SuperVoxelDda {
     bricks: GridDda,
     /// The cells of the current subdivided brick, while `in_cells`.
     cells: GridDda,
-    /// First cell record of the current subdivided brick ([`Brick::cells`]).
+    /// Cell box record of the current subdivided brick ([`Brick::cells`]).
     first_cell: u32,
     /// Its first cell (global cell coordinates): brick coordinates times s.
     lo: [u32; 3],
@@ -75,12 +90,27 @@ impl SuperVoxelDda {
             };
             let lo = [seg.cell[0] * s, seg.cell[1] * s, seg.cell[2] * s];
             let hi = [lo[0] + s, lo[1] + s, lo[2] + s];
-            let cells = self
-                .bricks
-                .within(size as f32, lo, hi, self.cell_budget, seg.t0, seg.t1);
-            if cells.done {
+            if !(seg.t0 < seg.t1) {
+                // A graze: an empty segment with the brick's statistics adds nothing.
                 self.done = self.bricks.done;
                 return (seg, b);
+            }
+            // Only the box of the cells with statistics is traversed ([`Brick::cell_box`]):
+            // the cells around it are all 0 and add nothing to any sum.
+            let (box_lo, box_hi) = vol.cell_box(b.cells);
+            let box_lo = [lo[0] + box_lo[0], lo[1] + box_lo[1], lo[2] + box_lo[2]];
+            let box_hi = [lo[0] + box_hi[0], lo[1] + box_hi[1], lo[2] + box_hi[2]];
+            let size = size as f32;
+            let (ta, tb) = self
+                .bricks
+                .span_in(size, box_lo, box_hi, lo, hi, seg.t0, seg.t1);
+            let cells = self
+                .bricks
+                .within(size, box_lo, box_hi, self.cell_budget, ta, tb);
+            if cells.done {
+                // The ray misses the box: the brick's segment holds zero statistics only.
+                self.done = self.bricks.done;
+                return (seg, ZERO);
             }
             self.cells = cells;
             self.first_cell = b.cells;
