@@ -922,14 +922,7 @@ fn cell_steps(subdivided: u64, brick_steps: u32, s: u32) -> u32 {
 }
 
 /// The statistics of a brick whose widened window holds zeros only (what [`brick_stats`] gives).
-pub(crate) const ZERO_STATS: Brick = Brick {
-    mu_min: 0.0,
-    mu_max: 0.0,
-    mean: 0.0,
-    p: 0.0,
-    slot: EMPTY_BRICK,
-    cells: 0,
-};
+pub(crate) const ZERO_STATS: Brick = Brick::ZERO;
 
 /// Statistics of brick b over its widened, clamped window ([-1, B+1) per axis): exact min,
 /// max, mean and P of Eq. 5 (RMS of mu - mu_min) rounded up, P >= 0.01 mu_min.

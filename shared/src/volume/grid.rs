@@ -216,6 +216,17 @@ const fn unpack_cell(v: u32) -> [u32; 3] {
 }
 
 impl Brick {
+    /// All statistics 0 and no voxels: an all-zero brick's record before skip marking, and a
+    /// span of zero cells around a subdivided brick's cell box.
+    pub const ZERO: Brick = Brick {
+        mu_min: 0.0,
+        mu_max: 0.0,
+        mean: 0.0,
+        p: 0.0,
+        slot: EMPTY_BRICK,
+        cells: 0,
+    };
+
     /// The record that precedes a subdivided brick's cells ([`Brick::cells`]): the box
     /// [lo, hi) of its cells whose statistics are not all 0 (local cell coordinates, each at
     /// most s <= 1023; lo = hi = 0 when there is none), in `slot` and `cells`; statistics 0.

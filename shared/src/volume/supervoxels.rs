@@ -11,18 +11,8 @@
 
 use crate::geometry::Ray;
 use crate::volume::dda::{GridDda, Segment};
-use crate::volume::grid::{Brick, GridDesc, VolumeView, EMPTY_BRICK};
+use crate::volume::grid::{Brick, GridDesc, VolumeView};
 use core::num::NonZeroU32;
-
-/// The statistics of a span of cells that are all 0 (outside a subdivided brick's cell box).
-const ZERO: Brick = Brick {
-    mu_min: 0.0,
-    mu_max: 0.0,
-    mean: 0.0,
-    p: 0.0,
-    slot: EMPTY_BRICK,
-    cells: 0,
-};
 
 /// The super-voxels of one ray segment: a skipping traversal of the bricks that, at a
 /// subdivided brick, steps through the cells of the brick's cell box crossed by the brick's
@@ -110,7 +100,7 @@ impl SuperVoxelDda {
             if cells.done {
                 // The ray misses the box: the brick's segment holds zero statistics only.
                 self.done = self.bricks.done;
-                return (seg, ZERO);
+                return (seg, Brick::ZERO);
             }
             self.cells = cells;
             self.first_cell = b.cells;
