@@ -499,7 +499,7 @@ impl<'a> GridBuilder<'a> {
             .map(|i| {
                 let c = unflatten(i, brick_dims);
                 let stats = if empty_around(c) {
-                    ZERO_STATS
+                    Brick::ZERO
                 } else {
                     brick_stats(&view, c, b)
                 };
@@ -921,9 +921,6 @@ fn cell_steps(subdivided: u64, brick_steps: u32, s: u32) -> u32 {
     (subdivided.min(brick_steps as u64) * (3 * s as u64 + 3)).min(u32::MAX as u64) as u32
 }
 
-/// The statistics of a brick whose widened window holds zeros only (what [`brick_stats`] gives).
-pub(crate) const ZERO_STATS: Brick = Brick::ZERO;
-
 /// Statistics of brick b over its widened, clamped window ([-1, B+1) per axis): exact min,
 /// max, mean and P of Eq. 5 (RMS of mu - mu_min) rounded up, P >= 0.01 mu_min.
 fn brick_stats(view: &VolumeView, b: [u32; 3], size: u32) -> Brick {
@@ -935,7 +932,7 @@ fn brick_stats(view: &VolumeView, b: [u32; 3], size: u32) -> Brick {
 pub(crate) fn box_stats(view: &VolumeView, lo: [u32; 3], hi: [u32; 3]) -> Brick {
     let d = view.desc.dims;
     if (0..3).any(|a| lo[a] >= d[a]) {
-        return ZERO_STATS;
+        return Brick::ZERO;
     }
     let lo = [0, 1, 2].map(|a| lo[a].saturating_sub(1));
     let hi = [0, 1, 2].map(|a| (hi[a] + 1).min(d[a]));
