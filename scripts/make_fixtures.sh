@@ -23,9 +23,9 @@ out=tests/fixtures
 build=$(mktemp -d)
 trap 'rm -rf "$build"' EXIT
 mkdir -p "$out"
-# The sparse fixture is not written here (scripts/make_sparse_volumes.py): keep it.
+# The fixtures of scripts/make_sparse_volumes.py are not written here: keep them.
 find "$out" -maxdepth 1 \( -name '*.vdb' -o -name '*.nvdb' -o -name '*.expected' \) \
-  ! -name 'sparse_patches.*' -delete
+  ! -name 'sparse_patches.*' ! -name two_far.vdb ! -name wide.vdb -delete
 
 echo "make_fixtures.sh: compiling scripts/make_fixtures.cpp"
 g++ -std=c++17 -O1 -o "$build/make_fixtures" scripts/make_fixtures.cpp -lopenvdb -ltbb -lImath-3_1

@@ -119,7 +119,7 @@ def vdb_files():
         ("vec3.vdb", "-", ["velocity (vec3s)", "no float grid"]),
         ("int.vdb", "-", ["int32", "not scalar floats"]),
         ("empty.vdb", "-", ["no active voxels"]),
-        ("huge.vdb", "-", ["more than the", "crop the volume"]),
+        ("wide.vdb", "-", ["more than 2^31 along an axis", "crop the volume"]),
         ("multi.vdb", "smoke", ["no grid named 'smoke'", "available grids"]),
     ]:
         write("unsupported_" + src, fixture(src), grid, *words)

@@ -10,6 +10,8 @@ loader's tests and benchmarks. Run with Debian's /usr/bin/python3.
   make_sparse_volumes.py two OUT.vdb         two active voxels at opposite corners of a 1000^3 box
   make_sparse_volumes.py line OUT.vdb        two active voxels 10^6 voxels apart along x, checked
                                              in as tests/fixtures/two_far.vdb
+  make_sparse_volumes.py wide OUT.vdb        two active voxels 2^32 - 1 apart along x (longer than
+                                             the loaders take), checked in as tests/fixtures/wide.vdb
   make_sparse_volumes.py series DIR          the sparse series of `host bench --sweep-files`: bboxes
                                              256^3 and 1/2, 3/4, 1 x the Disney bbox, each with 15 %
                                              of its 16^3 blocks occupied: DIR/sparse_{256,half,
@@ -112,8 +114,18 @@ def line(out):
     vdb.write(out, grids=[g])
 
 
+def wide(out):
+    """Two voxels 2^32 - 1 apart along x: a box longer than any loader takes (2^31 per axis)."""
+    g = grid()
+    acc = g.getAccessor()
+    acc.setValueOn((-2**31, 0, 0), 1.0)
+    acc.setValueOn((2**31 - 1, 0, 0), 1.0)
+    vdb.write(out, grids=[g])
+
+
 if __name__ == "__main__":
-    modes = {"fixture": fixture, "disney": disney, "two": two, "line": line, "series": series}
+    modes = {"fixture": fixture, "disney": disney, "two": two, "line": line, "series": series,
+             "wide": wide}
     if len(sys.argv) != 3 or sys.argv[1] not in modes:
         sys.exit(__doc__)
     modes[sys.argv[1]](sys.argv[2])

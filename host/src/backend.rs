@@ -6,6 +6,7 @@ use anyhow::{Context, Result};
 use bytemuck::{Pod, Zeroable};
 use shared::kernels::launch::Launch;
 use shared::kernels::probe::{self, DepthPair, MathValues, RngDraws, TransmittancePair};
+use shared::volume::grid::Brick;
 use std::sync::Arc;
 
 /// Which backend the user asked for.
@@ -82,42 +83,60 @@ impl Backend {
         let Backend::Gpu(gpu) = self else {
             return None;
         };
-        let limit = gpu.max_buffer_bytes();
-        let d = volume.desc.dims;
         if let Some(why) = crate::bricks::too_many_pages(volume) {
             return Some(why);
         }
+        let d = volume.desc.dims.map(u64::from);
         let largest = volume
             .pages()
             .map(|p| std::mem::size_of_val(p) as u64)
             .max()
             .unwrap_or(0)
             .max(std::mem::size_of_val(volume.bricks.as_slice()) as u64);
-        if largest > limit {
-            return Some(format!(
-                "the {}x{}x{} volume needs a {largest}-byte storage buffer, more than this GPU's \
-                 maxStorageBufferRange of {limit} bytes ({})",
-                d[0],
-                d[1],
-                d[2],
-                gpu.description()
-            ));
-        }
         let total = std::mem::size_of_val(volume.voxels.as_slice()) as u64
             + std::mem::size_of_val(volume.bricks.as_slice()) as u64;
-        let memory = gpu.device_local_bytes();
-        (memory > 0 && total > memory).then(|| {
-            format!(
-                "the {}x{}x{} volume's voxel pool and brick table need {:.2} GiB, more than this \
-                 GPU's {:.2} GiB of device-local memory ({})",
-                d[0],
-                d[1],
-                d[2],
-                total as f64 / f64::from(1 << 30),
-                memory as f64 / f64::from(1 << 30),
-                gpu.description()
-            )
-        })
+        GpuRoom::of(gpu).refusal(
+            [d[0], d[1], d[2]],
+            largest,
+            total,
+            "voxel pool and brick table need",
+        )
+    }
+
+    /// The check of a volume's topology before any voxel is loaded or generated (see
+    /// [`topology_refusal`]); with `--backend gpu` (`choice`) it also refuses a box whose brick
+    /// table this GPU cannot hold, a size exact from the box alone. The pool's size is known
+    /// only once the values are read (active voxels may hold zeros), so [`Backend::fit`] checks
+    /// it after packing; `auto` decides there too.
+    pub fn topology_check(
+        &self,
+        choice: BackendChoice,
+        brick_size: u32,
+    ) -> impl Fn(&crate::io::Topology) -> Result<()> + Sync + std::panic::RefUnwindSafe {
+        let room = match self {
+            Backend::Gpu(gpu) if choice == BackendChoice::Gpu => Some(GpuRoom::of(gpu)),
+            _ => None,
+        };
+        move |t: &crate::io::Topology| {
+            // An invalid brick size is refused later, by the grid builder, naming the flag.
+            if !(2..=256).contains(&brick_size) {
+                return Ok(());
+            }
+            if let Some(why) = topology_refusal(t, brick_size, crate::io::available_memory()) {
+                anyhow::bail!("{why}");
+            }
+            let bytes = table_bytes(t.dims, brick_size);
+            match room
+                .as_ref()
+                .and_then(|r| r.refusal(t.dims, bytes, bytes, "brick table needs"))
+            {
+                Some(why) => anyhow::bail!(
+                    "--backend gpu: {why}, known from its bounding box before any voxel is read; \
+                     use --backend cpu, a larger --brick-size, or crop the volume"
+                ),
+                None => Ok(()),
+            }
+        }
     }
 
     /// The GPU pipeline builds so far (none on the CPU), for [`Backend::timed`].
@@ -262,4 +281,173 @@ fn map_on_gpu<I: Pod, O: Pod>(
 fn gpu_err<P, const N: usize>(kernel: &KernelDef<P, N>) -> impl FnOnce(GpuError) -> anyhow::Error {
     let name = kernel.kernel.name();
     move |e| anyhow::Error::new(e).context(format!("GPU kernel {name}"))
+}
+
+/// Bytes the grid builder holds per brick of the box while packing, whether the brick is
+/// occupied or not (its table record, slot, occupancy scan and statistics), rounded up from the
+/// 52-53 measured: peak RSS of `host --backend cpu --volume tests/fixtures/huge.vdb
+/// --brick-size B` less its 64 MB cell table, over 2.0 M (B = 16), 15.8 M (8) and 126 M (4)
+/// bricks: 174 MB, 906 MB, 6.73 GB.
+pub const PACK_BYTES_PER_BRICK: u64 = 64;
+
+/// Why a volume is refused from its topology alone, on every backend, or `None`: its box's
+/// bricks need more memory to pack than is `available` (when known; an estimate of
+/// [`PACK_BYTES_PER_BRICK`] each, so a box of mostly empty bricks fails here instead of aborting
+/// on an allocation), or its active tiles of nonzero value alone hold more voxels than the f16
+/// pool's u32 index reaches (every such voxel is stored: a tile's value becomes 0 in f16 only
+/// 2^40 below the largest density, and the builder would then refuse the volume as empty or
+/// report the loss).
+pub fn topology_refusal(
+    t: &crate::io::Topology,
+    brick_size: u32,
+    available: Option<u64>,
+) -> Option<String> {
+    let [x, y, z] = t.dims;
+    let pool = u64::from(shared::volume::grid::FIRST_EMPTY_SLOT);
+    if t.tile_voxels >= pool {
+        return Some(format!(
+            "the {x}x{y}x{z} volume's active tiles hold {} voxels of nonzero density, more than \
+             the {pool} f16 voxels (8 GiB) the voxel pool addresses; crop the volume or resample \
+             it coarser",
+            t.tile_voxels
+        ));
+    }
+    let bricks = table_bytes(t.dims, brick_size) / std::mem::size_of::<Brick>() as u64;
+    let need = bricks.saturating_mul(PACK_BYTES_PER_BRICK);
+    let gib = |b: u64| b as f64 / f64::from(1 << 30);
+    available.filter(|&a| need > a).map(|a| {
+        format!(
+            "the {x}x{y}x{z} volume's {bricks} bricks of {brick_size}^3 need about {:.1} GiB to \
+             pack (empty or not), more than the {:.1} GiB of memory available; use a larger \
+             --brick-size or crop the volume",
+            gib(need),
+            gib(a)
+        )
+    })
+}
+
+/// Bytes of the brick table of a `dims` box in `brick_size`^3 bricks (the fixed grid; adaptive
+/// super-voxels add their cells to it).
+pub fn table_bytes(dims: [u64; 3], brick_size: u32) -> u64 {
+    let bricks = dims
+        .iter()
+        .map(|&d| d.div_ceil(u64::from(brick_size)))
+        .fold(1u64, u64::saturating_mul);
+    bricks.saturating_mul(std::mem::size_of::<Brick>() as u64)
+}
+
+/// What one GPU can hold: its largest storage buffer and its device-local memory.
+#[derive(Clone, Debug)]
+struct GpuRoom {
+    max_buffer: u64,
+    /// 0: not reported.
+    memory: u64,
+    description: String,
+}
+
+impl GpuRoom {
+    fn of(gpu: &Gpu) -> Self {
+        GpuRoom {
+            max_buffer: gpu.max_buffer_bytes(),
+            memory: gpu.device_local_bytes(),
+            description: gpu.description().to_string(),
+        }
+    }
+
+    /// Why a `dims` volume whose largest buffer is `largest` bytes and whose buffers (`what`,
+    /// with its verb: "brick table needs") are `total` bytes does not fit, or `None`.
+    fn refusal(&self, dims: [u64; 3], largest: u64, total: u64, what: &str) -> Option<String> {
+        let [x, y, z] = dims;
+        let gib = |b: u64| b as f64 / f64::from(1 << 30);
+        if largest > self.max_buffer {
+            return Some(format!(
+                "the {x}x{y}x{z} volume needs a {largest}-byte storage buffer, more than this \
+                 GPU's maxStorageBufferRange of {} bytes ({})",
+                self.max_buffer, self.description
+            ));
+        }
+        (self.memory > 0 && total > self.memory).then(|| {
+            format!(
+                "the {x}x{y}x{z} volume's {what} {:.2} GiB, more than this GPU's {:.2} GiB \
+                 of device-local memory ({})",
+                gib(total),
+                gib(self.memory),
+                self.description
+            )
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn table_bytes_count_every_brick_of_the_box() {
+        // 24-byte records over ceil(dims / B) bricks per axis.
+        assert_eq!(table_bytes([2001; 3], 16), 126u64.pow(3) * 24);
+        assert_eq!(table_bytes([48, 48, 1], 2), 24 * 24 * 24);
+        assert_eq!(
+            table_bytes([u64::MAX; 3], 2),
+            u64::MAX,
+            "saturates, never wraps"
+        );
+    }
+
+    #[test]
+    fn topologies_are_refused_for_packing_memory_and_the_pool_index_only() {
+        use crate::io::Topology;
+        let huge = Topology {
+            dims: [2001; 3],
+            tile_voxels: 0,
+        };
+        // 126^3 bricks x 64 bytes = 128 MB to pack.
+        assert_eq!(topology_refusal(&huge, 16, Some(200 << 20)), None);
+        assert_eq!(topology_refusal(&huge, 16, None), None);
+        let why = topology_refusal(&huge, 16, Some(100 << 20)).unwrap();
+        assert!(
+            why.contains("2001x2001x2001 volume's 2000376 bricks of 16^3"),
+            "{why}"
+        );
+        assert!(why.contains("--brick-size"), "{why}");
+        // 1001^3 bricks of 2^3: 64 GB.
+        assert!(topology_refusal(&huge, 2, Some(32 << 30)).is_some());
+        let pool = u64::from(shared::volume::grid::FIRST_EMPTY_SLOT);
+        let tiles = |tile_voxels| Topology {
+            dims: [4096; 3],
+            tile_voxels,
+        };
+        assert_eq!(topology_refusal(&tiles(pool - 1), 16, None), None);
+        let why = topology_refusal(&tiles(pool), 16, None).unwrap();
+        assert!(
+            why.contains("active tiles hold") && why.contains("crop"),
+            "{why}"
+        );
+    }
+
+    #[test]
+    fn a_gpu_refuses_the_larger_of_its_buffer_and_memory_limits() {
+        let room = GpuRoom {
+            max_buffer: 1000,
+            memory: 5000,
+            description: "test GPU".into(),
+        };
+        assert_eq!(room.refusal([1, 2, 3], 1000, 5000, "x need"), None);
+        let why = room.refusal([1, 2, 3], 1001, 1001, "x need").unwrap();
+        assert!(
+            why.contains("1x2x3 volume needs a 1001-byte storage buffer"),
+            "{why}"
+        );
+        assert!(
+            why.contains("maxStorageBufferRange of 1000 bytes (test GPU)"),
+            "{why}"
+        );
+        let why = room.refusal([1, 2, 3], 10, 5001, "x need").unwrap();
+        assert!(
+            why.contains("volume's x need 0.00 GiB") && why.contains("device-local"),
+            "{why}"
+        );
+        let unknown = GpuRoom { memory: 0, ..room };
+        assert_eq!(unknown.refusal([1, 2, 3], 10, u64::MAX, "x need"), None);
+    }
 }

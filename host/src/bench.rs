@@ -317,6 +317,7 @@ pub fn run(args: &BenchOptions) -> Result<BenchReport> {
         args.width,
         args.height,
         page_log2(&backends),
+        Some(crate::io::TopologyCheck(&cpu_check(&args.scene))),
     )?;
     let base = RenderParams {
         camera: scene.camera,
@@ -503,6 +504,7 @@ fn sweep(
                 size,
                 size,
                 page_log2(backends),
+                Some(crate::io::TopologyCheck(&cpu_check(&scene_args))),
             )?;
             if !args.quiet {
                 tracing::info!(
@@ -574,6 +576,7 @@ fn sweep_files(
             args.width,
             args.height,
             page_log2(backends),
+            Some(crate::io::TopologyCheck(&cpu_check(&scene_args))),
         )
         .with_context(|| format!("--sweep-files {}", file.display()))?;
         let prepare_ms = t.elapsed().as_secs_f64() * 1e3;
@@ -865,4 +868,12 @@ impl Figure for SweepFigure<'_> {
         }
         root.present().drawn()
     }
+}
+
+/// The topology check of every backend (memory to pack, the pool's reach); the GPU's limits are
+/// checked per backend after packing ([`Backend::cannot_hold`]), where a bench skips a backend.
+fn cpu_check(
+    scene: &SceneOptions,
+) -> impl Fn(&crate::io::Topology) -> Result<()> + Sync + std::panic::RefUnwindSafe {
+    Backend::Cpu.topology_check(BackendChoice::Cpu, scene.brick_size)
 }

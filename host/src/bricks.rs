@@ -108,8 +108,9 @@ fn explain(vol: &dyn VolumeData, e: BuildError) -> anyhow::Error {
             anyhow!("--split-occupancy must be in (0, 1] (got {o})")
         }
         BuildError::Table(d) => anyhow!(
-            "the super-voxel table of the {}x{}x{} volume with adaptive cells exceeds 2^32 - 1 \
-             records; use --supervoxels fixed or a larger --cell-size",
+            "the super-voxel table of the {}x{}x{} volume (its bricks, with adaptive \
+             super-voxels also their cells) exceeds 2^32 - 1 records; use a larger --brick-size \
+             (with adaptive super-voxels: --supervoxels fixed or a larger --cell-size)",
             d[0],
             d[1],
             d[2]

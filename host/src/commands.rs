@@ -300,8 +300,12 @@ pub fn lookup_name(lookup: Lookup) -> String {
 }
 
 /// An embedded volume by name or a volume file by path, with its default density scale and, for
-/// a file, the name of the grid read.
-pub fn load_volume(scene: &SceneOptions) -> Result<(Volume, f32, Option<String>)> {
+/// a file, the name of the grid read; `check` sees the bounding box before any voxel is read
+/// or generated.
+pub fn load_volume(
+    scene: &SceneOptions,
+    check: Option<crate::io::TopologyCheck>,
+) -> Result<(Volume, f32, Option<String>)> {
     let spec = scene.volume.as_str();
     let path = Path::new(spec);
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
@@ -309,6 +313,7 @@ pub fn load_volume(scene: &SceneOptions) -> Result<(Volume, f32, Option<String>)
         let options = crate::io::LoadOptions {
             grid: scene.grid.as_deref(),
             clamp_negative: scene.clamp_negative,
+            check_topology: check,
             ..Default::default()
         };
         let loaded = crate::io::load_volume_with(path, &options)?;
@@ -320,6 +325,13 @@ pub fn load_volume(scene: &SceneOptions) -> Result<(Volume, f32, Option<String>)
             );
         }
         return Ok((loaded.volume, 1.0, Some(loaded.grid)));
+    }
+    if let Some(check) = check {
+        let n = u64::from(scene.resolution);
+        (check.0)(&crate::io::Topology {
+            dims: [n; 3],
+            tile_voxels: 0,
+        })?;
     }
     match crate::procedural::by_name(spec, scene.resolution) {
         Some(v) => Ok((v, crate::procedural::default_density_scale(spec), None)),
@@ -844,12 +856,14 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
     // is laid out in the pages the device binds.
     let backend = Backend::open(args.backend)?;
     let t_load = Instant::now();
+    let check = backend.topology_check(args.backend, args.scene.brick_size);
     let scene = prepare_scene(
         &args.scene,
         args.lookup,
         args.width,
         args.height,
         backend.page_log2(),
+        Some(crate::io::TopologyCheck(&check)),
     )?;
     let (vol, packed, density_scale) = (&scene.volume, &scene.packed, scene.density_scale);
     let load_ms = t_load.elapsed().as_secs_f64() * 1e3;
@@ -1176,14 +1190,16 @@ pub struct Scene {
     pub up: crate::render::UpAxis,
 }
 
-/// Loads the volume of `--volume`, packs it (its pool in pages of 2^`page_log2` words: see
-/// [`Backend::page_log2`]) and sets up the camera for a `w` x `h` image.
+/// Loads the volume of `--volume` (`check`: see [`load_volume`]), packs it (its pool in pages
+/// of 2^`page_log2` words: see [`Backend::page_log2`]) and sets up the camera for a `w` x `h`
+/// image.
 pub fn prepare_scene(
     args: &SceneOptions,
     lookup: Lookup,
     w: u32,
     h: u32,
     page_log2: u32,
+    check: Option<crate::io::TopologyCheck>,
 ) -> Result<Scene> {
     anyhow::ensure!(
         args.fov.is_finite() && args.fov > 0.0 && args.fov < 180.0,
@@ -1196,7 +1212,7 @@ pub fn prepare_scene(
         indicatif::ProgressBar::new_spinner().with_message(format!("loading {}", args.volume));
     bar.enable_steady_tick(std::time::Duration::from_millis(120));
     let prepared = (|| -> Result<_> {
-        let (mut volume, default_scale, grid) = load_volume(args)?;
+        let (mut volume, default_scale, grid) = load_volume(args, check)?;
         let turned = args.up.apply(volume.index_to_world());
         volume.set_index_to_world(turned);
         let density_scale = args.density_scale.unwrap_or(default_scale);
@@ -1324,7 +1340,16 @@ pub fn run_eval(args: &EvalOptions) -> Result<()> {
     let lookup = args.lookup;
     let backend = Backend::open(args.backend)?;
     let page_log2 = backend.page_log2();
-    let scene = prepare_scene(&args.scene, lookup, args.width, args.height, page_log2)?;
+    let check = backend.topology_check(args.backend, args.scene.brick_size);
+    let check = Some(crate::io::TopologyCheck(&check));
+    let scene = prepare_scene(
+        &args.scene,
+        lookup,
+        args.width,
+        args.height,
+        page_log2,
+        check,
+    )?;
     let (vol, packed) = (&scene.volume, &scene.packed);
     let backend = backend.fit(args.backend, packed)?;
     if !args.quiet {
@@ -1456,7 +1481,16 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
     let json = plan_eval_outputs(args, &images)?;
     let backend = Backend::open(args.backend)?;
     let page_log2 = backend.page_log2();
-    let scene = prepare_scene(&args.scene, args.lookup, args.width, args.height, page_log2)?;
+    let check = backend.topology_check(args.backend, args.scene.brick_size);
+    let check = Some(crate::io::TopologyCheck(&check));
+    let scene = prepare_scene(
+        &args.scene,
+        args.lookup,
+        args.width,
+        args.height,
+        page_log2,
+        check,
+    )?;
     let (vol, packed) = (&scene.volume, &scene.packed);
     let backend = backend.fit(args.backend, packed)?;
     if !args.quiet {

@@ -235,3 +235,53 @@ fn volumes_larger_than_a_gpu_buffer_are_refused_or_fall_back_to_the_cpu() {
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("r.json")).unwrap()).unwrap();
     assert_eq!(json["backend"], "cpu");
 }
+
+/// A brick table the GPU cannot hold is refused before any voxel is read or generated, with
+/// `--backend gpu` only: `huge.vdb` (two voxels at the corners of a 2001^3 box, 8.0e9 voxels:
+/// above the dense cap, loaded sparse) is refused for its table (126^3 bricks, 48 MB, above a
+/// 4096-byte buffer limit), renders on the CPU, and under `auto` falls back to the CPU after
+/// packing; an embedded volume is refused before it is generated.
+#[test]
+fn brick_tables_a_gpu_cannot_hold_are_refused_before_loading() {
+    let dir = tempfile::tempdir().unwrap();
+    let cap = [("JK_GPU_MAX_BUFFER_BYTES", "4096")];
+    let huge = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/fixtures/huge.vdb");
+    let huge = huge.to_str().unwrap();
+    let out = render(dir.path(), &["--backend", "gpu", "--volume", huge], &cap);
+    let all = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{all}");
+    for part in [
+        "huge.vdb",
+        "2001x2001x2001",
+        "48009024-byte storage buffer",
+        "before any voxel is read",
+        "--backend cpu",
+    ] {
+        assert!(all.contains(part), "{part:?} missing: {all}");
+    }
+    for backend in ["cpu", "auto"] {
+        let out = render(dir.path(), &["--backend", backend, "--volume", huge], &cap);
+        let all = text(&out);
+        assert!(out.status.success(), "{all}");
+        assert_eq!(
+            all.contains("falling back to the CPU backend"),
+            backend == "auto",
+            "{all}"
+        );
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.path().join("r.json")).unwrap())
+                .unwrap();
+        assert_eq!(json["backend"], "cpu", "{json}");
+        assert_eq!(json["volume_storage"], "sparse", "{json}");
+        assert_eq!(json["bricks"], 126 * 126 * 126, "{json}");
+    }
+    // 24^3 bricks of 2^3 voxels: a 331776-byte table.
+    let small = ["--backend", "gpu", "--brick-size", "2"];
+    let out = render(dir.path(), &small, &cap);
+    let all = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{all}");
+    assert!(
+        all.contains("48x48x48") && all.contains("331776-byte") && all.contains("before any voxel"),
+        "{all}"
+    );
+}

@@ -21,6 +21,10 @@ pub const MAX_OPTICAL_DEPTH: f64 = 1e35;
 /// words, every voxel a u32 pool index reaches (the pool's own limit).
 pub const MAX_PAGE_LOG2: u32 = 28;
 
+/// Longest grid axis in voxels: the kernels' u32 voxel coordinates keep room for a brick (and a
+/// filter's reach) past the end.
+pub const MAX_AXIS: u32 = 1 << 31;
+
 /// Why a grid cannot be built. Voxels are given in the builder's index coordinates.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum BuildError {
@@ -44,10 +48,10 @@ pub enum BuildError {
     /// The adaptive split occupancy is not in (0, 1].
     #[error("the adaptive split occupancy must be in (0, 1] (got {0})")]
     SplitOccupancy(f32),
-    /// The brick table with the cells of the subdivided bricks exceeds 2^32 - 1 records.
+    /// The brick table (with the cells of the subdivided bricks) reaches 2^32 - 1 records.
     #[error("the super-voxel table of the {0:?} grid exceeds 2^32 - 1 records")]
     Table([u32; 3]),
-    /// A dimension is 0, or the voxel count does not fit memory indices.
+    /// A dimension is 0 or above [`MAX_AXIS`], or a dense array's voxel count reaches 2^32 - 1.
     #[error("grid dimensions {0:?} are empty or too large")]
     Dims([u32; 3]),
     /// The dense array's length is not the product of the dimensions.
@@ -430,8 +434,12 @@ impl<'a> GridBuilder<'a> {
         let count = dims
             .iter()
             .try_fold(1usize, |n, &d| n.checked_mul(d as usize))
-            .filter(|&n| n > 0 && n < u32::MAX as usize)
+            .filter(|&n| n > 0 && dims.iter().all(|&d| d <= MAX_AXIS))
             .ok_or(BuildError::Dims(dims))?;
+        // Only a dense array is indexed by flat voxel; boxes are read brick by brick.
+        if matches!(self.source, Source::Dense(_)) && count >= u32::MAX as usize {
+            return Err(BuildError::Dims(dims));
+        }
         if let Source::Dense(v) = &self.source {
             if v.len() != count {
                 return Err(BuildError::Length {
@@ -444,6 +452,10 @@ impl<'a> GridBuilder<'a> {
         let b = self.brick_size;
         let brick_dims = [0, 1, 2].map(|a| dims[a].div_ceil(b));
         let n_bricks = brick_dims.iter().map(|&d| d as usize).product::<usize>();
+        // The kernels index the brick table with a u32 (EMPTY_BRICK and the cells above it).
+        if n_bricks >= u32::MAX as usize {
+            return Err(BuildError::Table(dims));
+        }
         let (max_i, max, min_positive) = self.extremes(brick_dims)?;
         self.check_optical_depth(max_i, max)?;
         let k = Self::f16_exponent(max, min_positive);

@@ -25,7 +25,7 @@ pub use adaptive::{
 };
 pub use builder::{
     BuildError, Grid, GridBuilder, SupervoxelFormat, Underflow, DEFAULT_BRICK_SIZE, FALLBACK_STEPS,
-    MAX_OPTICAL_DEPTH, MAX_PAGE_LOG2,
+    MAX_AXIS, MAX_OPTICAL_DEPTH, MAX_PAGE_LOG2,
 };
 pub use segment::SegmentEstimator;
 pub use shared::estimators::transmittance::{jackknife, naive, s, x_bar};

@@ -155,3 +155,54 @@ fn long_mostly_empty_grids_get_budgets_from_their_occupied_bricks() {
     assert_eq!(g.desc.brick_budget(), 1 + FALLBACK_STEPS as u32);
     assert_eq!(check("empty", &g, 500), (1, 1));
 }
+
+/// A box of more than 2^32 voxels (2001^3 = 8.0e9) built from boxes, as a sparse file's loader
+/// gives it: two occupied bricks at opposite corners, its 126^3 bricks' table, traversal budgets
+/// from the occupied bricks; a dense array of that many voxels and a box longer than
+/// [`jackknife::MAX_AXIS`] are refused, as is a brick table past a u32 index.
+#[test]
+fn boxes_above_2_pow_32_voxels_build_brick_by_brick() {
+    use jackknife::{BuildError, MAX_AXIS};
+    let dims = [2001; 3];
+    let corner = |v: u32| v < 3 || v == 2000;
+    let g = GridBuilder::from_boxes(dims, move |lo, hi, out| {
+        if !(0..3).all(|a| corner(lo[a]) || corner(hi[a] - 1)) {
+            return false;
+        }
+        out.clear();
+        for z in lo[2]..hi[2] {
+            for y in lo[1]..hi[1] {
+                for x in lo[0]..hi[0] {
+                    let near = [x, y, z].iter().all(|&c| c < 3) || [x, y, z] == [2000; 3];
+                    out.push(if near { 1.5 } else { 0.0 });
+                }
+            }
+        }
+        true
+    })
+    .build()
+    .unwrap();
+    assert_eq!(g.desc.brick_dims, [126, 126, 126, 0]);
+    assert_eq!(g.occupied_bricks(), 2);
+    assert_eq!(g.bricks.len(), 126 * 126 * 126);
+    check("2001^3, two corners", &g, 2000);
+    let err = |dims: [u32; 3], brick: u32| {
+        GridBuilder::from_boxes(dims, |_, _, _| false)
+            .brick_size(brick)
+            .build()
+            .unwrap_err()
+    };
+    assert_eq!(
+        err([MAX_AXIS + 1, 1, 1], 16),
+        BuildError::Dims([MAX_AXIS + 1, 1, 1])
+    );
+    assert_eq!(
+        err([MAX_AXIS, 1 << 20, 4], 2),
+        BuildError::Table([MAX_AXIS, 1 << 20, 4])
+    );
+    let dense = vec![0.0f32; 1];
+    let big = GridBuilder::dense([1 << 16, 1 << 16, 1], &dense)
+        .build()
+        .unwrap_err();
+    assert_eq!(big, BuildError::Dims([1 << 16, 1 << 16, 1]));
+}

@@ -56,12 +56,58 @@ pub fn load_volume_capped(path: &Path, grid: Option<&str>, max_voxels: u64) -> R
     }
 }
 
+/// What a file's tree topology tells before any voxel value is read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Topology {
+    /// Voxels per axis of the active voxels' bounding box (the grid that will be built).
+    pub dims: [u64; 3],
+    /// Voxels of the active tiles whose value is not 0, each of which is stored (0 where the
+    /// load is dense and the tree is not surveyed first): a lower bound of the voxels a renderer
+    /// holds, known before any leaf value is read.
+    pub tile_voxels: u64,
+}
+
+/// A check of a file's [`Topology`], called once it is known and before any voxel value is
+/// read or any grid is allocated; its error stops the load (e.g. a GPU that cannot hold the
+/// brick table of that bounding box).
+#[derive(Clone, Copy)]
+pub struct TopologyCheck<'a>(
+    pub &'a (dyn Fn(&Topology) -> Result<()> + Sync + std::panic::RefUnwindSafe),
+);
+
+impl std::fmt::Debug for TopologyCheck<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("TopologyCheck")
+    }
+}
+
+impl TopologyCheck<'_> {
+    /// Runs the check on the bounding box `lo..=hi` (index coordinates), if there is one, with
+    /// `tile_voxels` (see [`Topology::tile_voxels`]).
+    fn run(
+        check: Option<Self>,
+        bounds: Option<([i64; 3], [i64; 3])>,
+        tile_voxels: u64,
+    ) -> Result<()> {
+        let (Some(check), Some((lo, hi))) = (check, bounds) else {
+            return Ok(());
+        };
+        if (0..3).any(|a| lo[a] > hi[a]) {
+            return Ok(());
+        }
+        let dims = std::array::from_fn(|a| (hi[a] - lo[a] + 1) as u64);
+        (check.0)(&Topology { dims, tile_voxels })
+    }
+}
+
 /// How a volume file is loaded.
 #[derive(Clone, Copy, Debug)]
 pub struct LoadOptions<'a> {
     /// The grid to read (default: "density", else the file's first float grid).
     pub grid: Option<&'a str>,
-    /// Largest dense grid to build, in voxels (at most [`MAX_DENSE_VOXELS`]).
+    /// Largest dense grid to build, in voxels (at most [`MAX_DENSE_VOXELS`]). A sparse load
+    /// has no cap on its bounding box's voxel count: only on each axis ([`MAX_SPARSE_AXIS`])
+    /// and on the memory of its cell table and leaves.
     pub max_voxels: u64,
     /// Set negative densities to 0 instead of refusing the file.
     pub clamp_negative: bool,
@@ -71,6 +117,8 @@ pub struct LoadOptions<'a> {
     /// voxels outside its stored index bounding box (never written by NanoVDB's tools) loads
     /// dense.
     pub sparse: bool,
+    /// Called with the topology before the voxel values are read (see [`TopologyCheck`]).
+    pub check_topology: Option<TopologyCheck<'a>>,
 }
 
 impl Default for LoadOptions<'_> {
@@ -80,6 +128,7 @@ impl Default for LoadOptions<'_> {
             max_voxels: MAX_DENSE_VOXELS,
             clamp_negative: false,
             sparse: true,
+            check_topology: None,
         }
     }
 }
@@ -100,8 +149,8 @@ pub fn load_volume_with(path: &Path, options: &LoadOptions) -> Result<LoadedVolu
     let cap = options.max_voxels.min(MAX_DENSE_VOXELS);
     let grid = options.grid;
     let loaded = guarded(|| match format {
-        Format::OpenVdb => openvdb::load(stream_file(path)?, grid, cap, options.sparse),
-        Format::NanoVdb => nanovdb::load(path, grid, cap, options.sparse),
+        Format::OpenVdb => openvdb::load(stream_file(path)?, grid, cap, options),
+        Format::NanoVdb => nanovdb::load(path, grid, cap, options),
     })
     .with_context(|| format!("cannot load {} file {}", format.name(), path.display()))?;
     loaded.into_volume(path, options.clamp_negative)
@@ -534,21 +583,41 @@ fn check_bytes(bytes: u64, what: &str, available: Option<u64>) -> Result<()> {
 }
 
 /// The memory the OS says is available (Linux: MemAvailable of /proc/meminfo), if known.
-fn available_memory() -> Option<u64> {
+pub fn available_memory() -> Option<u64> {
     let info = std::fs::read_to_string("/proc/meminfo").ok()?;
     let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
     let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     kib.checked_mul(1024)
 }
 
-/// Voxel counts of the inclusive box `lo..=hi`, if its dense grid has at most `cap` voxels.
-fn dense_dims(lo: [i64; 3], hi: [i64; 3], cap: u64) -> Result<[u32; 3]> {
+/// Longest axis of a sparse grid's bounding box, in voxels: index coordinates are i32, and the
+/// renderer's u32 voxel coordinates keep room for a brick past the end.
+pub const MAX_SPARSE_AXIS: u64 = 1 << 31;
+
+/// Voxel counts of the inclusive box `lo..=hi` of a sparse grid: no cap on their product (the
+/// memory its cell table and leaves need is checked instead), each at most [`MAX_SPARSE_AXIS`].
+fn sparse_dims(lo: [i64; 3], hi: [i64; 3]) -> Result<[u32; 3]> {
     let d: [u64; 3] = std::array::from_fn(|a| (hi[a] - lo[a] + 1).max(0) as u64);
-    let total = d.iter().map(|&v| u128::from(v)).product::<u128>();
     ensure!(
-        total > 0,
+        d.iter().all(|&v| v > 0),
         "the grid's bounding box {lo:?}..={hi:?} is empty"
     );
+    ensure!(
+        d.iter().all(|&v| v <= MAX_SPARSE_AXIS),
+        "its active voxels span {}x{}x{} voxels (index box {lo:?}..={hi:?}), more than 2^31 \
+         along an axis; crop the volume to the region of interest",
+        d[0],
+        d[1],
+        d[2]
+    );
+    Ok(d.map(|v| v as u32))
+}
+
+/// Voxel counts of the inclusive box `lo..=hi`, if its dense grid has at most `cap` voxels
+/// (and, as [`sparse_dims`], each at most [`MAX_SPARSE_AXIS`]).
+fn dense_dims(lo: [i64; 3], hi: [i64; 3], cap: u64) -> Result<[u32; 3]> {
+    let d = sparse_dims(lo, hi)?.map(u64::from);
+    let total = d.iter().map(|&v| u128::from(v)).product::<u128>();
     ensure!(
         total <= u128::from(cap),
         "its active voxels span {}x{}x{} = {total} voxels (index box {lo:?}..={hi:?}), more than the \

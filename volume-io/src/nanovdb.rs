@@ -8,7 +8,7 @@
 
 use super::bytes::ByteReader;
 use super::topology::{bit, child_origin, ones, Survey, TopologySink};
-use super::{select_grid, DenseBuilder, GridEntry, LinearMap, Loaded, Voxels};
+use super::{select_grid, sparse, DenseBuilder, GridEntry, LinearMap, Loaded, Voxels};
 use anyhow::{ensure, Context, Result};
 use nanovdb_rs::{GridClass, GridType, NvdbFile, ValidatedFloatTreeCache, GRID_DATA_SIZE};
 use std::collections::HashSet;
@@ -27,14 +27,19 @@ const META_FIXED_BYTES: u64 = 176;
 const ZLIB_MAX_RATIO: u64 = 1032;
 
 /// Loads grid `grid` (or the default) of the `.nvdb` file at `path`, refusing dense grids of
-/// more than `cap` voxels; `sparse`: keep it sparse where it can be (see
-/// [`super::LoadOptions::sparse`]).
-pub fn load(path: &Path, grid: Option<&str>, cap: u64, sparse: bool) -> Result<Loaded> {
+/// more than `cap` voxels; `options`: whether to keep it sparse where it can be and the check of
+/// its bounding box before any value is read (see [`super::LoadOptions`]).
+pub fn load(
+    path: &Path,
+    grid: Option<&str>,
+    cap: u64,
+    options: &super::LoadOptions,
+) -> Result<Loaded> {
     preflight(&mut super::stream_file(path)?)?;
     let file = NvdbFile::open(path).map_err(explain)?;
     let entries: Vec<GridEntry> = file.grids().iter().map(entry).collect();
     let chosen = &file.grids()[select_grid(&entries, grid)?];
-    load_grid(chosen, cap, sparse).with_context(|| format!("grid '{}'", chosen.name()))
+    load_grid(chosen, cap, options).with_context(|| format!("grid '{}'", chosen.name()))
 }
 
 /// Walks the file's segments and grid metadata as `nanovdb-rs` will, refusing what would make it
@@ -145,7 +150,7 @@ fn entry(g: &nanovdb_rs::Grid) -> GridEntry {
 
 /// Reads one float grid: sparse (see [`load_sparse`]) or into a dense grid over its index
 /// bounding box.
-fn load_grid(g: &nanovdb_rs::Grid, cap: u64, sparse: bool) -> Result<Loaded> {
+fn load_grid(g: &nanovdb_rs::Grid, cap: u64, options: &super::LoadOptions) -> Result<Loaded> {
     let version = g.metadata.version;
     ensure!(
         version.major() == MAJOR_VERSION,
@@ -172,8 +177,8 @@ fn load_grid(g: &nanovdb_rs::Grid, cap: u64, sparse: bool) -> Result<Loaded> {
         "the transform has non-finite entries: the file is corrupt"
     );
     let (lo, hi) = g.index_bbox();
-    if sparse {
-        if let Some(voxels) = load_sparse(bytes, (lo, hi), cap)? {
+    if options.sparse {
+        if let Some(voxels) = load_sparse(bytes, (lo, hi), options)? {
             return Ok(Loaded {
                 voxels,
                 map,
@@ -186,6 +191,7 @@ fn load_grid(g: &nanovdb_rs::Grid, cap: u64, sparse: bool) -> Result<Loaded> {
     if (0..3).all(|a| lo[a] <= hi[a]) {
         bounds.include(lo.map(i64::from), hi.map(i64::from));
     }
+    super::TopologyCheck::run(options.check_topology, bounds.bounds, 0)?;
     let mut dense = bounds.allocate(accessor.background(), cap)?;
     for z in lo[2]..=hi[2] {
         for y in lo[1]..=hi[1] {
@@ -206,10 +212,15 @@ fn load_grid(g: &nanovdb_rs::Grid, cap: u64, sparse: bool) -> Result<Loaded> {
 /// The grid's active tiles and leaves as sparse cells, if it can be kept sparse: background 0
 /// and the active voxels' bounds equal to the index bounding box `bbox` (what NanoVDB's
 /// builders write; the dense load reads exactly that box). `None`: load it dense (which also
-/// gives the errors of empty boxes and boxes above `cap` voxels).
-fn load_sparse(bytes: &[u8], bbox: ([i32; 3], [i32; 3]), cap: u64) -> Result<Option<Voxels>> {
+/// gives the error of an empty box). The topology check of `options` runs once the tree is
+/// surveyed, before any leaf value is read.
+fn load_sparse(
+    bytes: &[u8],
+    bbox: ([i32; 3], [i32; 3]),
+    options: &super::LoadOptions,
+) -> Result<Option<Voxels>> {
     let (lo, hi) = (bbox.0.map(i64::from), bbox.1.map(i64::from));
-    if (0..3).any(|a| lo[a] > hi[a]) || super::dense_dims(lo, hi, cap).is_err() {
+    if (0..3).any(|a| lo[a] > hi[a]) {
         return Ok(None);
     }
     let tree = Tree::new(bytes, (lo, hi))?;
@@ -225,7 +236,12 @@ fn load_sparse(bytes: &[u8], bbox: ([i32; 3], [i32; 3]), cap: u64) -> Result<Opt
     if !survey.fits_cells(tree.background) || survey.bounds.bounds != Some((lo, hi)) {
         return Ok(None);
     }
-    let mut voxels = survey.allocate_cells(cap, false)?;
+    super::TopologyCheck::run(
+        options.check_topology,
+        survey.bounds.bounds,
+        survey.tile_voxels,
+    )?;
+    let mut voxels = survey.allocate_cells(active_values_are_halves(&tree)?)?;
     let mut values = vec![0.0f32; 512];
     tree.walk(&mut |node| match node {
         Node::Tile {
@@ -245,6 +261,20 @@ fn load_sparse(bytes: &[u8], bbox: ([i32; 3], [i32; 3]), cap: u64) -> Result<Opt
         }
     })?;
     Ok(Some(voxels))
+}
+
+/// Whether every active leaf value of `tree` is an f16 exactly (a grid converted from a
+/// half-float OpenVDB file): its leaves are then held as f16, half the bytes of f32 and the same
+/// values, and the sparse store never widens while it is filled.
+fn active_values_are_halves(tree: &Tree) -> Result<bool> {
+    let mut halves = true;
+    tree.walk(&mut |node| {
+        if let (true, Node::Leaf { mask, values, .. }) = (halves, node) {
+            let raw = values.as_chunks::<4>().0;
+            halves = ones(&mask).all(|n| sparse::exact_half(f32::from_le_bytes(raw[n])).is_some());
+        }
+    })?;
+    Ok(halves)
 }
 
 /// Bytes of a root node's header before its tile table (`RootData<float>`, 32-byte aligned).

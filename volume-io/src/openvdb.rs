@@ -58,7 +58,7 @@ pub fn load(
     mut r: ByteReader,
     grid: Option<&str>,
     cap: u64,
-    sparse: bool,
+    options: &super::LoadOptions,
 ) -> Result<super::Loaded> {
     read_header(&mut r)?;
     let descriptors = read_descriptors(&mut r)?;
@@ -70,7 +70,7 @@ pub fn load(
         })
         .collect();
     let chosen = &descriptors[super::select_grid(&entries, grid)?];
-    read_grid(&mut r, chosen, cap, sparse).with_context(|| format!("grid '{}'", chosen.entry.name))
+    read_grid(&mut r, chosen, cap, options).with_context(|| format!("grid '{}'", chosen.entry.name))
 }
 
 /// Checks the magic number and format version and skips the file-level metadata.
@@ -174,7 +174,12 @@ fn value_type_name(tree_type: &str) -> String {
 }
 
 /// Reads the chosen grid: compression, metadata, transform, topology, then leaf values.
-fn read_grid(r: &mut ByteReader, d: &Descriptor, cap: u64, sparse: bool) -> Result<super::Loaded> {
+fn read_grid(
+    r: &mut ByteReader,
+    d: &Descriptor,
+    cap: u64,
+    options: &super::LoadOptions,
+) -> Result<super::Loaded> {
     ensure!(
         d.instance_parent.is_empty(),
         "it is an instance of grid '{parent}' (it shares that grid's tree, which this reader \
@@ -203,8 +208,13 @@ fn read_grid(r: &mut ByteReader, d: &Descriptor, cap: u64, sparse: bool) -> Resu
     let topology = r.pos();
     let mut survey = Survey::default();
     let background = read_topology(r, storage, &mut survey).context("reading the tree topology")?;
-    let mut voxels = if sparse && survey.fits_cells(background) {
-        survey.allocate_cells(cap, storage.half)?
+    super::TopologyCheck::run(
+        options.check_topology,
+        survey.bounds.bounds,
+        survey.tile_voxels,
+    )?;
+    let mut voxels = if options.sparse && survey.fits_cells(background) {
+        survey.allocate_cells(storage.half)?
     } else {
         Voxels::Dense(survey.bounds.allocate(background, cap)?)
     };

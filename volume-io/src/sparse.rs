@@ -42,7 +42,7 @@ enum Store {
 }
 
 /// `v` as f16 bits if that is exact (the same f32 bits back).
-fn exact_half(v: f32) -> Option<u16> {
+pub(crate) fn exact_half(v: f32) -> Option<u16> {
     let h = half::f16::from_f32(v);
     (h.to_f32().to_bits() == v.to_bits()).then_some(h.to_bits())
 }

@@ -26,6 +26,8 @@ pub(crate) struct Survey {
     pub(crate) leaves: Vec<Leaf>,
     /// A tile or leaf off the 8-voxel lattice (only in corrupt files).
     off_lattice: bool,
+    /// Voxels of the active tiles with a nonzero value ([`super::Topology::tile_voxels`]).
+    pub(crate) tile_voxels: u64,
 }
 
 impl Survey {
@@ -35,20 +37,25 @@ impl Survey {
         background.to_bits() == 0 && !self.off_lattice
     }
 
-    /// Empty cells over the bounding box, with room for the leaves; refuses boxes above `cap`
-    /// voxels (as a dense grid would be refused) and tables or leaves that do not fit memory.
-    pub(crate) fn allocate_cells(&self, cap: u64, half: bool) -> Result<Voxels> {
+    /// Empty cells over the bounding box, with room for the leaves; refuses boxes longer than
+    /// [`super::MAX_SPARSE_AXIS`] and tables or leaves that do not fit memory. No cap on the
+    /// box's voxel count: only the cells of the box and the leaves are held.
+    pub(crate) fn allocate_cells(&self, half: bool) -> Result<Voxels> {
         let (lo, hi) = self
             .bounds
             .bounds
             .context("the grid has no active voxels (it is empty); pick another grid")?;
-        let dims = super::dense_dims(lo, hi, cap)?;
+        let dims = super::sparse_dims(lo, hi)?;
         let leaves = self.leaves.len();
         // The leaves' values (f16 from a half-float file, else f32), later the f16 pool of at
         // most as many voxels, and the table.
-        let table: u64 = dims.iter().map(|&d| u64::from(d / 8 + 2)).product();
+        let table = dims
+            .iter()
+            .map(|&d| u64::from(d / 8 + 2))
+            .fold(1u64, u64::saturating_mul);
         let value_bytes = if half { 2 } else { 4 };
-        let bytes = leaves as u64 * sparse::CELL_VALUES as u64 * (value_bytes + 2) + table * 4;
+        let bytes = (leaves as u64 * sparse::CELL_VALUES as u64 * (value_bytes + 2))
+            .saturating_add(table.saturating_mul(4));
         super::check_bytes(bytes, "its leaves", super::available_memory())?;
         let mut cells = sparse::Cells::new(lo, hi, half)
             .context("the grid's cell table does not fit memory; crop the volume")?;
@@ -66,8 +73,11 @@ impl Survey {
 }
 
 impl TopologySink for Survey {
-    fn tile(&mut self, origin: [i32; 3], log2: u32, _value: f32) {
+    fn tile(&mut self, origin: [i32; 3], log2: u32, value: f32) {
         self.off_lattice |= origin.iter().any(|&o| o % 8 != 0) || log2 < 3;
+        if value != 0.0 {
+            self.tile_voxels = self.tile_voxels.saturating_add(1u64 << (3 * log2));
+        }
         self.bounds.include_tile(origin, log2);
     }
 

@@ -4,8 +4,10 @@
 //! broken, unsupported and missing files must give errors that name the file.
 
 use std::path::{Path, PathBuf};
+use volume_io::volume::VolumeData;
 use volume_io::DenseVolume;
-use volume_io::{load_volume, load_volume_capped};
+use volume_io::{load_volume, load_volume_capped, load_volume_with};
+use volume_io::{LoadOptions, Topology, TopologyCheck};
 
 /// Path of a checked-in fixture.
 fn fixture(name: &str) -> PathBuf {
@@ -363,9 +365,9 @@ fn truncated_files_are_errors_naming_the_file() {
     }
 }
 
-#[test]
-fn truncation_inside_the_grid_is_reported_as_truncation() {
-    // Cut the leaf buffers but patch the descriptor's end offset so the parser gets that far.
+/// `density_zip.vdb` with its last 300 bytes (inside the leaf buffers) cut, the descriptor's end
+/// offset patched so that the parser gets that far.
+fn truncated_leaves() -> PathBuf {
     let bytes = std::fs::read(fixture("density_zip.vdb")).unwrap();
     let cut = bytes.len() - 300;
     let mut short = bytes[..cut].to_vec();
@@ -377,10 +379,118 @@ fn truncation_inside_the_grid_is_reported_as_truncation() {
     short[at..at + 8].copy_from_slice(&(cut as u64).to_le_bytes());
     let path = scratch("truncated_leaves.vdb");
     std::fs::write(&path, &short).unwrap();
+    path
+}
+
+#[test]
+fn truncation_inside_the_grid_is_reported_as_truncation() {
     assert_mentions(
-        &load_err(&path, None),
+        &load_err(&truncated_leaves(), None),
         &["truncated_leaves.vdb", "leaf", "truncated"],
     );
+}
+
+/// A load with a topology check that records the box it sees and refuses.
+fn refused_by_topology_check(path: &Path, sparse: bool) -> (Vec<Topology>, String) {
+    let seen = std::sync::Mutex::new(Vec::new());
+    let check = |t: &Topology| -> anyhow::Result<()> {
+        seen.lock().unwrap().push(*t);
+        anyhow::bail!("refused by the check")
+    };
+    let options = LoadOptions {
+        sparse,
+        check_topology: Some(TopologyCheck(&check)),
+        ..LoadOptions::default()
+    };
+    let err = match load_volume_with(path, &options) {
+        Ok(_) => panic!("{} loaded past a refusing check", path.display()),
+        Err(e) => format!("{e:#}"),
+    };
+    (seen.into_inner().unwrap(), err)
+}
+
+/// The topology check sees the bounding box that will be built, exactly once, and its refusal
+/// comes before any voxel value is read or any grid is allocated: a file whose leaf buffers are
+/// cut gives the check's error instead of the truncation, and a box above the dense cap gives
+/// the check's error instead of the cap's.
+#[test]
+fn the_topology_check_sees_the_box_before_any_value_is_read() {
+    for sparse in [true, false] {
+        for (file, dims) in [
+            ("density_zip.vdb", [20, 12, 9]),
+            ("density.nvdb", [20, 12, 9]),
+            ("huge.vdb", [2001, 2001, 2001]),
+            ("sparse_patches.nvdb", [131, 101, 82]),
+        ] {
+            let (seen, err) = refused_by_topology_check(&fixture(file), sparse);
+            let seen_dims: Vec<_> = seen.iter().map(|t| t.dims).collect();
+            assert_eq!(seen_dims, vec![dims], "{file} (sparse {sparse})");
+            assert_mentions(&err, &[file, "refused by the check"]);
+        }
+        let (seen, err) = refused_by_topology_check(&truncated_leaves(), sparse);
+        assert_eq!(
+            seen[..],
+            [Topology {
+                dims: [20, 12, 9],
+                tile_voxels: 0
+            }]
+        );
+        assert_mentions(&err, &["truncated_leaves.vdb", "refused by the check"]);
+        assert!(!err.contains("truncated,"), "{err}");
+    }
+    // Without a check the same files load (or fail) as before.
+    assert!(load_volume_with(&fixture("density_zip.vdb"), &LoadOptions::default()).is_ok());
+    // Active tiles of nonzero value are counted before any leaf is read: `root_tile.vdb`'s
+    // one 4096^3 root tile, `tiles.vdb`'s 8^3 and 128^3 tiles (see scripts/make_fixtures.cpp).
+    let (seen, _) = refused_by_topology_check(&fixture("root_tile.vdb"), true);
+    assert_eq!(
+        seen[..],
+        [Topology {
+            dims: [4096; 3],
+            tile_voxels: 1 << 36
+        }]
+    );
+    let (seen, _) = refused_by_topology_check(&fixture("tiles.vdb"), true);
+    assert!(seen[0].tile_voxels >= 512, "{:?}", seen[0]);
+}
+
+/// A sparse load takes a bounding box above the dense cap of 2^31 voxels (`huge.vdb`: two voxels
+/// at opposite corners of 2001^3 = 8.0e9 voxels), holding only its two leaves and the cell
+/// table; the dense load still refuses it. A box longer than 2^31 along an axis (`wide.vdb`) is
+/// refused by both, with the same words.
+#[test]
+fn sparse_loads_take_boxes_above_the_dense_cap() {
+    let loaded = load_volume_with(&fixture("huge.vdb"), &LoadOptions::default())
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    let v = &loaded.volume;
+    assert_eq!(v.dims(), [2001; 3]);
+    assert_eq!(v.storage(), "sparse");
+    // 252^3 cells of a u32 (64 MB) and two leaves; a dense f32 box would take 32 GB.
+    assert!(v.stored_bytes() < 70_000_000, "{}", v.stored_bytes());
+    let mut one = Vec::new();
+    for (at, value) in [([0, 0, 0], 1.0), ([2000; 3], 1.0), ([1000; 3], 0.0)] {
+        let hi = at.map(|c| c + 1);
+        let stored = v.fill(at, hi, &mut one);
+        assert_eq!(if stored { one[0] } else { 0.0 }, value, "{at:?}");
+    }
+    assert_mentions(
+        &load_err(&fixture("huge.vdb"), None),
+        &["2001x2001x2001", "crop"],
+    );
+    for sparse in [true, false] {
+        let options = LoadOptions {
+            sparse,
+            ..LoadOptions::default()
+        };
+        let err = format!(
+            "{:#}",
+            load_volume_with(&fixture("wide.vdb"), &options).unwrap_err()
+        );
+        assert_mentions(
+            &err,
+            &["wide.vdb", "4294967296x1x1", "more than 2^31 along an axis"],
+        );
+    }
 }
 
 #[test]
