@@ -104,10 +104,11 @@ impl Backend {
     }
 
     /// The check of a volume's topology before any voxel is loaded or generated (see
-    /// [`topology_refusal`]); with `--backend gpu` (`choice`) it also refuses a box whose brick
-    /// table this GPU cannot hold, a size exact from the box alone. The pool's size is known
-    /// only once the values are read (active voxels may hold zeros), so [`Backend::fit`] checks
-    /// it after packing; `auto` decides there too.
+    /// [`topology_refusal`]); with `--backend gpu` (`choice`) it also refuses a volume this GPU
+    /// cannot hold for certain: its brick table (exact from the box) or the voxels of its
+    /// nonzero active tiles. The pool's size is known only once the values are read (active
+    /// voxels may hold zeros), so [`Backend::fit`] checks it after packing; `auto` decides
+    /// there too.
     pub fn topology_check(
         &self,
         choice: BackendChoice,
@@ -125,14 +126,13 @@ impl Backend {
             if let Some(why) = topology_refusal(t, brick_size, crate::io::available_memory()) {
                 anyhow::bail!("{why}");
             }
-            let bytes = table_bytes(t.dims, brick_size);
             match room
                 .as_ref()
-                .and_then(|r| r.refusal(t.dims, bytes, bytes, "brick table needs"))
+                .and_then(|r| r.topology_refusal(t, brick_size))
             {
                 Some(why) => anyhow::bail!(
-                    "--backend gpu: {why}, known from its bounding box before any voxel is read; \
-                     use --backend cpu, a larger --brick-size, or crop the volume"
+                    "--backend gpu: {why}, known from its topology before any voxel is read; use \
+                     --backend cpu, a larger --brick-size, or crop the volume"
                 ),
                 None => Ok(()),
             }
@@ -336,10 +336,15 @@ pub fn table_bytes(dims: [u64; 3], brick_size: u32) -> u64 {
     bricks.saturating_mul(std::mem::size_of::<Brick>() as u64)
 }
 
-/// What one GPU can hold: its largest storage buffer and its device-local memory.
+/// What one GPU can hold: its largest storage buffer, its voxel pool's pages and its
+/// device-local memory.
 #[derive(Clone, Debug)]
 struct GpuRoom {
     max_buffer: u64,
+    /// Bytes of the largest pool the kernels bind ([`MAX_PAGES`] pages of this device's size).
+    ///
+    /// [`MAX_PAGES`]: shared::volume::pages::MAX_PAGES
+    max_pool: u64,
     /// 0: not reported.
     memory: u64,
     description: String,
@@ -349,9 +354,35 @@ impl GpuRoom {
     fn of(gpu: &Gpu) -> Self {
         GpuRoom {
             max_buffer: gpu.max_buffer_bytes(),
+            max_pool: shared::volume::pages::MAX_PAGES as u64 * (4u64 << gpu.page_log2()),
             memory: gpu.device_local_bytes(),
             description: gpu.description().to_string(),
         }
+    }
+
+    /// Why this GPU cannot hold a volume of topology `t` in `brick_size`^3 bricks, from what is
+    /// certain before its values are read: the brick table (exact from the box) and the f16
+    /// voxels of its nonzero active tiles (a lower bound of the pool: leaves may hold zeros).
+    fn topology_refusal(&self, t: &crate::io::Topology, brick_size: u32) -> Option<String> {
+        let table = table_bytes(t.dims, brick_size);
+        let pool = t.tile_voxels.saturating_mul(2);
+        let [x, y, z] = t.dims;
+        if pool > self.max_pool {
+            return Some(format!(
+                "the {x}x{y}x{z} volume's nonzero active tiles alone hold {} voxels, {:.0} MiB of \
+                 f16, more than the {} MiB of voxel pool the kernels bind on this GPU ({})",
+                t.tile_voxels,
+                pool as f64 / f64::from(1 << 20),
+                self.max_pool >> 20,
+                self.description
+            ));
+        }
+        let what = if pool > 0 {
+            "brick table and the voxels of its nonzero active tiles need"
+        } else {
+            "brick table needs"
+        };
+        self.refusal(t.dims, table, table.saturating_add(pool), what)
     }
 
     /// Why a `dims` volume whose largest buffer is `largest` bytes and whose buffers (`what`,
@@ -429,6 +460,7 @@ mod tests {
     fn a_gpu_refuses_the_larger_of_its_buffer_and_memory_limits() {
         let room = GpuRoom {
             max_buffer: 1000,
+            max_pool: 8000,
             memory: 5000,
             description: "test GPU".into(),
         };
@@ -449,5 +481,43 @@ mod tests {
         );
         let unknown = GpuRoom { memory: 0, ..room };
         assert_eq!(unknown.refusal([1, 2, 3], 10, u64::MAX, "x need"), None);
+    }
+
+    #[test]
+    fn a_gpu_refuses_a_topology_by_its_table_and_its_tiles_voxels() {
+        use crate::io::Topology;
+        let room = GpuRoom {
+            max_buffer: 1 << 20,
+            max_pool: 8 << 20,
+            memory: 16 << 20,
+            description: "test GPU".into(),
+        };
+        let t = |dims, tile_voxels| Topology { dims, tile_voxels };
+        // 42^3 bricks of 16^3: 1.78 MB of table, above the 1 MiB buffer.
+        let why = room.topology_refusal(&t([672; 3], 0), 16).unwrap();
+        assert!(
+            why.contains("storage buffer") && why.contains("672x672x672"),
+            "{why}"
+        );
+        assert_eq!(room.topology_refusal(&t([256; 3], 0), 16), None);
+        // 4 M tile voxels: 8 MiB of f16 fit the pool's pages; one more does not.
+        assert_eq!(room.topology_refusal(&t([256; 3], 4 << 20), 16), None);
+        let why = room
+            .topology_refusal(&t([256; 3], (4 << 20) + 1), 16)
+            .unwrap();
+        assert!(
+            why.contains("nonzero active tiles alone hold 4194305 voxels"),
+            "{why}"
+        );
+        // Table + tiles above the device's memory, each within its own limit.
+        let small = GpuRoom {
+            memory: 8 << 20,
+            ..room
+        };
+        let why = small.topology_refusal(&t([256; 3], 4 << 20), 16).unwrap();
+        assert!(
+            why.contains("voxels of its nonzero active tiles need"),
+            "{why}"
+        );
     }
 }
