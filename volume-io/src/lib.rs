@@ -61,9 +61,9 @@ pub fn load_volume_capped(path: &Path, grid: Option<&str>, max_voxels: u64) -> R
 pub struct Topology {
     /// Voxels per axis of the active voxels' bounding box (the grid that will be built).
     pub dims: [u64; 3],
-    /// Voxels of the active tiles whose value is not 0, each of which is stored (0 where the
-    /// load is dense and the tree is not surveyed first): a lower bound of the voxels a renderer
-    /// holds, known before any leaf value is read.
+    /// Voxels of the active tiles whose value is positive, each of which is stored (0 where
+    /// the tree is not surveyed first: a NanoVDB grid loaded dense): a lower bound of the voxels
+    /// a renderer holds, known before any leaf value is read.
     pub tile_voxels: u64,
 }
 

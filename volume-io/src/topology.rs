@@ -26,7 +26,7 @@ pub(crate) struct Survey {
     pub(crate) leaves: Vec<Leaf>,
     /// A tile or leaf off the 8-voxel lattice (only in corrupt files).
     off_lattice: bool,
-    /// Voxels of the active tiles with a nonzero value ([`super::Topology::tile_voxels`]).
+    /// Voxels of the active tiles with a positive value ([`super::Topology::tile_voxels`]).
     pub(crate) tile_voxels: u64,
 }
 
@@ -75,7 +75,8 @@ impl Survey {
 impl TopologySink for Survey {
     fn tile(&mut self, origin: [i32; 3], log2: u32, value: f32) {
         self.off_lattice |= origin.iter().any(|&o| o % 8 != 0) || log2 < 3;
-        if value != 0.0 {
+        // Positive only: a negative tile is refused or (--clamp-negative) set to 0, never stored.
+        if value > 0.0 {
             self.tile_voxels = self.tile_voxels.saturating_add(1u64 << (3 * log2));
         }
         self.bounds.include_tile(origin, log2);
