@@ -81,6 +81,21 @@ pub struct Calibration {
     pub ms: f64,
     /// The budget: the first entry's render time at `--spp`.
     pub budget_ms: f64,
+    /// The entry's SMAPE moved to exactly the budget: smape x sqrt(elapsed_ms / budget_ms),
+    /// i.e. as if its error were all noise (falling as 1 / sqrt(time)); corrects for the timing
+    /// run's miss of the budget (a short run on a busy machine misses by 10-20 %). An estimate:
+    /// an entry's bias does not shrink with time.
+    #[serde(default)]
+    pub smape_at_budget: f64,
+}
+
+/// [`Calibration::smape_at_budget`] of an entry with `smape` that took `elapsed_ms`.
+pub fn smape_at_budget(smape: f64, elapsed_ms: f64, budget_ms: f64) -> f64 {
+    if elapsed_ms > 0.0 && budget_ms > 0.0 {
+        smape * (elapsed_ms / budget_ms).sqrt()
+    } else {
+        smape
+    }
 }
 
 /// Samples per pixel of the timing run of `--equal-time` (an eighth of --spp, at least 1).
@@ -483,6 +498,7 @@ pub fn evaluate_direct(
                         spp,
                         ms,
                         budget_ms: budget,
+                        smape_at_budget: f64::NAN,
                     })
                 }
                 _ => None,
@@ -516,7 +532,10 @@ pub fn evaluate_direct(
             if let Some(m) = &map {
                 e.elapsed_ms += m.build_ms;
             }
-            e.calibration = calibration;
+            e.calibration = calibration.map(|c| Calibration {
+                smape_at_budget: smape_at_budget(e.smape, e.elapsed_ms, c.budget_ms),
+                ..c
+            });
             if equal_time && budget_ms.is_none() {
                 budget_ms = Some(e.elapsed_ms);
             }
@@ -652,6 +671,15 @@ fn bias_variance(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn smape_at_budget_scales_as_noise_with_the_time_missed() {
+        // Twice the budget: the noise of half the time is sqrt(2) larger.
+        let s = smape_at_budget(0.1, 2000.0, 1000.0);
+        assert!((s - 0.1 * 2f64.sqrt()).abs() < 1e-12, "{s}");
+        assert_eq!(smape_at_budget(0.1, 1000.0, 1000.0), 0.1);
+        assert_eq!(smape_at_budget(0.1, 0.0, 1000.0), 0.1);
+    }
 
     #[test]
     fn equal_time_spp_fits_the_budget_and_flags_clamps() {

@@ -1505,6 +1505,14 @@ fn eval_of_direct_and_restir_at_equal_time() {
     assert!(c["ms"].as_f64().unwrap() > 0.0);
     assert_eq!(c["budget_ms"], entries[0]["elapsed_ms"]);
     assert!(entries[1]["spp"].as_u64().unwrap() >= 1);
+    // The SMAPE moved to the budget: smape x sqrt(elapsed / budget).
+    let f = |v: &serde_json::Value| v.as_f64().unwrap();
+    let moved =
+        f(&entries[1]["smape"]) * (f(&entries[1]["elapsed_ms"]) / f(&c["budget_ms"])).sqrt();
+    assert!(
+        (f(&c["smape_at_budget"]) - moved).abs() <= 1e-12 * moved,
+        "{c}"
+    );
     for e in entries {
         for f in ["smape", "mean_bias", "mean_bias_se", "mean_std"] {
             assert!(e[f].as_f64().unwrap().is_finite(), "{f}: {e}");
