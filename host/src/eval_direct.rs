@@ -45,6 +45,9 @@ pub struct DirectEntry {
     pub mean_radiance: f64,
     /// Render time, without the GPU pipeline builds it waited for.
     pub elapsed_ms: f64,
+    /// Those builds' wall time (a kernel variant compiles on its first use; 0 on the CPU).
+    #[serde(default)]
+    pub pipeline_build_ms: f64,
     /// Samples per pixel of this entry (`--spp`, or with `--equal-time` the calibrated count).
     #[serde(default)]
     pub spp: u32,
@@ -293,7 +296,17 @@ fn moments(pixels: &[PixelOut]) -> Vec<(f64, f64)> {
         .collect()
 }
 
-/// Renders and writes one image; returns its pixels and the render time.
+/// One rendered and written image: its pixels, its render time without the GPU pipeline builds
+/// it waited for, those builds' time, and its EXR and PNG paths.
+struct Rendered {
+    pixels: Vec<PixelOut>,
+    elapsed_ms: f64,
+    pipeline_build_ms: f64,
+    exr: String,
+    png: String,
+}
+
+/// Renders and writes one image.
 fn render_one(
     setup: &EvalSetup,
     resident: &Resident,
@@ -301,10 +314,10 @@ fn render_one(
     lights: &SceneLights,
     stem: &str,
     exposure: f32,
-) -> Result<(Vec<PixelOut>, f64, String, String)> {
+) -> Result<Rendered> {
     // Without the GPU pipeline builds (a kernel variant compiles on first use): the equal-time
     // calibration and the reported times compare renders, not the driver's compiler.
-    let (pixels, elapsed_ms, _) = setup
+    let (pixels, elapsed_ms, built) = setup
         .backend
         .timed(|| crate::render::render_resident_lit(resident, params, lights, setup.progress))
         .with_context(|| format!("rendering {stem}"))?;
@@ -319,12 +332,13 @@ fn render_one(
     let (w, h) = (params.width, params.height);
     write_exr_rgb(&exr, w, h, &rgb)?;
     write_png_rgb_exposed(&png, w, h, &rgb, exposure)?;
-    Ok((
+    Ok(Rendered {
         pixels,
         elapsed_ms,
-        exr.display().to_string(),
-        png.display().to_string(),
-    ))
+        pipeline_build_ms: built.ms(),
+        exr: exr.display().to_string(),
+        png: png.display().to_string(),
+    })
 }
 
 /// Renders, for each of `integrators` (`direct`, `path`; `setup.params` carries the depths), the
@@ -412,7 +426,7 @@ pub fn evaluate_direct(
                 let what = format!("the {ref_label} reference");
                 crate::eval::step(setup, done, total, &what, ref_params.spp);
                 done += 1;
-                let (ref_px, _, exr, png) = render_one(
+                let rendered = render_one(
                     setup,
                     &resident,
                     &ref_params,
@@ -420,7 +434,12 @@ pub fn evaluate_direct(
                     &stem(ref_label, "reference"),
                     exposure,
                 )?;
-                let r = (moments(&ref_px), ref_params, exr, png);
+                let r = (
+                    moments(&rendered.pixels),
+                    ref_params,
+                    rendered.exr,
+                    rendered.png,
+                );
                 if ref_integrator == Integrator::Direct {
                     direct_reference = Some(r.clone());
                 }
@@ -438,7 +457,7 @@ pub fn evaluate_direct(
             let what = format!("{label} with exact shadows (paired)");
             crate::eval::step(setup, done, total, &what, p.spp);
             done += 1;
-            let (px, ..) = render_one(
+            let rendered = render_one(
                 setup,
                 &resident,
                 &p,
@@ -446,7 +465,7 @@ pub fn evaluate_direct(
                 &stem(label, "exact"),
                 exposure,
             )?;
-            Some(px)
+            Some(rendered.pixels)
         } else {
             None
         };
@@ -578,7 +597,13 @@ fn measure(
     exact: Option<&[PixelOut]>,
 ) -> Result<DirectEntry> {
     let name = format!("{label}/{estimator}");
-    let (px, elapsed_ms, exr, png) = render_one(
+    let Rendered {
+        pixels: px,
+        elapsed_ms,
+        pipeline_build_ms,
+        exr,
+        png,
+    } = render_one(
         setup,
         resident,
         params,
@@ -614,6 +639,7 @@ fn measure(
         mean_std: m.iter().map(|(_, v)| v.sqrt()).sum::<f64>() / n,
         mean_radiance: m.iter().map(|(a, _)| a).sum::<f64>() / n,
         elapsed_ms,
+        pipeline_build_ms,
         spp: params.spp,
         calibration: None,
         lookups_per_ray: px.iter().map(|p| p.samples as f64).sum::<f64>() / (n * params.spp as f64),

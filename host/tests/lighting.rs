@@ -1517,6 +1517,8 @@ fn eval_of_direct_and_restir_at_equal_time() {
         for f in ["smape", "mean_bias", "mean_bias_se", "mean_std"] {
             assert!(e[f].as_f64().unwrap().is_finite(), "{f}: {e}");
         }
+        // The CPU builds no pipelines.
+        assert_eq!(e["pipeline_build_ms"], 0.0, "{e}");
     }
     let refs = r["references"].as_array().unwrap();
     assert_eq!(refs.len(), 2);
