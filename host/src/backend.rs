@@ -312,7 +312,7 @@ pub fn topology_refusal(
             t.tile_voxels
         ));
     }
-    let bricks = table_bytes(t.dims, brick_size) / std::mem::size_of::<Brick>() as u64;
+    let bricks = brick_count(t.dims, brick_size);
     let need = bricks.saturating_mul(PACK_BYTES_PER_BRICK);
     let gib = |b: u64| b as f64 / f64::from(1 << 30);
     available.filter(|&a| need > a).map(|a| {
@@ -329,11 +329,14 @@ pub fn topology_refusal(
 /// Bytes of the brick table of a `dims` box in `brick_size`^3 bricks (the fixed grid; adaptive
 /// super-voxels add their cells to it).
 pub fn table_bytes(dims: [u64; 3], brick_size: u32) -> u64 {
-    let bricks = dims
-        .iter()
+    brick_count(dims, brick_size).saturating_mul(std::mem::size_of::<Brick>() as u64)
+}
+
+/// Bricks of `brick_size`^3 over a `dims` box (saturating).
+fn brick_count(dims: [u64; 3], brick_size: u32) -> u64 {
+    dims.iter()
         .map(|&d| d.div_ceil(u64::from(brick_size)))
-        .fold(1u64, u64::saturating_mul);
-    bricks.saturating_mul(std::mem::size_of::<Brick>() as u64)
+        .fold(1u64, u64::saturating_mul)
 }
 
 /// What one GPU can hold: its largest storage buffer, its voxel pool's pages and its

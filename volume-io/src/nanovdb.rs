@@ -225,13 +225,24 @@ fn load_sparse(
     }
     let tree = Tree::new(bytes, (lo, hi))?;
     let mut survey = Survey::default();
+    // Whether every active leaf value is an f16 exactly (a grid converted from a half-float
+    // OpenVDB file): its leaves are then held as f16, half the bytes of f32 and the same values,
+    // and the sparse store never widens while it is filled. Decided in the survey's walk.
+    let mut halves = true;
     tree.walk(&mut |node| match node {
         Node::Tile {
             origin,
             log2,
             value,
         } => survey.tile(origin, log2, value),
-        Node::Leaf { origin, mask, .. } => survey.leaf(origin, mask),
+        Node::Leaf {
+            origin,
+            mask,
+            values,
+        } => {
+            survey.leaf(origin, mask);
+            halves = halves && active_values_are_halves(&mask, values);
+        }
     })?;
     if !survey.fits_cells(tree.background) || survey.bounds.bounds != Some((lo, hi)) {
         return Ok(None);
@@ -241,7 +252,7 @@ fn load_sparse(
         survey.bounds.bounds,
         survey.tile_voxels,
     )?;
-    let mut voxels = survey.allocate_cells(active_values_are_halves(&tree)?)?;
+    let mut voxels = survey.allocate_cells(halves)?;
     let mut values = vec![0.0f32; 512];
     tree.walk(&mut |node| match node {
         Node::Tile {
@@ -263,18 +274,10 @@ fn load_sparse(
     Ok(Some(voxels))
 }
 
-/// Whether every active leaf value of `tree` is an f16 exactly (a grid converted from a
-/// half-float OpenVDB file): its leaves are then held as f16, half the bytes of f32 and the same
-/// values, and the sparse store never widens while it is filled.
-fn active_values_are_halves(tree: &Tree) -> Result<bool> {
-    let mut halves = true;
-    tree.walk(&mut |node| {
-        if let (true, Node::Leaf { mask, values, .. }) = (halves, node) {
-            let raw = values.as_chunks::<4>().0;
-            halves = ones(&mask).all(|n| sparse::exact_half(f32::from_le_bytes(raw[n])).is_some());
-        }
-    })?;
-    Ok(halves)
+/// Whether every active value of a leaf (`mask`, its 512 raw f32 `values`) is an f16 exactly.
+fn active_values_are_halves(mask: &[u64; 8], values: &[u8]) -> bool {
+    let raw = values.as_chunks::<4>().0;
+    ones(mask).all(|n| sparse::exact_half(f32::from_le_bytes(raw[n])).is_some())
 }
 
 /// Bytes of a root node's header before its tile table (`RootData<float>`, 32-byte aligned).
