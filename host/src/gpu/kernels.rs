@@ -383,4 +383,28 @@ mod tests {
             assert!(!k.strides().is_empty(), "{k:?} binds no storage buffer");
         }
     }
+
+    /// rust-gpu inlines every call of a function that takes a buffer reference, so each call
+    /// site of `restir`'s target p̂ is a whole copy of its transmittance estimate in the module.
+    /// With four call sites and every estimator behind them, `restir_reuse_cs` was 4.4 MB and
+    /// NVIDIA's SPIR-V compiler (driver 580.159, H200) crashed building its pipeline (a
+    /// segfault in libnvidia-glvkspirv, 2026-12-04). Reuse now evaluates p̂ at one call site
+    /// and p̂ holds only the jackknife and ratio tracking: the reuse kernel stays within 1.5x of
+    /// the candidate kernel (one p̂; the old one was 4.4x), and the candidate kernel under half
+    /// the kernel with every estimator (`transmittance_cs`; the old one was 1.0x).
+    #[test]
+    fn restir_kernels_hold_one_copy_of_a_two_estimator_target() {
+        let size = |k: Kernel| k.spirv().len() as f64;
+        let reuse = size(Kernel::RestirReuseCs);
+        let candidate = size(Kernel::RestirCandidateCs);
+        let every = size(Kernel::TransmittanceCs);
+        assert!(
+            reuse <= 1.5 * candidate,
+            "restir_reuse_cs is {reuse} bytes, restir_candidate_cs {candidate}"
+        );
+        assert!(
+            candidate <= 0.5 * every,
+            "restir_candidate_cs is {candidate} bytes, transmittance_cs {every}"
+        );
+    }
 }

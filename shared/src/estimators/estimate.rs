@@ -33,28 +33,7 @@ pub fn transmittance(
     let which = cfg.estimator;
     match which {
         Estimator::Jackknife | Estimator::NaiveMean => {
-            let prep = prepare(vol, ray, t0, t1, cfg.importance);
-            let (est, rng) = estimate_pair(
-                vol,
-                ray,
-                &prep,
-                n,
-                cfg.importance,
-                cfg.jitter,
-                cfg.lookup,
-                rng,
-            );
-            let tally = est.tally();
-            if which == Estimator::Jackknife {
-                let outside = transmittance::outside_regime(est.x0, est.x1);
-                (
-                    transmittance::jackknife(est.x0, est.x1),
-                    tally.outside_if(outside),
-                    rng,
-                )
-            } else {
-                (transmittance::naive(est.x0, est.x1), tally, rng)
-            }
+            pair_transmittance(vol, cfg, params, ray, t0, t1, rng)
         }
         Estimator::NaiveSingle => {
             let prep = prepare(vol, ray, t0, t1, cfg.importance);
@@ -102,15 +81,67 @@ pub fn transmittance(
         Estimator::TrackLength => {
             track_length_capped(vol, ray, t0, t1, cfg.lookup, cfg.max_collisions, rng)
         }
-        Estimator::RatioTracking => ratio_tracking_capped(
-            vol,
-            ray,
-            t0,
-            t1,
-            cfg.lookup,
-            cfg.roulette,
-            cfg.max_collisions,
-            rng,
-        ),
+        Estimator::RatioTracking => ratio_transmittance(vol, cfg, ray, t0, t1, rng),
     }
+}
+
+/// The jackknife (Eq. 4) or the naive exp(-mean) (`NaiveMean`) of one pair of optical-depth
+/// estimates (Alg. 1 over Alg. 2's `Prep`) of [t0, t1]; [`transmittance`]'s arm for both, and
+/// alone where only these estimators can be asked for (a kernel that inlines it holds no other
+/// estimator's code: `restir`'s target, [`crate::integrators::restir::p_hat`]).
+#[inline]
+pub fn pair_transmittance(
+    vol: &VolumeView,
+    cfg: &Config,
+    params: &RenderParams,
+    ray: &Ray,
+    t0: f32,
+    t1: f32,
+    rng: HashRng,
+) -> (f32, Tally, HashRng) {
+    let prep = prepare(vol, ray, t0, t1, cfg.importance);
+    let (est, rng) = estimate_pair(
+        vol,
+        ray,
+        &prep,
+        params.n,
+        cfg.importance,
+        cfg.jitter,
+        cfg.lookup,
+        rng,
+    );
+    let tally = est.tally();
+    if cfg.estimator == Estimator::Jackknife {
+        let outside = transmittance::outside_regime(est.x0, est.x1);
+        (
+            transmittance::jackknife(est.x0, est.x1),
+            tally.outside_if(outside),
+            rng,
+        )
+    } else {
+        (transmittance::naive(est.x0, est.x1), tally, rng)
+    }
+}
+
+/// Ratio tracking of [t0, t1] with the lookup, roulette and collision cap of `cfg`
+/// ([`transmittance`]'s arm, and alone as [`pair_transmittance`] is).
+#[inline]
+pub fn ratio_transmittance(
+    vol: &VolumeView,
+    cfg: &Config,
+    ray: &Ray,
+    t0: f32,
+    t1: f32,
+    rng: HashRng,
+) -> (f32, Tally, HashRng) {
+    ratio_tracking_capped(
+        vol,
+        ray,
+        t0,
+        t1,
+        cfg.lookup,
+        cfg.roulette,
+        cfg.max_collisions,
+        rng,
+    )
 }

@@ -19,7 +19,7 @@
 use crate::estimators::estimate;
 use crate::estimators::tracking::delta_tracking_capped;
 use crate::geometry::{to_index_space, Ray, V3};
-use crate::params::{Config, RenderParams};
+use crate::params::{Config, Estimator, RenderParams};
 use crate::rgb::Rgb;
 use crate::rng::HashRng;
 use crate::sampling::lighting::{LightKind, Scene};
@@ -231,13 +231,42 @@ pub(super) fn shadow(
     q: &ShadowQuery,
     rng: HashRng,
 ) -> (f32, Tally, HashRng) {
-    let world = Ray { o: q.o, d: q.w };
-    let ray = to_index_space(&world, &params.world_to_index);
-    let (t0, t1) = clip_to_box(&ray, grid_hi(vol), 0.0, q.dist);
+    let (ray, t0, t1) = shadow_segment(vol, params, q);
     if !(t0 < t1) {
         return (1.0, Tally::default(), rng);
     }
     estimate::transmittance(vol, cfg, params, &ray, t0, t1, rng)
+}
+
+/// [`shadow`] by the jackknife (or the naive mean) or by ratio tracking only, as `cfg.estimator`
+/// says (`restir`'s target T̂): the same numbers as [`shadow`] for those estimators, and a kernel
+/// that inlines it at every target evaluation holds none of the others' code.
+pub(super) fn shadow_pair_or_ratio(
+    vol: &VolumeView,
+    cfg: &Config,
+    params: &RenderParams,
+    q: &ShadowQuery,
+    rng: HashRng,
+) -> (f32, Tally, HashRng) {
+    let (ray, t0, t1) = shadow_segment(vol, params, q);
+    if !(t0 < t1) {
+        return (1.0, Tally::default(), rng);
+    }
+    if cfg.estimator == Estimator::RatioTracking {
+        estimate::ratio_transmittance(vol, cfg, &ray, t0, t1, rng)
+    } else {
+        estimate::pair_transmittance(vol, cfg, params, &ray, t0, t1, rng)
+    }
+}
+
+/// A query's shadow ray in index space and its segment [t0, t1] inside the grid (empty if
+/// t0 >= t1).
+#[inline]
+fn shadow_segment(vol: &VolumeView, params: &RenderParams, q: &ShadowQuery) -> (Ray, f32, f32) {
+    let world = Ray { o: q.o, d: q.w };
+    let ray = to_index_space(&world, &params.world_to_index);
+    let (t0, t1) = clip_to_box(&ray, grid_hi(vol), 0.0, q.dist);
+    (ray, t0, t1)
 }
 
 /// Transmittance toward the sun at a query's origin from the moment shadow map (no voxel

@@ -21,7 +21,7 @@
 //! Between the candidates and the resolve, `restir_passes` spatial reuse passes resample each
 //! pixel's reservoir with its neighbours' ([`super::restir_reuse`]).
 
-use super::direct::{shadow, start_at_vertex, DirectState, ShadowQuery};
+use super::direct::{shadow, shadow_pair_or_ratio, start_at_vertex, DirectState, ShadowQuery};
 use crate::geometry::{Ray, V3};
 use crate::params::{Config, Estimator, Importance, Jitter, RenderParams, RestirTarget};
 use crate::rgb::Rgb;
@@ -329,7 +329,7 @@ pub fn p_hat(
         weight: Rgb::ZERO,
     };
     let rng = HashRng::for_sample(id, sample, params.seed ^ pcg_hash(k ^ TARGET_SALT));
-    let (t_hat, tally, _) = shadow(vol, &est, &small, &toward, rng);
+    let (t_hat, tally, _) = shadow_pair_or_ratio(vol, &est, &small, &toward, rng);
     let clamped = if t_hat > 1.0 {
         1.0
     } else if t_hat > params.restir_floor {

@@ -77,6 +77,20 @@ struct Input {
     r: Reservoir,
 }
 
+impl Input {
+    /// No input (its fields unused).
+    const NONE: Input = Input {
+        x: V3::new(0.0, 0.0, 0.0),
+        wo: V3::new(0.0, 0.0, 0.0),
+        r: Reservoir {
+            y: 0,
+            w_sum: 0.0,
+            p_hat: 0.0,
+            m: 0,
+        },
+    };
+}
+
 /// Neighbour q's input if it has a vertex (else None): states[q - base].
 #[inline]
 fn neighbour_input(states: &[RestirState], base: u32, q: u32, pass: u32) -> Option<Input> {
@@ -140,56 +154,104 @@ pub fn reuse(
         n += 1;
     }
     let kf = k_eff as f32;
-    let ctx = Ctx {
-        vol,
-        cfg,
-        params,
-        scene,
-        sample,
-        states,
-        base,
-        id,
-        pass,
-        x: st.x,
-        wo: st.wo,
-    };
     let mut tally = Tally::default();
     let mut rng = HashRng {
         state: st.direct.rng,
     };
     let mut out = Reservoir::default();
     let mut m_own = if k_eff == 0 { 1.0 } else { 0.0 };
-    let mut n = 0;
-    while n < k {
-        let q_id = neighbour(params, id, sample, pass, n);
-        n += 1;
-        let Some(q) = neighbour_input(states, base, q_id, pass) else {
-            continue;
-        };
-        // Neighbour q's sample shifted here (same light, |J| = 1): p̂(y_q) at this vertex.
-        let (p_c, t) = ctx.target_here(q.r);
-        tally = tally.merge(t);
-        let m_q = if balance {
-            let (sum, t) = ctx.balance_sum(q.r.y, c_c * p_c);
-            tally = tally.merge(t);
-            m_balance(q.r.m as f32 * q.r.p_hat, sum)
+    // Input i < k is neighbour i, i = k the canonical sample (its balance weight only). Every
+    // target evaluation of the pass goes through the one call of `p_hat` below (a kernel
+    // inlines each call site: one copy, not four), in the order of the MIS weights' sums:
+    // evaluation e = 0 is p̂ here at neighbour i's light (its shift here), then pairwise e = 1
+    // is p̂_i at the canonical light, balance e = 1..=k is p̂_{e-1} at the input's light.
+    let canonical_balance = balance && k_eff > 0 && own.w_sum > 0.0;
+    let evaluations = if balance { k + 1 } else { 2 };
+    let mut i = 0;
+    while i <= k {
+        let canonical = i == k;
+        let q_id = if canonical {
+            NO_NEIGHBOUR
         } else {
-            m_neighbour(c_c, q.r.m as f32, kf, c_total, p_c, q.r.p_hat)
+            neighbour(params, id, sample, pass, i)
+        };
+        i += 1;
+        let q = neighbour_input(states, base, q_id, pass);
+        if (!canonical && q.is_none()) || (canonical && !canonical_balance) {
+            continue;
+        }
+        // The input's light y and reservoir (the canonical's own).
+        let r = match q {
+            Some(q) => q.r,
+            None => own,
+        };
+        let (mut p_c, mut p_pair) = (own.p_hat, 0.0);
+        // The balance heuristic's sum: c p̂ here first, then c_j p̂_j in neighbour order.
+        let mut sum = if canonical { c_c * own.p_hat } else { 0.0 };
+        let mut e = if canonical { 1 } else { 0 };
+        while e < evaluations {
+            // Who evaluates which light (pixel, its vertex and direction, the light) with what
+            // factor, or the value when it is known without evaluating.
+            let (who, x, wo, light, scale, known) = if e == 0 {
+                // Neighbour i's sample shifted here (same light, |J| = 1).
+                let known = if r.w_sum > 0.0 { None } else { Some(0.0) };
+                (id, st.x, st.wo, r.y, 1.0, known)
+            } else if !balance {
+                // Pair i's term of the canonical weight: p̂_i at the canonical light.
+                let known = if own.w_sum > 0.0 { None } else { Some(0.0) };
+                let q = q.unwrap_or(Input::NONE);
+                (q_id, q.x, q.wo, own.y, 1.0, known)
+            } else {
+                // The sum's term of neighbour e - 1 at y: c_j p̂_j(y), with the target j stored
+                // where y is its own sample (the same fixed function's value); none (0) where
+                // there is no neighbour.
+                let j_id = neighbour(params, id, sample, pass, e - 1);
+                match neighbour_input(states, base, j_id, pass) {
+                    None => (j_id, st.x, st.wo, r.y, 0.0, Some(0.0)),
+                    Some(j) => {
+                        let c_j = j.r.m as f32;
+                        let known = if j.r.w_sum > 0.0 && j.r.y == r.y {
+                            Some(c_j * j.r.p_hat)
+                        } else {
+                            None
+                        };
+                        (j_id, j.x, j.wo, r.y, c_j, known)
+                    }
+                }
+            };
+            let value = match known {
+                Some(v) => v,
+                None => {
+                    let (p, t) = p_hat(vol, cfg, params, scene, who, sample, x, wo, light);
+                    tally = tally.merge(t);
+                    scale * p
+                }
+            };
+            if e == 0 {
+                p_c = value;
+                sum = c_c * p_c;
+            } else if !balance {
+                p_pair = value;
+            } else {
+                sum += value;
+            }
+            e += 1;
+        }
+        if canonical {
+            m_own = m_balance(c_c * own.p_hat, sum);
+            continue;
+        }
+        let m_q = if balance {
+            m_balance(r.m as f32 * r.p_hat, sum)
+        } else {
+            m_neighbour(c_c, r.m as f32, kf, c_total, p_c, r.p_hat)
         };
         let (u, next) = rng.next_f32();
         rng = next;
-        out = out.update(q.r.y, m_q * p_c * q.r.contribution_weight(), p_c, u);
-        // Pairwise: pair q's term of the canonical sample's weight, p̂_q at the own sample.
+        out = out.update(r.y, m_q * p_c * r.contribution_weight(), p_c, u);
         if !balance && own.w_sum > 0.0 {
-            let (p_q, t) = p_hat(vol, cfg, params, scene, q_id, sample, q.x, q.wo, own.y);
-            tally = tally.merge(t);
-            m_own += m_canonical_term(c_c, q.r.m as f32, kf, c_total, own.p_hat, p_q);
+            m_own += m_canonical_term(c_c, r.m as f32, kf, c_total, own.p_hat, p_pair);
         }
-    }
-    if balance && k_eff > 0 && own.w_sum > 0.0 {
-        let (sum, t) = ctx.balance_sum(own.y, c_c * own.p_hat);
-        tally = tally.merge(t);
-        m_own = m_balance(c_c * own.p_hat, sum);
     }
     let (u, next) = rng.next_f32();
     rng = next;
@@ -217,74 +279,4 @@ fn with_output(st: RestirState, pass: u32, r: Reservoir) -> RestirState {
         st.reservoir = r;
     }
     st
-}
-
-/// What the target evaluations of one pixel's pass share.
-struct Ctx<'a> {
-    vol: &'a VolumeView<'a>,
-    cfg: &'a Config,
-    params: &'a RenderParams,
-    scene: &'a Scene<'a>,
-    sample: u32,
-    states: &'a [RestirState],
-    base: u32,
-    id: u32,
-    pass: u32,
-    x: V3,
-    wo: V3,
-}
-
-impl Ctx<'_> {
-    /// p̂ of this pixel at reservoir r's light (0 without a sample).
-    fn target_here(&self, r: Reservoir) -> (f32, Tally) {
-        if !(r.w_sum > 0.0) {
-            return (0.0, Tally::default());
-        }
-        p_hat(
-            self.vol,
-            self.cfg,
-            self.params,
-            self.scene,
-            self.id,
-            self.sample,
-            self.x,
-            self.wo,
-            r.y,
-        )
-    }
-
-    /// The generalized balance heuristic's denominator at light y: `own` (c p̂ of this pixel)
-    /// plus c_q p̂_q(y) over every valid neighbour input q.
-    fn balance_sum(&self, y: u32, own: f32) -> (f32, Tally) {
-        let mut sum = own;
-        let mut tally = Tally::default();
-        let mut n = 0;
-        while n < self.params.restir_neighbours {
-            let q_id = neighbour(self.params, self.id, self.sample, self.pass, n);
-            n += 1;
-            let Some(q) = neighbour_input(self.states, self.base, q_id, self.pass) else {
-                continue;
-            };
-            let p_q = if q.r.w_sum > 0.0 && q.r.y == y {
-                // Its own sample: the target it stored (the same fixed function's value).
-                q.r.p_hat
-            } else {
-                let (p, t) = p_hat(
-                    self.vol,
-                    self.cfg,
-                    self.params,
-                    self.scene,
-                    q_id,
-                    self.sample,
-                    q.x,
-                    q.wo,
-                    y,
-                );
-                tally = tally.merge(t);
-                p
-            };
-            sum += q.r.m as f32 * p_q;
-        }
-        (sum, tally)
-    }
 }
