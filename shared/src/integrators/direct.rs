@@ -11,8 +11,8 @@
 //! both strategies and cancels from the weights).
 //!
 //! The three transmittance estimates (background, light sample, phase sample) go through one
-//! call site of [`estimate::transmittance`] ([`direct_estimate`]), so the kernel holds the
-//! estimators once; on the GPU each runs in its own dispatch ([`DirectState`]). With
+//! call site of [`estimate::transmittance`] ([`add_shadowed`], which `restir`'s resampled light
+//! shares), so the kernel holds the estimators once; on the GPU each runs in its own dispatch ([`DirectState`]). With
 //! `--shadows msm4|msm6` a light sample of the sun takes its transmittance from the sun's moment
 //! shadow map instead (`map_shadow`); every other query keeps its shadow ray.
 
@@ -200,15 +200,31 @@ pub fn direct_estimate(
     k: u32,
 ) -> DirectState {
     let q = st.queries[k as usize];
+    add_shadowed(vol, cfg, params, scene, st, &q, k == 1 && st.map_query != 0)
+}
+
+/// Adds query q's weight times its transmittance (from the sun's shadow map if `map`, else by
+/// the render's estimator) to the sample's radiance, with the state's generator and tally. The
+/// one place a wavefront's estimate stage calls [`shadow`] (`restir`'s resampled light too: a
+/// kernel inlines each call site of the estimators).
+pub(super) fn add_shadowed(
+    vol: &VolumeView,
+    cfg: &Config,
+    params: &RenderParams,
+    scene: &Scene,
+    st: DirectState,
+    q: &ShadowQuery,
+    map: bool,
+) -> DirectState {
     if q.weight.is_black() {
         return st;
     }
     let mut st = st;
     let rng = HashRng { state: st.rng };
-    let (tr, t, rng) = if k == 1 && st.map_query != 0 {
-        map_shadow(scene, &q, rng)
+    let (tr, t, rng) = if map {
+        map_shadow(scene, q, rng)
     } else {
-        shadow(vol, cfg, params, &q, rng)
+        shadow(vol, cfg, params, q, rng)
     };
     st.rng = rng.state;
     st.set_tally(st.tally().merge(t));

@@ -21,7 +21,9 @@
 //! Between the candidates and the resolve, `restir_passes` spatial reuse passes resample each
 //! pixel's reservoir with its neighbours' ([`super::restir_reuse`]).
 
-use super::direct::{shadow, shadow_pair_or_ratio, start_at_vertex, DirectState, ShadowQuery};
+use super::direct::{
+    add_shadowed, shadow_pair_or_ratio, start_at_vertex, DirectState, ShadowQuery,
+};
 use crate::geometry::{Ray, V3};
 use crate::params::{Config, Estimator, Importance, Jitter, RenderParams, RestirTarget};
 use crate::rgb::Rgb;
@@ -366,7 +368,8 @@ pub fn resolve_stage(scene: &Scene, params: &RenderParams, st: RestirState) -> R
 }
 
 /// Stages M + P + 2 .. M + P + 5: the transmittance of query q (0..2 `direct`'s, 3 the resampled
-/// light's) added to the radiance.
+/// light's) added to the radiance, through one call of [`add_shadowed`] (one inlined copy of the
+/// estimators in `restir_query_cs`).
 fn estimate_query(
     vol: &VolumeView,
     cfg: &Config,
@@ -375,21 +378,13 @@ fn estimate_query(
     st: RestirState,
     q: u32,
 ) -> RestirState {
-    let mut st = st;
-    if q < 3 {
-        st.direct = super::direct::direct_estimate(vol, cfg, params, scene, st.direct, q);
-        return st;
-    }
-    let query = st.query;
-    if query.weight.is_black() {
-        return st;
-    }
-    let rng = HashRng {
-        state: st.direct.rng,
+    let (query, map) = if q < 3 {
+        let d = &st.direct;
+        (d.queries[q as usize], q == 1 && d.map_query != 0)
+    } else {
+        (st.query, false)
     };
-    let (tr, t, rng) = shadow(vol, cfg, params, &query, rng);
-    st.direct.rng = rng.state;
-    st.direct.set_tally(st.direct.tally().merge(t));
-    st.direct.total = st.direct.total + query.weight * tr;
+    let mut st = st;
+    st.direct = add_shadowed(vol, cfg, params, scene, st.direct, &query, map);
     st
 }
