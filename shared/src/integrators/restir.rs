@@ -171,7 +171,28 @@ pub fn restir_radiance(
     rng: HashRng,
 ) -> (Rgb, Tally, HashRng) {
     let mut st = restir_start(vol, cfg, params, scene, world, rng);
-    let mut stage = 1;
+    // The M candidate stages on the reservoir and generator alone: the same numbers as
+    // `candidate_stage` M times, without moving the whole state through each.
+    if st.found != 0 && scene.point_count != 0 {
+        let mut r = st.reservoir;
+        let mut rng = HashRng {
+            state: st.direct.rng,
+        };
+        let mut lookups = 0;
+        let mut i = 0;
+        while i < params.restir_candidates {
+            let (next, next_rng, l) =
+                stream_candidate(vol, cfg, params, scene, id, sample, st.x, st.wo, r, rng);
+            (r, rng) = (next, next_rng);
+            lookups += l;
+            i += 1;
+        }
+        st.reservoir = r;
+        st.direct.rng = rng.state;
+        st.direct
+            .set_tally(st.direct.tally().merge(Tally::lookups(lookups)));
+    }
+    let mut stage = params.restir_candidates + 1;
     while stage < stage_count(params) {
         st = restir_stage(vol, cfg, params, scene, id, sample, st, stage);
         stage += 1;
@@ -275,19 +296,50 @@ pub fn candidate_stage(
     let rng = HashRng {
         state: st.direct.rng,
     };
+    let (r, rng, lookups) = stream_candidate(
+        vol,
+        cfg,
+        params,
+        scene,
+        id,
+        sample,
+        st.x,
+        st.wo,
+        st.reservoir,
+        rng,
+    );
+    st.reservoir = r;
+    st.direct.rng = rng.state;
+    st.direct
+        .set_tally(st.direct.tally().merge(Tally::lookups(lookups)));
+    st
+}
+
+/// One candidate at vertex x (toward the camera wo): a light by power, its target p̂ and
+/// resampling weight p̂ / (M p), streamed into `r`. Returns the reservoir, the generator and the
+/// target's lookups (cost; its regime and cap flags are not counted: p̂ only shapes the
+/// variance, never the estimate's expectation).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn stream_candidate(
+    vol: &VolumeView,
+    cfg: &Config,
+    params: &RenderParams,
+    scene: &Scene,
+    id: u32,
+    sample: u32,
+    x: V3,
+    wo: V3,
+    r: Reservoir,
+    rng: HashRng,
+) -> (Reservoir, HashRng, u32) {
     let (u0, rng) = rng.next_f32();
     let (u1, rng) = rng.next_f32();
     let (u2, rng) = rng.next_f32();
-    st.direct.rng = rng.state;
     let (k, inv_pmf) = sample_power(scene.points, scene.point_count, u0, u1);
-    let (p_hat, tally) = p_hat(vol, cfg, params, scene, id, sample, st.x, st.wo, k);
+    let (p_hat, tally) = p_hat(vol, cfg, params, scene, id, sample, x, wo, k);
     let w = p_hat * inv_pmf / params.restir_candidates as f32;
-    st.reservoir = st.reservoir.update(k, w, p_hat, u2);
-    // The target's lookups are cost; its regime and cap flags are not: p̂ only shapes the
-    // variance, never the estimate's expectation.
-    st.direct
-        .set_tally(st.direct.tally().merge(Tally::lookups(tally.lookups)));
-    st
+    (r.update(k, w, p_hat, u2), rng, tally.lookups)
 }
 
 /// The target p̂ of light k at vertex x (luminance): I phase / d^2 times the clamped T̂, whose
