@@ -171,27 +171,18 @@ pub fn restir_radiance(
     rng: HashRng,
 ) -> (Rgb, Tally, HashRng) {
     let mut st = restir_start(vol, cfg, params, scene, world, rng);
-    // The M candidate stages on the reservoir and generator alone: the same numbers as
-    // `candidate_stage` M times, without moving the whole state through each.
-    if st.found != 0 && scene.point_count != 0 {
-        let mut r = st.reservoir;
-        let mut rng = HashRng {
-            state: st.direct.rng,
-        };
-        let mut lookups = 0;
-        let mut i = 0;
-        while i < params.restir_candidates {
-            let (next, next_rng, l) =
-                stream_candidate(vol, cfg, params, scene, id, sample, st.x, st.wo, r, rng);
-            (r, rng) = (next, next_rng);
-            lookups += l;
-            i += 1;
-        }
-        st.reservoir = r;
-        st.direct.rng = rng.state;
-        st.direct
-            .set_tally(st.direct.tally().merge(Tally::lookups(lookups)));
-    }
+    // The M candidate stages at once: the same numbers, without moving the whole state through
+    // each.
+    st = stream_candidates(
+        vol,
+        cfg,
+        params,
+        scene,
+        id,
+        sample,
+        st,
+        params.restir_candidates,
+    );
     let mut stage = params.restir_candidates + 1;
     while stage < stage_count(params) {
         st = restir_stage(vol, cfg, params, scene, id, sample, st, stage);
@@ -289,57 +280,53 @@ pub fn candidate_stage(
     sample: u32,
     st: RestirState,
 ) -> RestirState {
-    if st.found == 0 || scene.point_count == 0 {
-        return st;
-    }
-    let mut st = st;
-    let rng = HashRng {
-        state: st.direct.rng,
-    };
-    let (r, rng, lookups) = stream_candidate(
-        vol,
-        cfg,
-        params,
-        scene,
-        id,
-        sample,
-        st.x,
-        st.wo,
-        st.reservoir,
-        rng,
-    );
-    st.reservoir = r;
-    st.direct.rng = rng.state;
-    st.direct
-        .set_tally(st.direct.tally().merge(Tally::lookups(lookups)));
-    st
+    stream_candidates(vol, cfg, params, scene, id, sample, st, 1)
 }
 
-/// One candidate at vertex x (toward the camera wo): a light by power, its target p̂ and
-/// resampling weight p̂ / (M p), streamed into `r`. Returns the reservoir, the generator and the
-/// target's lookups (cost; its regime and cap flags are not counted: p̂ only shapes the
-/// variance, never the estimate's expectation).
+/// `count` candidates streamed into the state's reservoir, on the reservoir and generator alone
+/// (the CPU streams all M at once, the GPU one per stage: the same numbers). Each draws a light
+/// by power, evaluates its target p̂ and streams it with resampling weight p̂ / (M p); the
+/// targets' lookups are cost, their regime and cap flags are not (p̂ only shapes the variance,
+/// never the estimate's expectation).
 #[allow(clippy::too_many_arguments)]
 #[inline]
-pub fn stream_candidate(
+pub fn stream_candidates(
     vol: &VolumeView,
     cfg: &Config,
     params: &RenderParams,
     scene: &Scene,
     id: u32,
     sample: u32,
-    x: V3,
-    wo: V3,
-    r: Reservoir,
-    rng: HashRng,
-) -> (Reservoir, HashRng, u32) {
-    let (u0, rng) = rng.next_f32();
-    let (u1, rng) = rng.next_f32();
-    let (u2, rng) = rng.next_f32();
-    let (k, inv_pmf) = sample_power(scene.points, scene.point_count, u0, u1);
-    let (p_hat, tally) = p_hat(vol, cfg, params, scene, id, sample, x, wo, k);
-    let w = p_hat * inv_pmf / params.restir_candidates as f32;
-    (r.update(k, w, p_hat, u2), rng, tally.lookups)
+    st: RestirState,
+    count: u32,
+) -> RestirState {
+    if st.found == 0 || scene.point_count == 0 {
+        return st;
+    }
+    let mut r = st.reservoir;
+    let mut rng = HashRng {
+        state: st.direct.rng,
+    };
+    let mut lookups = 0;
+    let mut i = 0;
+    while i < count {
+        let (u0, next) = rng.next_f32();
+        let (u1, next) = next.next_f32();
+        let (u2, next) = next.next_f32();
+        rng = next;
+        let (k, inv_pmf) = sample_power(scene.points, scene.point_count, u0, u1);
+        let (p_hat, tally) = p_hat(vol, cfg, params, scene, id, sample, st.x, st.wo, k);
+        let w = p_hat * inv_pmf / params.restir_candidates as f32;
+        r = r.update(k, w, p_hat, u2);
+        lookups += tally.lookups;
+        i += 1;
+    }
+    let mut st = st;
+    st.reservoir = r;
+    st.direct.rng = rng.state;
+    st.direct
+        .set_tally(st.direct.tally().merge(Tally::lookups(lookups)));
+    st
 }
 
 /// The target p̂ of light k at vertex x (luminance): I phase / d^2 times the clamped T̂, whose
