@@ -84,6 +84,19 @@ pub struct Row {
     /// `variance * ns_per_ray`: the variance of a fixed time budget's mean, up to a constant
     /// (lower is better).
     pub work_normalized_variance: f64,
+    /// GPU rows: the kernel, its SPIR-V module and the build of this row's pipeline.
+    pub kernel: Option<KernelRow>,
+}
+
+/// The kernel a GPU row ran: its entry point, the size of its module (every variant; the
+/// driver's specialization then removes what the row's constants cannot reach) and how long
+/// the driver took to build the row's pipeline (on lavapipe a measure of the specialized code).
+#[derive(Clone, Debug, Serialize)]
+pub struct KernelRow {
+    pub name: &'static str,
+    pub module: crate::gpu::module_stats::ModuleStats,
+    /// Pipeline builds during the row's warm-up frames (0 when an earlier row built it).
+    pub pipeline_build_ms: f64,
 }
 
 /// One of the issue's goals, checked on one backend.
@@ -139,6 +152,10 @@ pub struct BenchReport {
     pub seed: u32,
     pub reps: u32,
     pub threads: usize,
+    /// Iterations of one super-voxel traversal per pixel-centre camera ray that meets the grid
+    /// (Alg. 2 takes one such traversal, Alg. 1 a second; delta and ratio tracking one up to
+    /// their last collision): skipped spans, bricks and cells.
+    pub steps_per_traversal: crate::traversal::ReadsPerRay,
     pub rows: Vec<Row>,
     pub goals: Vec<Goal>,
     pub sweep_resolution: Vec<SweepPoint>,
@@ -219,16 +236,19 @@ fn median(v: &[f64]) -> f64 {
 }
 
 /// Frames of one estimator: `warmup` untimed, `reps` timed. Every frame must give the same
-/// pixels (same seed); returns the pixels, wall times and kernel times in ms.
+/// pixels (same seed); returns the pixels, wall times and kernel times in ms, and the pipeline
+/// builds of the warm-up frames in ms.
 fn frames(
     resident: &Resident,
     backend: &Backend,
     params: &RenderParams,
     warmup: u32,
     reps: u32,
-) -> Result<(Vec<PixelOut>, Vec<f64>, Vec<f64>)> {
+) -> Result<(Vec<PixelOut>, Vec<f64>, Vec<f64>, f64)> {
+    let mut build_ms = 0.0;
     for _ in 0..warmup {
-        render_resident(resident, params, &[], false)?;
+        let (_, _, built) = backend.timed(|| render_resident(resident, params, &[], false))?;
+        build_ms += built.ms();
     }
     let (mut wall, mut kernel) = (Vec::new(), Vec::new());
     let mut first: Option<Vec<PixelOut>> = None;
@@ -250,7 +270,7 @@ fn frames(
             ),
         }
     }
-    Ok((first.expect("reps >= 1"), wall, kernel))
+    Ok((first.expect("reps >= 1"), wall, kernel, build_ms))
 }
 
 /// Mean per-pixel variance of one estimate and mean lookups per estimate.
@@ -332,6 +352,7 @@ pub fn run(args: &BenchOptions) -> Result<BenchReport> {
         ..Default::default()
     };
     let rays = f64::from(args.width) * f64::from(args.height) * f64::from(args.spp);
+    let steps_per_traversal = crate::traversal::reads_per_ray(&scene.packed, &base);
     if !args.quiet {
         tracing::info!(
             "bench: {} {}x{}x{}, {}x{} px, {} spp, {} reps (+{} warm-up), {} CPU threads",
@@ -357,7 +378,7 @@ pub fn run(args: &BenchOptions) -> Result<BenchReport> {
         for spec in &specs {
             let mut params = base;
             spec.apply(&mut params);
-            let (pixels, wall, kernel) =
+            let (pixels, wall, kernel, build_ms) =
                 frames(&resident, backend, &params, args.warmup, args.reps)
                     .with_context(|| format!("{} on {}", spec.name, backend.kind()))?;
             let (variance, samples_per_ray) = quality(&pixels, args.spp);
@@ -376,6 +397,14 @@ pub fn run(args: &BenchOptions) -> Result<BenchReport> {
                 samples_per_ray,
                 variance,
                 work_normalized_variance: variance * ns_per_ray,
+                kernel: matches!(backend, Backend::Gpu(_)).then(|| {
+                    let k = crate::gpu::Kernel::TransmittanceCs;
+                    KernelRow {
+                        name: k.name(),
+                        module: crate::gpu::module_stats::module_stats(k.spirv()),
+                        pipeline_build_ms: build_ms,
+                    }
+                }),
             };
             if !args.quiet {
                 tracing::info!(
@@ -410,6 +439,7 @@ pub fn run(args: &BenchOptions) -> Result<BenchReport> {
         seed: args.seed,
         reps: args.reps,
         threads: rayon::current_num_threads(),
+        steps_per_traversal,
         rows,
         goals,
         sweep_resolution,
@@ -659,7 +689,7 @@ fn time_points(
                 peak_rss_bytes,
             };
             if let Some(resident) = &resident {
-                let (pixels, wall, _) = frames(resident, backend, &p, 1, args.reps.min(3))?;
+                let (pixels, wall, _, _) = frames(resident, backend, &p, 1, args.reps.min(3))?;
                 point.frame_ms_median = median(&wall);
                 point.ns_per_ray = point.frame_ms_median * 1e6 / rays;
                 point.samples_per_ray = quality(&pixels, args.spp).1;
@@ -712,22 +742,51 @@ fn print_report(r: &BenchReport) {
         r.volume, r.width, r.height, r.spp, r.n, r.lookup, r.reps, r.threads
     );
     println!(
-        "{:<4} {:<20} {:>10} {:>10} {:>10} {:>11} {:>9} {:>9} {:>11}",
-        "", "estimator", "ms median", "ms min", "kernel ms", "Mrays/s", "lookups", "var", "var*ns"
+        "super-voxel steps per traversal {:.2} (bricks and skipped spans {:.2})",
+        r.steps_per_traversal.supervoxels, r.steps_per_traversal.bricks
+    );
+    println!(
+        "{:<4} {:<20} {:>10} {:>10} {:>10} {:>8} {:>11} {:>9} {:>9} {:>11}",
+        "",
+        "estimator",
+        "ms median",
+        "ms min",
+        "kernel ms",
+        "ns/ray",
+        "Mrays/s",
+        "lookups",
+        "var",
+        "var*ns"
     );
     for row in &r.rows {
         println!(
-            "{:<4} {:<20} {:>10.1} {:>10.1} {:>10} {:>11.3} {:>9.2} {:>9.5} {:>11.4}",
+            "{:<4} {:<20} {:>10.1} {:>10.1} {:>10} {:>8.1} {:>11.3} {:>9.2} {:>9.5} {:>11.4}",
             row.backend,
             row.estimator,
             row.frame_ms_median,
             row.frame_ms_min,
             row.kernel_ms_median
                 .map_or("-".to_string(), |k| format!("{k:.1}")),
+            row.ns_per_ray,
             row.rays_per_s * 1e-6,
             row.samples_per_ray,
             row.variance,
             row.work_normalized_variance
+        );
+    }
+    if let Some(k) = r.rows.iter().find_map(|row| row.kernel.as_ref()) {
+        let m = k.module;
+        println!(
+            "kernel {}: {} bytes, {} instructions, {} branches, {} loops, {} loads, {} functions \
+             (before specialization)",
+            k.name, m.bytes, m.instructions, m.branches, m.loops, m.loads, m.functions
+        );
+    }
+    for row in r.rows.iter().filter(|row| row.kernel.is_some()) {
+        let k = row.kernel.as_ref().expect("filtered");
+        println!(
+            "pipeline {} / {}: built in {:.0} ms",
+            k.name, row.estimator, k.pipeline_build_ms
         );
     }
     for g in &r.goals {

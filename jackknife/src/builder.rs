@@ -4,6 +4,7 @@
 
 use half::f16;
 use shared::volume::grid::{
+    brick_log2_of,
     skip_slot, Brick, GridDesc, Lookup, VolumeView, EMPTY_BRICK, FIRST_EMPTY_SLOT, MAX_SKIP_LEVEL,
 };
 use shared::volume::pages::{Pages, GPU_PAGE_LOG2, MAX_PAGES, ONE_PAGE_LOG2};
@@ -477,6 +478,7 @@ impl<'a> GridBuilder<'a> {
             voxel_steps: 0,
             cells_per_brick: 0,
             cell_steps: 0,
+            brick_log2: brick_log2_of(b),
         };
         let slots_only: Vec<Brick> = slots
             .iter()

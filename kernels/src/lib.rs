@@ -7,7 +7,11 @@
 //! Specialization constants by id (host: `gpu::render::specialization`): 0 the integrator, 1 the
 //! estimator, 2 a wavefront stage's kind, 3 whether the voxel pool spans several pages (0: the
 //! whole pool is binding `VOXELS`; 1: pages of `GridDesc::page_log2` words at `VOXELS` and
-//! `VOXEL_PAGES`), so one module serves both and each pipeline holds one variant's code.
+//! `VOXEL_PAGES`), 4 the lookup, 5 the cells per brick (1: the fixed grid), 6 `GridDesc::brick_log2`,
+//! 7 the importance (`GridDesc::specialized`, `RenderParams::specialized`; each 0xffffffff:
+//! the buffer's value), so one module serves every variant and each pipeline holds one
+//! variant's code: lavapipe runs every branch of a SIMD group with masks, so code a pipeline
+//! cannot reach still costs time unless the driver folds it away.
 #![cfg_attr(target_arch = "spirv", no_std)]
 
 use shared::integrators::direct::DirectState;
@@ -134,14 +138,21 @@ macro_rules! render_kernel {
             // bindings::render::VOXEL_PAGES + 6
             #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] voxels_7: &[u32],
             // Specialization constants (host: gpu::render::specialization): integrator,
-            // estimator, whether the pool spans several pages.
+            // estimator, whether the pool spans several pages, lookup, cells per brick, brick
+            // log2, importance.
             #[spirv(spec_constant(id = 0, default = 4294967295))] integrator: u32,
             #[spirv(spec_constant(id = 1, default = 4294967295))] estimator: u32,
             #[spirv(spec_constant(id = 3, default = 0))] paged: u32,
+            #[spirv(spec_constant(id = 4, default = 4294967295))] lookup: u32,
+            #[spirv(spec_constant(id = 5, default = 4294967295))] cells_per_brick: u32,
+            #[spirv(spec_constant(id = 6, default = 4294967295))] brick_log2: u32,
+            #[spirv(spec_constant(id = 7, default = 4294967295))] importance: u32,
         ) {
             if let Some(i) = pass.launch.id(gid.x) {
+                // A local copy: the fields are read once, not from the buffer at every use.
+                let grid = desc[0].specialized(lookup, cells_per_brick, brick_log2);
                 let vol = VolumeView {
-                    desc: &desc[0],
+                    desc: &grid,
                     voxels: Pages {
                         p0: voxels,
                         p1: voxels_1,
@@ -161,7 +172,7 @@ macro_rules! render_kernel {
                 } else {
                     sums[slot]
                 };
-                let p = params[0].specialized(integrator, estimator);
+                let p = params[0].specialized(integrator, estimator, importance);
                 let ($vol, $p, $lights, $i, $pass, $prev) = (&vol, &p, lights, i as u32, pass, prev);
                 sums[slot] = $call;
             }
@@ -235,10 +246,16 @@ macro_rules! wave_kernel {
             #[spirv(spec_constant(id = 1, default = 4294967295))] estimator: u32,
             #[spirv(spec_constant(id = 2, default = 4294967295))] stage_kind: u32,
             #[spirv(spec_constant(id = 3, default = 0))] paged: u32,
+            #[spirv(spec_constant(id = 4, default = 4294967295))] lookup: u32,
+            #[spirv(spec_constant(id = 5, default = 4294967295))] cells_per_brick: u32,
+            #[spirv(spec_constant(id = 6, default = 4294967295))] brick_log2: u32,
+            #[spirv(spec_constant(id = 7, default = 4294967295))] importance: u32,
         ) {
             if let Some(i) = pass.launch.id(gid.x) {
+                // A local copy: the fields are read once, not from the buffer at every use.
+                let grid = desc[0].specialized(lookup, cells_per_brick, brick_log2);
                 let vol = VolumeView {
-                    desc: &desc[0],
+                    desc: &grid,
                     voxels: Pages {
                 p0: voxels,
                 p1: voxels_1,
@@ -253,9 +270,10 @@ macro_rules! wave_kernel {
                     bricks,
                 };
                 let slot = i - pass.sums_base as usize;
-                let p = &params[0].specialized(integrator, estimator);
+                let p = &params[0].specialized(integrator, estimator, importance);
+                let light = lighting[0];
                 let scene = Scene {
-                    lighting: &lighting[0],
+                    lighting: &light,
                     points: lights,
                     point_count: p.light_count,
                     env,
@@ -406,10 +424,15 @@ macro_rules! msm_build_kernel {
             // Specialization constant (host: gpu::render::specialization): whether the
             // pool spans several pages.
             #[spirv(spec_constant(id = 3, default = 0))] paged: u32,
+            #[spirv(spec_constant(id = 4, default = 4294967295))] lookup: u32,
+            #[spirv(spec_constant(id = 5, default = 4294967295))] cells_per_brick: u32,
+            #[spirv(spec_constant(id = 6, default = 4294967295))] brick_log2: u32,
         ) {
             if let Some(k) = pass.launch.id(gid.x) {
+                // A local copy: the fields are read once, not from the buffer at every use.
+                let grid = desc[0].specialized(lookup, cells_per_brick, brick_log2);
                 let vol = VolumeView {
-                    desc: &desc[0],
+                    desc: &grid,
                     voxels: Pages {
                         p0: voxels,
                         p1: voxels_1,
@@ -423,7 +446,8 @@ macro_rules! msm_build_kernel {
                     },
                     bricks,
                 };
-                let m = shadow_map::msm_raw_texel(&vol, &params[0], &lighting[0], k as u32);
+                let (p, l) = (params[0], lighting[0]);
+                let m = shadow_map::msm_raw_texel(&vol, &p, &l, k as u32);
                 let mut c = 0;
                 while c < RAW_PER_TEXEL {
                     raw[RAW_PER_TEXEL * k + c] = m[c];

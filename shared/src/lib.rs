@@ -23,6 +23,7 @@ pub mod rgb;
 pub mod rng;
 pub mod sampling;
 pub mod shadows;
+pub mod spec;
 pub mod tally;
 pub mod volume;
 

@@ -279,18 +279,19 @@ pub struct RenderParams {
     pub restir_m_cap: u32,
 }
 
-/// The value of a kernel's specialization constant that keeps the params buffer's field (the
-/// constants' default: a pipeline built without specialization runs every integrator and
-/// estimator).
-pub const UNSPECIALIZED: u32 = u32::MAX;
+pub use crate::spec::UNSPECIALIZED;
 
 impl RenderParams {
-    /// `self` with `integrator` and `estimator` replaced by a pipeline's specialization constants
-    /// ([`UNSPECIALIZED`] keeps the field): the driver folds them, so a pipeline compiles only
-    /// the code of one integrator and estimator instead of the whole render kernel.
+    /// `self` with `integrator`, `estimator` and `importance` replaced by a pipeline's
+    /// specialization constants ([`UNSPECIALIZED`] keeps the field): the driver folds them, so a
+    /// pipeline compiles only the code of one integrator, estimator and importance instead of
+    /// the whole render kernel.
     #[inline]
-    pub fn specialized(&self, integrator: u32, estimator: u32) -> RenderParams {
+    pub fn specialized(&self, integrator: u32, estimator: u32, importance: u32) -> RenderParams {
         let mut p = *self;
+        if importance != UNSPECIALIZED {
+            p.importance = importance;
+        }
         if integrator != UNSPECIALIZED {
             p.integrator = integrator;
         }

@@ -8,6 +8,7 @@
 mod device;
 mod error;
 mod kernels;
+pub mod module_stats;
 mod pipelines;
 mod plan;
 pub mod render;

@@ -31,6 +31,8 @@ pub struct GpuVolume<'a> {
     pages: Vec<Buffer>,
     bricks: Buffer,
     desc: Buffer,
+    /// The layout and lookup of the resident grid, as the kernels' specialization constants.
+    grid: GridSpec,
     /// Image tile buffers, reused across frames of the same size.
     tiles: Mutex<Vec<Buffer>>,
 }
@@ -49,6 +51,12 @@ impl<'a> GpuVolume<'a> {
             .map(|page| gpu.upload(bytemuck::cast_slice(page)))
             .collect::<Result<Vec<_>, _>>()
             .context("uploading the volume")?;
+        let grid = GridSpec {
+            paged: pages.len() > 1,
+            lookup: desc.lookup,
+            cells_per_brick: desc.cells_per_brick(),
+            brick_log2: desc.brick_log2,
+        };
         Ok(GpuVolume {
             gpu,
             pages,
@@ -56,6 +64,7 @@ impl<'a> GpuVolume<'a> {
                 .upload(bytemuck::cast_slice(&vol.bricks))
                 .context("uploading the bricks")?,
             desc: gpu.upload(bytemuck::bytes_of(&desc))?,
+            grid,
             tiles: Mutex::new(Vec::new()),
         })
     }
@@ -67,10 +76,10 @@ impl GpuVolume<'_> {
         std::array::from_fn(|k| self.pages.get(k).unwrap_or(&self.pages[0]))
     }
 
-    /// Whether the pool spans several pages (specialization constant 3 of the kernels that read
-    /// it).
-    fn paged(&self) -> bool {
-        self.pages.len() > 1
+    /// Whether the pool spans several pages, the lookup and the layout of the grid: the
+    /// specialization constants 3 to 6 of the kernels that read it.
+    fn grid_spec(&self) -> GridSpec {
+        self.grid
     }
 }
 
@@ -138,9 +147,9 @@ impl RenderBackend for GpuVolume<'_> {
             raw: &raw,
         };
         let kernel = &MSM_BUILD;
-        let paged = self.paged();
+        let grid = self.grid_spec();
         gpu.submit(Work {
-            pipeline: &|_: &MsmPass| (kernel, specialization(None, UNSPECIALIZED, paged)),
+            pipeline: &|_: &MsmPass| (kernel, specialization(None, UNSPECIALIZED, grid)),
             buffers: build.slots(),
             uploads: vec![
                 (&p, bytemuck::bytes_of(params)),
@@ -173,18 +182,56 @@ impl RenderBackend for GpuVolume<'_> {
 /// has neither), 2 the wavefront stage's kind, 3 whether the voxel pool spans several pages. Each
 /// pipeline holds one variant's code (the whole render kernel took lavapipe 261 s to compile;
 /// see README, Testing); ids a module lacks are ignored.
-fn specialization(params: Option<&RenderParams>, stage_kind: u32, paged: bool) -> Vec<u32> {
-    let (integrator, estimator) = params.map_or((UNSPECIALIZED, UNSPECIALIZED), |p| {
-        (p.integrator, p.estimator)
-    });
-    vec![integrator, estimator, stage_kind, u32::from(paged)]
+fn specialization(params: Option<&RenderParams>, stage_kind: u32, grid: GridSpec) -> Vec<u32> {
+    let (integrator, estimator, importance) = params
+        .map_or((UNSPECIALIZED, UNSPECIALIZED, UNSPECIALIZED), |p| {
+            (p.integrator, p.estimator, p.importance)
+        });
+    // EXPERIMENT knob (removed before landing): JK_SPEC=0 leaves ids 4-7 unspecialized.
+    if std::env::var("JK_SPEC").as_deref() == Ok("0") {
+        return vec![integrator, estimator, stage_kind, u32::from(grid.paged)];
+    }
+    vec![
+        integrator,
+        estimator,
+        stage_kind,
+        u32::from(grid.paged),
+        grid.lookup,
+        grid.cells_per_brick,
+        grid.brick_log2,
+        importance,
+    ]
+}
+
+/// The resident grid's values of the kernels' specialization constants 3 to 6: whether the
+/// pool spans several pages, the lookup, the cells per brick (1: the fixed grid) and
+/// `GridDesc::brick_log2`, each as the bound `GridDesc` holds it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GridSpec {
+    pub paged: bool,
+    pub lookup: u32,
+    pub cells_per_brick: u32,
+    pub brick_log2: u32,
+}
+
+impl GridSpec {
+    /// A one-page pool of a fixed grid of 16^3 bricks with nearest lookups (tests).
+    #[cfg(test)]
+    fn plain() -> Self {
+        GridSpec {
+            paged: false,
+            lookup: 0,
+            cells_per_brick: 1,
+            brick_log2: 4,
+        }
+    }
 }
 
 /// The specialization of `transmittance_cs` (integrator 0) or `scattering_cs`: single
 /// scattering's shadow rays are always the jackknife (`integrators::lighting`), so one
 /// `scattering_cs` pipeline per integrator serves every `--estimator`.
-fn render_specialization(params: &RenderParams, paged: bool) -> Vec<u32> {
-    let mut spec = specialization(Some(params), UNSPECIALIZED, paged);
+fn render_specialization(params: &RenderParams, grid: GridSpec) -> Vec<u32> {
+    let mut spec = specialization(Some(params), UNSPECIALIZED, grid);
     if params.integrator != 0 {
         spec[1] = UNSPECIALIZED;
     }
@@ -292,7 +339,7 @@ fn render_tiles(
             render_wave(
                 gpu,
                 wave,
-                dev.paged(),
+                dev.grid_spec(),
                 params,
                 ids,
                 chunk,
@@ -321,9 +368,9 @@ fn render_tiles(
             } else {
                 &SCATTERING
             };
-            let paged = dev.paged();
+            let grid = dev.grid_spec();
             gpu.submit(Work {
-                pipeline: &|_: &RenderPass| (kernel, render_specialization(params, paged)),
+                pipeline: &|_: &RenderPass| (kernel, render_specialization(params, grid)),
                 buffers: buffers.slots(),
                 uploads: std::mem::take(&mut uploads),
                 steps,
@@ -395,8 +442,8 @@ impl Wave {
     }
 
     /// The specialization constants of a stage of kind `kind` ([`specialization`]).
-    fn specialization(self, params: &RenderParams, kind: u32, paged: bool) -> Vec<u32> {
-        let mut spec = specialization(Some(params), kind, paged);
+    fn specialization(self, params: &RenderParams, kind: u32, grid: GridSpec) -> Vec<u32> {
+        let mut spec = specialization(Some(params), kind, grid);
         if !self.reads_estimator(kind) {
             spec[1] = UNSPECIALIZED;
         }
@@ -435,7 +482,7 @@ impl Wave {
 fn render_wave(
     gpu: &Gpu,
     wave: Wave,
-    paged: bool,
+    grid: GridSpec,
     params: &RenderParams,
     ids: std::ops::Range<u32>,
     chunk: u32,
@@ -461,7 +508,7 @@ fn render_wave(
         gpu.submit(Work {
             pipeline: &|push: &PathPass| {
                 let kind = stage_kind(params, push.mode);
-                (wave.kernel(kind), wave.specialization(params, kind, paged))
+                (wave.kernel(kind), wave.specialization(params, kind, grid))
             },
             buffers: buffers.slots(),
             uploads: uploads.take().unwrap_or_default(),
@@ -609,13 +656,13 @@ mod tests {
         let (j, r) = (Estimator::Jackknife, Estimator::RatioTracking);
         let t = Integrator::Transmittance;
         assert_ne!(
-            render_specialization(&with(t, j), false),
-            render_specialization(&with(t, r), false)
+            render_specialization(&with(t, j), GridSpec::plain()),
+            render_specialization(&with(t, r), GridSpec::plain())
         );
         for i in [Integrator::MisJackknife, Integrator::FreeFlight] {
             let (a, b) = (
-                render_specialization(&with(i, j), false),
-                render_specialization(&with(i, r), false),
+                render_specialization(&with(i, j), GridSpec::plain()),
+                render_specialization(&with(i, r), GridSpec::plain()),
             );
             assert_eq!(a, b, "{i:?}");
             assert_eq!(a[0], i as u32, "{i:?}");
@@ -649,8 +696,8 @@ mod tests {
         ];
         for (wave, kind, reads) in cases {
             let (sa, sb) = (
-                wave.specialization(&a, kind, false),
-                wave.specialization(&b, kind, false),
+                wave.specialization(&a, kind, GridSpec::plain()),
+                wave.specialization(&b, kind, GridSpec::plain()),
             );
             assert_eq!(sa[2], kind, "{wave:?} {kind}");
             if reads {

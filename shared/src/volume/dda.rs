@@ -6,7 +6,9 @@
 
 use crate::geometry::{Ray, V3};
 use crate::math;
-use crate::volume::grid::{traversal_budget, Brick, GridDesc, VolumeView, NO_SKIP};
+use crate::volume::grid::{
+    traversal_budget, Brick, GridDesc, VolumeView, BRICK_DIVIDES, NO_SKIP,
+};
 
 /// Clips [t_lo, t_hi] to the box [0, hi] (slab test). Returns (t_enter, t_exit); the ray misses
 /// when `!(t_enter < t_exit)`. Axis-parallel rays are handled without 0 * inf. Degenerate input
@@ -100,6 +102,8 @@ pub struct GridDda {
     /// Cells per brick along each axis (1 for the brick traversal, B for the voxels): skip
     /// levels count bricks, so a cube of level L is `unit << L` cells per axis.
     unit: i32,
+    /// log2 of `unit` when it is a power of two, else [`BRICK_DIVIDES`] (see [`GridDda::cube_last`]).
+    unit_log2: u32,
     /// Iterations left before the traversal is forced to end (see [`GridDesc::brick_steps`]).
     budget: u32,
     /// Whether the budget ended the traversal before it reached its end.
@@ -191,7 +195,7 @@ impl GridDda {
     pub fn bricks(desc: &GridDesc, ray: &Ray, t_start: f32, t_end: f32) -> Self {
         let dims = [desc.brick_dims[0], desc.brick_dims[1], desc.brick_dims[2]];
         let size = desc.brick_size as f32;
-        Self::with(size, dims, 1, desc.brick_budget(), ray, t_start, t_end)
+        Self::with(size, dims, 1, 0, desc.brick_budget(), ray, t_start, t_end)
     }
 
     /// Traversal of the voxels of `desc` (regular tracking) from t_start to t_end that skips
@@ -201,7 +205,8 @@ impl GridDda {
     pub fn voxels(desc: &GridDesc, ray: &Ray, t_start: f32, t_end: f32) -> Self {
         let dims = [desc.dims[0], desc.dims[1], desc.dims[2]];
         let unit = desc.brick_size as i32;
-        Self::with(1.0, dims, unit, desc.voxel_budget(), ray, t_start, t_end)
+        let budget = desc.voxel_budget();
+        Self::with(1.0, dims, unit, desc.brick_log2, budget, ray, t_start, t_end)
     }
 
     /// Traversal of cells of `size` voxels in a grid of `cells` cells, from t_start to t_end,
@@ -211,6 +216,7 @@ impl GridDda {
             size,
             cells,
             1,
+            0,
             traversal_budget(0, cells),
             ray,
             t_start,
@@ -218,11 +224,14 @@ impl GridDda {
         )
     }
 
-    /// [`GridDda::new`] with `unit` cells per brick and a budget of `budget` iterations.
+    /// [`GridDda::new`] with `unit` cells per brick (log2 `unit_log2`, or [`BRICK_DIVIDES`]) and
+    /// a budget of `budget` iterations.
+    #[allow(clippy::too_many_arguments)]
     fn with(
         size: f32,
         cells: [u32; 3],
         unit: i32,
+        unit_log2: u32,
         budget: u32,
         ray: &Ray,
         t_start: f32,
@@ -251,6 +260,7 @@ impl GridDda {
             lo: [0; 3],
             dims,
             unit,
+            unit_log2,
             budget,
             exhausted: false,
             done: !valid,
@@ -289,6 +299,7 @@ impl GridDda {
             lo,
             dims,
             unit: 1,
+            unit_log2: 0,
             budget,
             exhausted: false,
             done: !valid,
@@ -390,9 +401,9 @@ impl GridDda {
     #[inline]
     pub fn step_voxel(&mut self, vol: &VolumeView) -> (Segment, bool) {
         let cell = self.cell();
-        let b = vol.desc.brick_size;
+        let d = vol.desc;
         let level = vol
-            .brick([cell[0] / b, cell[1] / b, cell[2] / b])
+            .brick([d.brick_of(cell[0]), d.brick_of(cell[1]), d.brick_of(cell[2])])
             .skip_level();
         if level != NO_SKIP {
             let t0 = self.t;
@@ -540,11 +551,18 @@ impl GridDda {
     fn cube_last(&self, a: usize, level: u32) -> i32 {
         let (c, s, _, _, _) = self.axis(a);
         let side = self.unit << level;
-        // Division by a NonZero cannot panic: this function must stay free of panics (see
-        // [`skip_cube_of`]); c >= 0 and side >= 1 (the caller checked the shift).
-        let lo = match core::num::NonZeroU32::new(side as u32) {
-            Some(d) => ((c as u32 / d) * side as u32) as i32,
-            None => c,
+        // A power-of-two side rounds c down by shifts (a vector integer division is a scalar
+        // loop on SIMD devices); otherwise division by a NonZero, which cannot panic: this
+        // function must stay free of panics (see [`skip_cube_of`]); c >= 0 and side >= 1 (the
+        // caller checked the shift, so unit_log2 + level <= 30).
+        let lo = if self.unit_log2 < BRICK_DIVIDES {
+            let k = self.unit_log2 + level;
+            ((c as u32 >> k) << k) as i32
+        } else {
+            match core::num::NonZeroU32::new(side as u32) {
+                Some(d) => ((c as u32 / d) * side as u32) as i32,
+                None => c,
+            }
         };
         let mut hi = lo + (side - 1);
         if hi > self.dim(a) - 1 {

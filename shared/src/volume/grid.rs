@@ -5,6 +5,7 @@
 
 use crate::geometry::V3;
 use crate::half::f16_to_f32;
+use crate::spec::UNSPECIALIZED;
 use crate::volume::pages::Pages;
 use bytemuck::{Pod, Zeroable};
 
@@ -86,6 +87,22 @@ pub struct GridDesc {
     /// steps of [`crate::volume::supervoxels::SuperVoxelDda`] (0: one stepping bound, 3 s + 3,
     /// per brick of the brick budget).
     pub cell_steps: u32,
+    /// log2 of [`GridDesc::brick_size`] when it is a power of two, else [`BRICK_DIVIDES`]: a
+    /// voxel's brick is then a shift, not a division ([`GridDesc::brick_of`]).
+    pub brick_log2: u32,
+}
+
+/// [`GridDesc::brick_log2`] of a brick size that is not a power of two (bricks by division).
+pub const BRICK_DIVIDES: u32 = 32;
+
+/// [`GridDesc::brick_log2`] of brick size `b`.
+#[inline]
+pub const fn brick_log2_of(b: u32) -> u32 {
+    if b.is_power_of_two() {
+        b.trailing_zeros()
+    } else {
+        BRICK_DIVIDES
+    }
 }
 
 /// Iteration budget of a traversal of a grid of `cells` cells: `steps`, unless it is 0 or above
@@ -101,6 +118,36 @@ pub fn traversal_budget(steps: u32, cells: [u32; 3]) -> u32 {
 }
 
 impl GridDesc {
+    /// The brick coordinate of voxel coordinate `i`: i / B, as a shift where B is a power of
+    /// two (a vector integer division is a scalar loop on SIMD devices).
+    #[inline]
+    pub fn brick_of(&self, i: u32) -> u32 {
+        if self.brick_log2 < BRICK_DIVIDES {
+            i >> self.brick_log2
+        } else {
+            i / self.brick_size
+        }
+    }
+
+    /// `self` with the fields a pipeline fixes by specialization constants replaced: the
+    /// lookup, the cells per brick and [`GridDesc::brick_log2`] ([`UNSPECIALIZED`] keeps a
+    /// field). The host passes the values of the grid it binds, so nothing changes but that
+    /// the driver folds them and compiles only the code of this grid's layout and lookup.
+    #[inline]
+    pub fn specialized(&self, lookup: u32, cells_per_brick: u32, brick_log2: u32) -> GridDesc {
+        let mut d = *self;
+        if lookup != UNSPECIALIZED {
+            d.lookup = lookup;
+        }
+        if cells_per_brick != UNSPECIALIZED {
+            d.cells_per_brick = cells_per_brick;
+        }
+        if brick_log2 != UNSPECIALIZED {
+            d.brick_log2 = brick_log2;
+        }
+        d
+    }
+
     /// Iteration budget of one traversal of the bricks ([`GridDesc::brick_steps`]).
     #[inline]
     pub fn brick_budget(&self) -> u32 {
@@ -316,7 +363,8 @@ impl VolumeView<'_> {
     #[inline]
     pub fn pool_index(&self, i: u32, j: u32, k: u32) -> Option<usize> {
         let b = self.desc.brick_size;
-        let (bi, bj, bk) = (i / b, j / b, k / b);
+        let d = self.desc;
+        let (bi, bj, bk) = (d.brick_of(i), d.brick_of(j), d.brick_of(k));
         let brick = self.brick([bi, bj, bk]);
         if !brick.stores_voxels() {
             return None;

@@ -1,0 +1,5 @@
+//! Specialization constants: the value that leaves a field as the buffer holds it.
+
+/// The value of a kernel's specialization constant that keeps the field of its buffer (the
+/// constants' default: a pipeline built without specialization runs every variant).
+pub const UNSPECIALIZED: u32 = u32::MAX;
