@@ -4,8 +4,8 @@
 
 use half::f16;
 use shared::volume::grid::{
-    brick_log2_of,
-    skip_slot, Brick, GridDesc, Lookup, VolumeView, EMPTY_BRICK, FIRST_EMPTY_SLOT, MAX_SKIP_LEVEL,
+    brick_log2_of, skip_slot, Brick, GridDesc, Lookup, VolumeView, EMPTY_BRICK, FIRST_EMPTY_SLOT,
+    MAX_SKIP_LEVEL,
 };
 use shared::volume::pages::{Pages, GPU_PAGE_LOG2, MAX_PAGES, ONE_PAGE_LOG2};
 
@@ -133,7 +133,7 @@ impl Grid {
     /// Borrows the grid as the estimators' view.
     pub fn view(&self) -> VolumeView<'_> {
         VolumeView {
-            desc: &self.desc,
+            desc: self.desc,
             voxels: Pages::one(&self.voxels),
             bricks: &self.bricks,
         }
@@ -488,7 +488,7 @@ impl<'a> GridBuilder<'a> {
             })
             .collect();
         let view = VolumeView {
-            desc: &desc,
+            desc,
             voxels: Pages::one(&voxels),
             bricks: &slots_only,
         };

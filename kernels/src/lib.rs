@@ -149,10 +149,9 @@ macro_rules! render_kernel {
             #[spirv(spec_constant(id = 7, default = 4294967295))] importance: u32,
         ) {
             if let Some(i) = pass.launch.id(gid.x) {
-                // A local copy: the fields are read once, not from the buffer at every use.
-                let grid = desc[0].specialized(lookup, cells_per_brick, brick_log2);
                 let vol = VolumeView {
-                    desc: &grid,
+                    // A copy: its fields are read once, not from the buffer at every use.
+                    desc: desc[0].specialized(lookup, cells_per_brick, brick_log2),
                     voxels: Pages {
                         p0: voxels,
                         p1: voxels_1,
@@ -252,10 +251,9 @@ macro_rules! wave_kernel {
             #[spirv(spec_constant(id = 7, default = 4294967295))] importance: u32,
         ) {
             if let Some(i) = pass.launch.id(gid.x) {
-                // A local copy: the fields are read once, not from the buffer at every use.
-                let grid = desc[0].specialized(lookup, cells_per_brick, brick_log2);
                 let vol = VolumeView {
-                    desc: &grid,
+                    // A copy: its fields are read once, not from the buffer at every use.
+                    desc: desc[0].specialized(lookup, cells_per_brick, brick_log2),
                     voxels: Pages {
                 p0: voxels,
                 p1: voxels_1,
@@ -271,9 +269,8 @@ macro_rules! wave_kernel {
                 };
                 let slot = i - pass.sums_base as usize;
                 let p = &params[0].specialized(integrator, estimator, importance);
-                let light = lighting[0];
                 let scene = Scene {
-                    lighting: &light,
+                    lighting: &lighting[0],
                     points: lights,
                     point_count: p.light_count,
                     env,
@@ -429,10 +426,9 @@ macro_rules! msm_build_kernel {
             #[spirv(spec_constant(id = 6, default = 4294967295))] brick_log2: u32,
         ) {
             if let Some(k) = pass.launch.id(gid.x) {
-                // A local copy: the fields are read once, not from the buffer at every use.
-                let grid = desc[0].specialized(lookup, cells_per_brick, brick_log2);
                 let vol = VolumeView {
-                    desc: &grid,
+                    // A copy: its fields are read once, not from the buffer at every use.
+                    desc: desc[0].specialized(lookup, cells_per_brick, brick_log2),
                     voxels: Pages {
                         p0: voxels,
                         p1: voxels_1,

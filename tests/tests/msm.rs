@@ -407,7 +407,7 @@ fn map_texels_match_an_f64_march() {
                 }
             };
             if t0 < t1 {
-                let mut dda = GridDda::voxels(view.desc, &ray, t0, t1);
+                let mut dda = GridDda::voxels(&view.desc, &ray, t0, t1);
                 while !dda.done {
                     let seg = dda.step();
                     tau += (seg.t1 - seg.t0) as f64

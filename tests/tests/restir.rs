@@ -339,7 +339,7 @@ fn target_is_positive_bounded_and_a_fixed_function() {
         RestirTarget::Jackknife,
     );
     p.restir_n = 1;
-    let cfg = Config::decode(&p, view.desc);
+    let cfg = Config::decode(&p, &view.desc);
     let unshadowed = RenderParams {
         restir_target: RestirTarget::Unshadowed as u32,
         ..p
@@ -496,7 +496,7 @@ fn a_neighbours_target_re_evaluated_is_the_one_it_stored() {
     for target in [RestirTarget::Jackknife, RestirTarget::Ratio] {
         let mut p = params(&vol, (6, 5, 3), Estimator::Jackknife, 6, target);
         p.light_count = lights.points.len() as u32;
-        let cfg = Config::decode(&p, view.desc);
+        let cfg = Config::decode(&p, &view.desc);
         for id in 0..30 {
             for s in 0..3 {
                 let mut st = RestirState::default();

@@ -94,6 +94,9 @@ mod tests {
     #[test]
     fn the_transmittance_kernel_has_code() {
         let s = module_stats(super::super::Kernel::TransmittanceCs.spirv());
-        assert!(s.instructions > 1000 && s.loops > 0 && s.branches > 0, "{s:?}");
+        assert!(
+            s.instructions > 1000 && s.loops > 0 && s.branches > 0,
+            "{s:?}"
+        );
     }
 }

@@ -187,10 +187,6 @@ fn specialization(params: Option<&RenderParams>, stage_kind: u32, grid: GridSpec
         .map_or((UNSPECIALIZED, UNSPECIALIZED, UNSPECIALIZED), |p| {
             (p.integrator, p.estimator, p.importance)
         });
-    // EXPERIMENT knob (removed before landing): JK_SPEC=0 leaves ids 4-7 unspecialized.
-    if std::env::var("JK_SPEC").as_deref() == Ok("0") {
-        return vec![integrator, estimator, stage_kind, u32::from(grid.paged)];
-    }
     vec![
         integrator,
         estimator,

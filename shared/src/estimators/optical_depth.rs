@@ -44,7 +44,7 @@ pub fn prepare(vol: &VolumeView, ray: &Ray, t0: f32, t1: f32, mode: Importance) 
     let mut f = 0.0;
     let mut t_min = t1;
     let mut t_max = t0;
-    let mut dda = SuperVoxelDda::new(vol.desc, ray, t0, t1);
+    let mut dda = SuperVoxelDda::new(&vol.desc, ray, t0, t1);
     while !dda.done {
         let (seg, b) = dda.step(vol);
         let p = importance(&b, mode);
@@ -266,7 +266,7 @@ pub fn estimate_interleaved(
     let mut cur = Placed::default();
     let mut last_nonzero = Placed::default();
     let mut have_nonzero = false;
-    let mut dda = SuperVoxelDda::new(vol.desc, ray, prep.t_min, prep.t_max);
+    let mut dda = SuperVoxelDda::new(&vol.desc, ray, prep.t_min, prep.t_max);
     let mut samples = 0u32;
     // Each pass takes one high-resolution sample (coherent on SIMD hardware).
     while k0 < n0 || k1 < n1 {

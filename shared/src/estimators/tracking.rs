@@ -34,7 +34,7 @@ const JITTER_SALT: u32 = 0x85eb_ca6b;
 pub fn regular_tracking_tau(vol: &VolumeView, ray: &Ray, t0: f32, t1: f32) -> (f32, Tally) {
     let mut tau = 0.0f32;
     let mut visited = 0u32;
-    let mut dda = GridDda::voxels(vol.desc, ray, t0, t1);
+    let mut dda = GridDda::voxels(&vol.desc, ray, t0, t1);
     while !dda.done {
         let (seg, read) = dda.step_voxel(vol);
         if read {
@@ -308,7 +308,7 @@ pub fn exact_free_flight(
         return out;
     }
     let mut tau = 0.0f32;
-    let mut dda = GridDda::voxels(vol.desc, ray, t0, t1);
+    let mut dda = GridDda::voxels(&vol.desc, ray, t0, t1);
     while !dda.done && !out.found {
         let (seg, read) = dda.step_voxel(vol);
         if !read {

@@ -39,7 +39,7 @@ pub fn radiance(
 ) -> (f32, Tally, HashRng) {
     trace_radiance(
         vol,
-        &Config::decode(params, vol.desc),
+        &Config::decode(params, &vol.desc),
         params,
         lights,
         world,

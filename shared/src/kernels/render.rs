@@ -55,7 +55,7 @@ pub fn ray_transmittance(
     world: &Ray,
     rng: HashRng,
 ) -> (f32, Tally, HashRng) {
-    trace_transmittance(vol, &Config::decode(params, vol.desc), params, world, rng)
+    trace_transmittance(vol, &Config::decode(params, &vol.desc), params, world, rng)
 }
 
 /// [`ray_transmittance`] with the enums already decoded.
@@ -196,7 +196,7 @@ pub fn transmittance_pixel_pass(
     s_end: u32,
     prev: PixelSums,
 ) -> PixelSums {
-    let cfg = Config::decode(params, vol.desc);
+    let cfg = Config::decode(params, &vol.desc);
     sample_loop!(params, id, s_begin, s_end, prev, |world, rng| {
         trace_transmittance(vol, &cfg, params, &world, rng)
     })
@@ -212,7 +212,7 @@ pub fn scattering_pixel_pass(
     s_end: u32,
     prev: PixelSums,
 ) -> PixelSums {
-    let cfg = Config::decode(params, vol.desc);
+    let cfg = Config::decode(params, &vol.desc);
     sample_loop!(params, id, s_begin, s_end, prev, |world, rng| {
         crate::integrators::trace_radiance(vol, &cfg, params, lights, &world, rng)
     })
@@ -229,7 +229,7 @@ pub fn direct_pixel_pass(
     s_end: u32,
     prev: PixelSums,
 ) -> PixelSums {
-    let cfg = Config::decode(params, vol.desc);
+    let cfg = Config::decode(params, &vol.desc);
     radiance_pass(params, id, s_begin, s_end, prev, |_, world, rng| {
         direct_radiance(vol, &cfg, params, scene, world, rng)
     })
@@ -304,7 +304,7 @@ pub fn path_step(
     if st.alive == 0 {
         return (st, sums);
     }
-    let cfg = Config::decode(params, vol.desc);
+    let cfg = Config::decode(params, &vol.desc);
     let next = path_bounce(vol, &cfg, params, scene, st);
     if next.alive != 0 {
         return (next, sums);
@@ -360,7 +360,7 @@ pub fn direct_wave_step(
     st: DirectState,
     sums: PixelSums,
 ) -> (DirectState, PixelSums) {
-    let cfg = Config::decode(params, vol.desc);
+    let cfg = Config::decode(params, &vol.desc);
     if kind == 0 {
         let (world, rng) = camera_ray(params, id, sample);
         return (
@@ -387,7 +387,7 @@ pub fn restir_pixel_pass(
     s_end: u32,
     prev: PixelSums,
 ) -> PixelSums {
-    let cfg = Config::decode(params, vol.desc);
+    let cfg = Config::decode(params, &vol.desc);
     radiance_pass(params, id, s_begin, s_end, prev, |s, world, rng| {
         restir_radiance(vol, &cfg, params, scene, id, s, world, rng)
     })
@@ -431,7 +431,7 @@ pub fn restir_wave_step(
     if kind == KIND_START {
         return restir_start_step(vol, params, scene, id, sample, stage, kind, st, sums);
     }
-    let cfg = Config::decode(params, vol.desc);
+    let cfg = Config::decode(params, &vol.desc);
     let next = restir_stage_of_kind(vol, &cfg, params, scene, id, sample, st, stage, kind);
     restir_finish(params, stage, next, sums)
 }
@@ -466,7 +466,7 @@ pub fn restir_start_step(
     _st: RestirState,
     sums: PixelSums,
 ) -> (RestirState, PixelSums) {
-    let cfg = Config::decode(params, vol.desc);
+    let cfg = Config::decode(params, &vol.desc);
     let (world, rng) = camera_ray(params, id, sample);
     (
         restir_start(vol, &cfg, params, scene, &world, rng),
@@ -487,7 +487,7 @@ pub fn restir_candidate_step(
     st: RestirState,
     sums: PixelSums,
 ) -> (RestirState, PixelSums) {
-    let cfg = Config::decode(params, vol.desc);
+    let cfg = Config::decode(params, &vol.desc);
     let next = candidate_stage(vol, &cfg, params, scene, id, sample, st);
     restir_finish(params, stage, next, sums)
 }
@@ -522,7 +522,7 @@ pub fn restir_query_step(
     st: RestirState,
     sums: PixelSums,
 ) -> (RestirState, PixelSums) {
-    let cfg = Config::decode(params, vol.desc);
+    let cfg = Config::decode(params, &vol.desc);
     let next = query_stage(vol, &cfg, params, scene, st, stage);
     restir_finish(params, stage, next, sums)
 }
@@ -559,7 +559,7 @@ pub fn restir_reuse_step(
     states: &[RestirState],
     base: u32,
 ) -> RestirState {
-    let cfg = Config::decode(params, vol.desc);
+    let cfg = Config::decode(params, &vol.desc);
     let pass = reuse_pass(params, stage);
     reuse(vol, &cfg, params, scene, id, sample, pass, states, base)
 }
@@ -606,7 +606,7 @@ pub fn path_pixel_pass(
     s_end: u32,
     prev: PixelSums,
 ) -> PixelSums {
-    let cfg = Config::decode(params, vol.desc);
+    let cfg = Config::decode(params, &vol.desc);
     let mut acc = prev;
     let mut s = s_begin;
     while s < s_end {

@@ -27,7 +27,7 @@ impl MajorantIter {
     /// Iterator over the bricks of [t0, t1] (pbrt-v4 `DDAMajorantIterator`).
     #[inline]
     pub fn new(vol: &VolumeView, ray: &Ray, t0: f32, t1: f32) -> Self {
-        let dda = SuperVoxelDda::new(vol.desc, ray, t0, t1);
+        let dda = SuperVoxelDda::new(&vol.desc, ray, t0, t1);
         MajorantIter {
             dda,
             done: dda.done,

@@ -6,9 +6,7 @@
 
 use crate::geometry::{Ray, V3};
 use crate::math;
-use crate::volume::grid::{
-    traversal_budget, Brick, GridDesc, VolumeView, BRICK_DIVIDES, NO_SKIP,
-};
+use crate::volume::grid::{traversal_budget, Brick, GridDesc, VolumeView, BRICK_DIVIDES, NO_SKIP};
 
 /// Clips [t_lo, t_hi] to the box [0, hi] (slab test). Returns (t_enter, t_exit); the ray misses
 /// when `!(t_enter < t_exit)`. Axis-parallel rays are handled without 0 * inf. Degenerate input
@@ -206,7 +204,16 @@ impl GridDda {
         let dims = [desc.dims[0], desc.dims[1], desc.dims[2]];
         let unit = desc.brick_size as i32;
         let budget = desc.voxel_budget();
-        Self::with(1.0, dims, unit, desc.brick_log2, budget, ray, t_start, t_end)
+        Self::with(
+            1.0,
+            dims,
+            unit,
+            desc.brick_log2,
+            budget,
+            ray,
+            t_start,
+            t_end,
+        )
     }
 
     /// Traversal of cells of `size` voxels in a grid of `cells` cells, from t_start to t_end,
@@ -401,9 +408,13 @@ impl GridDda {
     #[inline]
     pub fn step_voxel(&mut self, vol: &VolumeView) -> (Segment, bool) {
         let cell = self.cell();
-        let d = vol.desc;
+        let d = &vol.desc;
         let level = vol
-            .brick([d.brick_of(cell[0]), d.brick_of(cell[1]), d.brick_of(cell[2])])
+            .brick([
+                d.brick_of(cell[0]),
+                d.brick_of(cell[1]),
+                d.brick_of(cell[2]),
+            ])
             .skip_level();
         if level != NO_SKIP {
             let t0 = self.t;

@@ -324,7 +324,8 @@ impl Brick {
 /// The high-resolution volume and its bricks, borrowed from kernel buffers or host vectors.
 #[derive(Clone, Copy)]
 pub struct VolumeView<'a> {
-    pub desc: &'a GridDesc,
+    /// The grid's description, by value (kernels copy it out of its buffer once).
+    pub desc: GridDesc,
     /// The pool: f16 voxels of the non-empty bricks, two per u32; each brick's voxels x fastest
     /// over its extent clipped to the grid, bricks in order, in pages of 2^`desc.page_log2` words.
     pub voxels: Pages<'a>,
@@ -363,7 +364,7 @@ impl VolumeView<'_> {
     #[inline]
     pub fn pool_index(&self, i: u32, j: u32, k: u32) -> Option<usize> {
         let b = self.desc.brick_size;
-        let d = self.desc;
+        let d = &self.desc;
         let (bi, bj, bk) = (d.brick_of(i), d.brick_of(j), d.brick_of(k));
         let brick = self.brick([bi, bj, bk]);
         if !brick.stores_voxels() {
