@@ -370,7 +370,7 @@ impl GridDda {
         if s == 0 {
             return f32::INFINITY;
         }
-        let plane = (c + if s > 0 { 1 } else { 0 }) as f32 * self.size;
+        let plane = c.wrapping_add(if s > 0 { 1 } else { 0 }) as f32 * self.size;
         (plane - o) * inv
     }
 
@@ -391,7 +391,11 @@ impl GridDda {
         let cell = self.cell();
         let b = vol.brick(cell);
         let level = b.skip_level();
-        if level != NO_SKIP {
+        // A cube of one brick (level 0) is left by one step, which is cheaper than the skip
+        // and lands in the same cell at the same t. Only where the ray ends inside the brick do
+        // the segments differ (the skip's is empty, the step's ends at t_end), and a segment of
+        // zero statistics adds 0 to every sum either way.
+        if (level != NO_SKIP) & (level != 0) {
             let t0 = self.t;
             if self.skip_cube(level) {
                 let t1 = self.t;
@@ -455,12 +459,14 @@ impl GridDda {
             dda: self,
             skipped: false,
         };
+        // Non-short-circuit `&` and `|` throughout: every operand is pure, and a SIMD device
+        // runs every arm of a branch anyway, so the skip is straight-line code.
         let finite = math::is_finite(self.inv.x)
-            && math::is_finite(self.inv.y)
-            && math::is_finite(self.inv.z)
-            && math::is_finite(self.t);
+            & math::is_finite(self.inv.y)
+            & math::is_finite(self.inv.z)
+            & math::is_finite(self.t);
         // The cube's side, unit << level cells, must stay within 2^30 (i32 arithmetic).
-        if level >= 31 || !finite || self.unit as u32 > (1u32 << 30) >> level {
+        if (level >= 31) | !finite || self.unit as u32 > (1u32 << 30) >> level {
             return unchanged;
         }
         let (l0, l1, l2) = (
@@ -484,7 +490,7 @@ impl GridDda {
         if !math::is_finite(t_star) {
             return unchanged;
         }
-        if t_star >= self.t_end || self.t >= self.t_end {
+        if (t_star >= self.t_end) | (self.t >= self.t_end) {
             self.done = true;
             self.spend();
             return Skipped {
@@ -498,7 +504,7 @@ impl GridDda {
             self.crossings(1, l1, star),
             self.crossings(2, l2, star),
         );
-        if m0 < 0 || m1 < 0 || m2 < 0 {
+        if (m0 < 0) | (m1 < 0) | (m2 < 0) {
             return unchanged;
         }
         let (_, s_star, _, _, _) = self.axis(a_star);
@@ -515,7 +521,7 @@ impl GridDda {
         } else {
             next.2 = j;
         }
-        if j < 0 || j >= self.dim(a_star) {
+        if (j < 0) | (j >= self.dim(a_star)) {
             self.done = true;
         } else {
             (self.cx, self.cy, self.cz) = next;
@@ -602,36 +608,34 @@ impl GridDda {
     #[allow(clippy::manual_range_contains)] // plain compares, the same on every backend
     fn crossings(&self, b: usize, last: i32, star: (f32, usize)) -> i32 {
         let (c, s, o, d, _) = self.axis(b);
-        if b == star.1 || s == 0 {
+        if (b == star.1) | (s == 0) {
             return 0;
         }
         let n = (last - c) * s;
         let guess = math::floor((o + star.0 * d) / self.size);
-        if !(guess >= -2147483648.0 && guess <= 2147483520.0) {
+        if !((guess >= -2147483648.0) & (guess <= 2147483520.0)) {
             return -1;
         }
         let g = (guess as i32 - c) * s;
-        if self.crossings_are(b, g, n, star) {
+        // Whether the crossings k = g - 2 ..= g + 1 come before (t*, a*), each computed once
+        // (crossing k is the exit plane of cell c + s k).
+        // Wrapping: values outside 0..=n are computed and then discarded.
+        let before = |k: i32| self.crossed_before(b, c.wrapping_add(s.wrapping_mul(k)), star);
+        let (g_m2, g_m1, g_p1) = (g.wrapping_sub(2), g.wrapping_sub(1), g.wrapping_add(1));
+        let (x_m2, x_m1, x_0, x_p1) = (before(g_m2), before(g_m1), before(g), before(g_p1));
+        // Exactly m crossings come before: the m-th does (m > 0), the (m+1)-th not (m < n).
+        let exactly = |m: i32, mth: bool, next: bool| {
+            (m >= 0) & (m <= n) & ((m == 0) | mth) & ((m == n) | !next)
+        };
+        if exactly(g, x_m1, x_0) {
             g
-        } else if self.crossings_are(b, g - 1, n, star) {
-            g - 1
-        } else if self.crossings_are(b, g + 1, n, star) {
-            g + 1
+        } else if exactly(g_m1, x_m2, x_m1) {
+            g_m1
+        } else if exactly(g_p1, x_0, x_p1) {
+            g_p1
         } else {
             -1
         }
-    }
-
-    /// Whether exactly `m` (in 0..=n) of axis `b`'s crossings come before (t*, a*): the m-th
-    /// does (if m > 0), the (m+1)-th does not (if m < n; the n-th, the cube's face, never does).
-    #[inline]
-    fn crossings_are(&self, b: usize, m: i32, n: i32, star: (f32, usize)) -> bool {
-        if m < 0 || m > n {
-            return false;
-        }
-        let (c, s, _, _, _) = self.axis(b);
-        (m == 0 || self.crossed_before(b, c + s * (m - 1), star))
-            && (m == n || !self.crossed_before(b, c + s * m, star))
     }
 
     /// Whether `step` crosses the exit plane of cell `k` of axis `b` before the crossing
@@ -639,7 +643,7 @@ impl GridDda {
     #[inline]
     fn crossed_before(&self, b: usize, k: i32, star: (f32, usize)) -> bool {
         let e = self.exit_of(b, k);
-        e < star.0 || (e == star.0 && b < star.1)
+        (e < star.0) | ((e == star.0) & (b < star.1))
     }
 
     /// One iteration of the step budget (the guard against endless loops).
