@@ -20,6 +20,14 @@ pub enum BackendChoice {
     Cpu,
 }
 
+/// Whether a render asked for with `choice` runs on the CPU rather than on a Vulkan device that
+/// is (`software`) or is not a software implementation: `auto` skips software devices (lavapipe
+/// runs the kernels on the same cores as the CPU backend and was slower than it for every
+/// integrator measured, docs/results/speed.md); `gpu` always uses the device.
+pub fn prefers_cpu(choice: BackendChoice, software: bool) -> bool {
+    choice == BackendChoice::Auto && software
+}
+
 /// A backend ready to run kernels.
 pub enum Backend {
     Cpu,
@@ -62,7 +70,21 @@ impl Backend {
     /// its largest storage buffer, more pages than the kernels bind, or more bytes than its
     /// device-local memory) makes `auto` fall back to the CPU with a warning and a forced
     /// `--backend gpu` fail with advice.
+    ///
+    /// `auto` also renders on the CPU where the device is a software implementation on the host's
+    /// cores ([`prefers_cpu`]), with a warning that says so.
     pub fn fit(self, choice: BackendChoice, volume: &crate::bricks::PackedVolume) -> Result<Self> {
+        if let Backend::Gpu(g) = &self {
+            if prefers_cpu(choice, g.is_software()) {
+                tracing::warn!(
+                    "{} is a software Vulkan device on the same cores as the CPU backend, which \
+                     renders every integrator faster there (docs/results/speed.md); falling back \
+                     to the CPU backend (--backend gpu renders on it)",
+                    g.description()
+                );
+                return Ok(Backend::Cpu);
+            }
+        }
         let Some(why) = self.cannot_hold(volume) else {
             return Ok(self);
         };
@@ -522,5 +544,20 @@ mod tests {
             why.contains("voxels of its nonzero active tiles need"),
             "{why}"
         );
+    }
+}
+
+#[cfg(test)]
+mod auto_tests {
+    use super::*;
+
+    /// `auto` renders on the CPU instead of a software Vulkan device, never instead of a real
+    /// GPU; `gpu` and `cpu` are obeyed.
+    #[test]
+    fn auto_prefers_the_cpu_to_a_software_device_only() {
+        assert!(prefers_cpu(BackendChoice::Auto, true));
+        assert!(!prefers_cpu(BackendChoice::Auto, false));
+        assert!(!prefers_cpu(BackendChoice::Gpu, true));
+        assert!(!prefers_cpu(BackendChoice::Gpu, false));
     }
 }

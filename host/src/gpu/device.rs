@@ -23,6 +23,9 @@ pub struct DeviceOwner {
     pub(crate) timestamp_bits: u32,
     /// Human-readable device name, driver and type, e.g. "llvmpipe (LLVM 15.0.6, 256 bits) [cpu]".
     pub(crate) description: String,
+    /// Whether the device is a software implementation on the host's CPU (lavapipe,
+    /// SwiftShader: `VK_PHYSICAL_DEVICE_TYPE_CPU`).
+    pub(crate) software: bool,
     /// Whether the fallback to non-device-local storage memory was reported.
     storage_fallback_warned: std::sync::atomic::AtomicBool,
 }
@@ -133,6 +136,7 @@ struct DeviceParts {
     max_allocation: u64,
     timestamp_bits: u32,
     description: String,
+    software: bool,
 }
 
 impl DeviceParts {
@@ -150,6 +154,7 @@ impl DeviceParts {
             max_allocation: self.max_allocation,
             timestamp_bits: self.timestamp_bits,
             description: self.description,
+            software: self.software,
             storage_fallback_warned: std::sync::atomic::AtomicBool::new(false),
         }
     }
@@ -279,6 +284,7 @@ impl DeviceOwner {
             max_allocation,
             timestamp_bits,
             description,
+            software: props.device_type == vk::PhysicalDeviceType::CPU,
         })
     }
 
@@ -303,6 +309,11 @@ impl DeviceOwner {
     /// The device's name, type and Vulkan version.
     pub fn description(&self) -> &str {
         &self.description
+    }
+
+    /// Whether the device is a software implementation on the host's CPU.
+    pub fn is_software(&self) -> bool {
+        self.software
     }
 
     /// Name of the selected device as a C string (for logs).

@@ -90,6 +90,11 @@ impl Gpu {
         self.owner.description()
     }
 
+    /// Whether the device is a software implementation on the host's CPU (lavapipe).
+    pub fn is_software(&self) -> bool {
+        self.owner.is_software()
+    }
+
     /// The pipeline builds of this device so far: a render's first use of a kernel variant
     /// compiles it (lavapipe: seconds to minutes), which timed renders report apart.
     pub fn pipeline_builds(&self) -> BuildTime {
