@@ -235,16 +235,26 @@ fn median(v: &[f64]) -> f64 {
     }
 }
 
+/// What [`frames`] measured.
+struct Frames {
+    pixels: Vec<PixelOut>,
+    /// Wall time per timed frame, ms.
+    wall: Vec<f64>,
+    /// GPU kernel time per timed frame, ms (empty without timestamps).
+    kernel: Vec<f64>,
+    /// Pipeline builds during the warm-up frames, ms.
+    build_ms: f64,
+}
+
 /// Frames of one estimator: `warmup` untimed, `reps` timed. Every frame must give the same
-/// pixels (same seed); returns the pixels, wall times and kernel times in ms, and the pipeline
-/// builds of the warm-up frames in ms.
+/// pixels (same seed).
 fn frames(
     resident: &Resident,
     backend: &Backend,
     params: &RenderParams,
     warmup: u32,
     reps: u32,
-) -> Result<(Vec<PixelOut>, Vec<f64>, Vec<f64>, f64)> {
+) -> Result<Frames> {
     let mut build_ms = 0.0;
     for _ in 0..warmup {
         let (_, _, built) = backend.timed(|| render_resident(resident, params, &[], false))?;
@@ -270,7 +280,12 @@ fn frames(
             ),
         }
     }
-    Ok((first.expect("reps >= 1"), wall, kernel, build_ms))
+    Ok(Frames {
+        pixels: first.expect("reps >= 1"),
+        wall,
+        kernel,
+        build_ms,
+    })
 }
 
 /// Mean per-pixel variance of one estimate and mean lookups per estimate.
@@ -378,9 +393,13 @@ pub fn run(args: &BenchOptions) -> Result<BenchReport> {
         for spec in &specs {
             let mut params = base;
             spec.apply(&mut params);
-            let (pixels, wall, kernel, build_ms) =
-                frames(&resident, backend, &params, args.warmup, args.reps)
-                    .with_context(|| format!("{} on {}", spec.name, backend.kind()))?;
+            let Frames {
+                pixels,
+                wall,
+                kernel,
+                build_ms,
+            } = frames(&resident, backend, &params, args.warmup, args.reps)
+                .with_context(|| format!("{} on {}", spec.name, backend.kind()))?;
             let (variance, samples_per_ray) = quality(&pixels, args.spp);
             let med = median(&wall);
             let ns_per_ray = med * 1e6 / rays;
@@ -689,7 +708,8 @@ fn time_points(
                 peak_rss_bytes,
             };
             if let Some(resident) = &resident {
-                let (pixels, wall, _, _) = frames(resident, backend, &p, 1, args.reps.min(3))?;
+                let Frames { pixels, wall, .. } =
+                    frames(resident, backend, &p, 1, args.reps.min(3))?;
                 point.frame_ms_median = median(&wall);
                 point.ns_per_ray = point.frame_ms_median * 1e6 / rays;
                 point.samples_per_ray = quality(&pixels, args.spp).1;

@@ -31,8 +31,10 @@ const OP_SWITCH: u32 = 251;
 /// A truncated or malformed module is counted up to where it stops making sense.
 pub fn module_stats(spirv: &[u8]) -> ModuleStats {
     let words: Vec<u32> = spirv
-        .chunks_exact(4)
-        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .as_chunks::<4>()
+        .0
+        .iter()
+        .map(|c| u32::from_le_bytes(*c))
         .collect();
     let mut s = ModuleStats {
         bytes: spirv.len(),

@@ -51,12 +51,7 @@ impl<'a> GpuVolume<'a> {
             .map(|page| gpu.upload(bytemuck::cast_slice(page)))
             .collect::<Result<Vec<_>, _>>()
             .context("uploading the volume")?;
-        let grid = GridSpec {
-            paged: pages.len() > 1,
-            lookup: desc.lookup,
-            cells_per_brick: desc.cells_per_brick(),
-            brick_log2: desc.brick_log2,
-        };
+        let grid = GridSpec::of(&desc, pages.len() > 1);
         Ok(GpuVolume {
             gpu,
             pages,
@@ -211,6 +206,26 @@ pub struct GridSpec {
 }
 
 impl GridSpec {
+    /// The specialization of a grid described by `desc` (`paged`: its pool spans several
+    /// pages). A trilinear lookup stays unspecialized (the kernels read the buffer's lookup):
+    /// with it folded, lavapipe compiled the trilinear jackknife on adaptive super-voxels to
+    /// round differently from the CPU in the last bit (2 of 384 pixels,
+    /// `tests/tests/adaptive.rs`; its blend is what shader compilers like to fuse), and the
+    /// bytes must agree.
+    pub fn of(desc: &shared::volume::grid::GridDesc, paged: bool) -> Self {
+        use shared::volume::grid::Lookup;
+        GridSpec {
+            paged,
+            lookup: if desc.lookup == Lookup::Trilinear as u32 {
+                UNSPECIALIZED
+            } else {
+                desc.lookup
+            },
+            cells_per_brick: desc.cells_per_brick(),
+            brick_log2: desc.brick_log2,
+        }
+    }
+
     /// A one-page pool of a fixed grid of 16^3 bricks with nearest lookups (tests).
     #[cfg(test)]
     fn plain() -> Self {
@@ -603,6 +618,33 @@ fn tile_submissions(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The grid's specialization equals the buffer's values, but for the trilinear lookup,
+    /// which stays at the buffer's value (see [`GridSpec::of`]).
+    #[test]
+    fn grid_specialization_follows_the_description() {
+        use shared::params::UNSPECIALIZED;
+        use shared::volume::grid::{brick_log2_of, GridDesc, Lookup};
+        let desc = |lookup: Lookup, cells: u32, b: u32| GridDesc {
+            lookup: lookup as u32,
+            cells_per_brick: cells,
+            brick_size: b,
+            brick_log2: brick_log2_of(b),
+            ..GridDesc::default()
+        };
+        let g = GridSpec::of(&desc(Lookup::Stochastic, 0, 16), true);
+        assert_eq!(
+            (g.paged, g.lookup, g.cells_per_brick, g.brick_log2),
+            (true, 1, 1, 4)
+        );
+        let g = GridSpec::of(&desc(Lookup::Nearest, 4, 12), false);
+        assert_eq!((g.lookup, g.cells_per_brick, g.brick_log2), (0, 4, 32));
+        let g = GridSpec::of(&desc(Lookup::Trilinear, 1, 8), false);
+        assert_eq!(
+            (g.lookup, g.cells_per_brick, g.brick_log2),
+            (UNSPECIALIZED, 1, 3)
+        );
+    }
 
     /// (s_begin, ids) per run step, `None` per barrier.
     fn shape(steps: &[Step<RenderPass>]) -> Vec<Option<(u32, std::ops::Range<u32>)>> {
