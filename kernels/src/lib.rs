@@ -150,7 +150,8 @@ macro_rules! render_kernel {
         ) {
             if let Some(i) = pass.launch.id(gid.x) {
                 let vol = VolumeView {
-                    // A copy: its fields are read once, not from the buffer at every use.
+                    // By value: the pipeline's specialized copy (held by reference in this
+                    // struct, rust-gpu dropped every read of it).
                     desc: desc[0].specialized(lookup, cells_per_brick, brick_log2),
                     voxels: Pages {
                         p0: voxels,
@@ -252,7 +253,8 @@ macro_rules! wave_kernel {
         ) {
             if let Some(i) = pass.launch.id(gid.x) {
                 let vol = VolumeView {
-                    // A copy: its fields are read once, not from the buffer at every use.
+                    // By value: the pipeline's specialized copy (held by reference in this
+                    // struct, rust-gpu dropped every read of it).
                     desc: desc[0].specialized(lookup, cells_per_brick, brick_log2),
                     voxels: Pages {
                 p0: voxels,
@@ -427,7 +429,8 @@ macro_rules! msm_build_kernel {
         ) {
             if let Some(k) = pass.launch.id(gid.x) {
                 let vol = VolumeView {
-                    // A copy: its fields are read once, not from the buffer at every use.
+                    // By value: the pipeline's specialized copy (held by reference in this
+                    // struct, rust-gpu dropped every read of it).
                     desc: desc[0].specialized(lookup, cells_per_brick, brick_log2),
                     voxels: Pages {
                         p0: voxels,
@@ -442,8 +445,7 @@ macro_rules! msm_build_kernel {
                     },
                     bricks,
                 };
-                let (p, l) = (params[0], lighting[0]);
-                let m = shadow_map::msm_raw_texel(&vol, &p, &l, k as u32);
+                let m = shadow_map::msm_raw_texel(&vol, &params[0], &lighting[0], k as u32);
                 let mut c = 0;
                 while c < RAW_PER_TEXEL {
                     raw[RAW_PER_TEXEL * k + c] = m[c];

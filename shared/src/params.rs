@@ -279,6 +279,7 @@ pub struct RenderParams {
     pub restir_m_cap: u32,
 }
 
+use crate::spec::or_keep;
 pub use crate::spec::UNSPECIALIZED;
 
 impl RenderParams {
@@ -288,17 +289,12 @@ impl RenderParams {
     /// the whole render kernel.
     #[inline]
     pub fn specialized(&self, integrator: u32, estimator: u32, importance: u32) -> RenderParams {
-        let mut p = *self;
-        if importance != UNSPECIALIZED {
-            p.importance = importance;
+        RenderParams {
+            integrator: or_keep(integrator, self.integrator),
+            estimator: or_keep(estimator, self.estimator),
+            importance: or_keep(importance, self.importance),
+            ..*self
         }
-        if integrator != UNSPECIALIZED {
-            p.integrator = integrator;
-        }
-        if estimator != UNSPECIALIZED {
-            p.estimator = estimator;
-        }
-        p
     }
 }
 

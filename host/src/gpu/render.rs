@@ -70,12 +70,6 @@ impl GpuVolume<'_> {
     fn page_slots(&self) -> [&Buffer; MAX_PAGES] {
         std::array::from_fn(|k| self.pages.get(k).unwrap_or(&self.pages[0]))
     }
-
-    /// Whether the pool spans several pages, the lookup and the layout of the grid: the
-    /// specialization constants 3 to 6 of the kernels that read it.
-    fn grid_spec(&self) -> GridSpec {
-        self.grid
-    }
 }
 
 impl RenderBackend for GpuVolume<'_> {
@@ -142,7 +136,7 @@ impl RenderBackend for GpuVolume<'_> {
             raw: &raw,
         };
         let kernel = &MSM_BUILD;
-        let grid = self.grid_spec();
+        let grid = self.grid;
         gpu.submit(Work {
             pipeline: &|_: &MsmPass| (kernel, specialization(None, UNSPECIALIZED, grid)),
             buffers: build.slots(),
@@ -350,7 +344,7 @@ fn render_tiles(
             render_wave(
                 gpu,
                 wave,
-                dev.grid_spec(),
+                dev.grid,
                 params,
                 ids,
                 chunk,
@@ -379,7 +373,7 @@ fn render_tiles(
             } else {
                 &SCATTERING
             };
-            let grid = dev.grid_spec();
+            let grid = dev.grid;
             gpu.submit(Work {
                 pipeline: &|_: &RenderPass| (kernel, render_specialization(params, grid)),
                 buffers: buffers.slots(),

@@ -5,7 +5,7 @@
 
 use crate::geometry::V3;
 use crate::half::f16_to_f32;
-use crate::spec::UNSPECIALIZED;
+use crate::spec::or_keep;
 use crate::volume::pages::Pages;
 use bytemuck::{Pod, Zeroable};
 
@@ -130,22 +130,17 @@ impl GridDesc {
     }
 
     /// `self` with the fields a pipeline fixes by specialization constants replaced: the
-    /// lookup, the cells per brick and [`GridDesc::brick_log2`] ([`UNSPECIALIZED`] keeps a
-    /// field). The host passes the values of the grid it binds, so nothing changes but that
+    /// lookup, the cells per brick and [`GridDesc::brick_log2`]
+    /// ([`crate::spec::UNSPECIALIZED`] keeps a field). The host passes the values of the grid it binds, so nothing changes but that
     /// the driver folds them and compiles only the code of this grid's layout and lookup.
     #[inline]
     pub fn specialized(&self, lookup: u32, cells_per_brick: u32, brick_log2: u32) -> GridDesc {
-        let mut d = *self;
-        if lookup != UNSPECIALIZED {
-            d.lookup = lookup;
+        GridDesc {
+            lookup: or_keep(lookup, self.lookup),
+            cells_per_brick: or_keep(cells_per_brick, self.cells_per_brick),
+            brick_log2: or_keep(brick_log2, self.brick_log2),
+            ..*self
         }
-        if cells_per_brick != UNSPECIALIZED {
-            d.cells_per_brick = cells_per_brick;
-        }
-        if brick_log2 != UNSPECIALIZED {
-            d.brick_log2 = brick_log2;
-        }
-        d
     }
 
     /// Iteration budget of one traversal of the bricks ([`GridDesc::brick_steps`]).
