@@ -479,6 +479,7 @@ impl<'a> GridBuilder<'a> {
             cells_per_brick: 0,
             cell_steps: 0,
             brick_log2: brick_log2_of(b),
+            brick_stepping: 0,
         };
         let slots_only: Vec<Brick> = slots
             .iter()

@@ -8,7 +8,8 @@
 //! estimator, 2 a wavefront stage's kind, 3 whether the voxel pool spans several pages (0: the
 //! whole pool is binding `VOXELS`; 1: pages of `GridDesc::page_log2` words at `VOXELS` and
 //! `VOXEL_PAGES`), 4 the lookup, 5 the cells per brick (1: the fixed grid), 6 `GridDesc::brick_log2`,
-//! 7 the importance (`GridDesc::specialized`, `RenderParams::specialized`; each 0xffffffff:
+//! 7 the importance, 8 `GridDesc::brick_stepping` (`GridDesc::specialized`,
+//! `RenderParams::specialized`; each 0xffffffff:
 //! the buffer's value), so one module serves every variant and each pipeline holds one
 //! variant's code: lavapipe runs every branch of a SIMD group with masks, so code a pipeline
 //! cannot reach still costs time unless the driver folds it away.
@@ -139,20 +140,21 @@ macro_rules! render_kernel {
             #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] voxels_7: &[u32],
             // Specialization constants (host: gpu::render::specialization): integrator,
             // estimator, whether the pool spans several pages, lookup, cells per brick, brick
-            // log2, importance.
+            // log2, brick stepping, importance.
             #[spirv(spec_constant(id = 0, default = 4294967295))] integrator: u32,
             #[spirv(spec_constant(id = 1, default = 4294967295))] estimator: u32,
             #[spirv(spec_constant(id = 3, default = 0))] paged: u32,
             #[spirv(spec_constant(id = 4, default = 4294967295))] lookup: u32,
             #[spirv(spec_constant(id = 5, default = 4294967295))] cells_per_brick: u32,
             #[spirv(spec_constant(id = 6, default = 4294967295))] brick_log2: u32,
+            #[spirv(spec_constant(id = 8, default = 4294967295))] brick_stepping: u32,
             #[spirv(spec_constant(id = 7, default = 4294967295))] importance: u32,
         ) {
             if let Some(i) = pass.launch.id(gid.x) {
                 let vol = VolumeView {
                     // By value: the pipeline's specialized copy (held by reference in this
                     // struct, rust-gpu dropped every read of it).
-                    desc: desc[0].specialized(lookup, cells_per_brick, brick_log2),
+                    desc: desc[0].specialized(lookup, cells_per_brick, brick_log2, brick_stepping),
                     voxels: Pages {
                         p0: voxels,
                         p1: voxels_1,
@@ -249,13 +251,14 @@ macro_rules! wave_kernel {
             #[spirv(spec_constant(id = 4, default = 4294967295))] lookup: u32,
             #[spirv(spec_constant(id = 5, default = 4294967295))] cells_per_brick: u32,
             #[spirv(spec_constant(id = 6, default = 4294967295))] brick_log2: u32,
+            #[spirv(spec_constant(id = 8, default = 4294967295))] brick_stepping: u32,
             #[spirv(spec_constant(id = 7, default = 4294967295))] importance: u32,
         ) {
             if let Some(i) = pass.launch.id(gid.x) {
                 let vol = VolumeView {
                     // By value: the pipeline's specialized copy (held by reference in this
                     // struct, rust-gpu dropped every read of it).
-                    desc: desc[0].specialized(lookup, cells_per_brick, brick_log2),
+                    desc: desc[0].specialized(lookup, cells_per_brick, brick_log2, brick_stepping),
                     voxels: Pages {
                 p0: voxels,
                 p1: voxels_1,
@@ -426,12 +429,13 @@ macro_rules! msm_build_kernel {
             #[spirv(spec_constant(id = 4, default = 4294967295))] lookup: u32,
             #[spirv(spec_constant(id = 5, default = 4294967295))] cells_per_brick: u32,
             #[spirv(spec_constant(id = 6, default = 4294967295))] brick_log2: u32,
+            #[spirv(spec_constant(id = 8, default = 4294967295))] brick_stepping: u32,
         ) {
             if let Some(k) = pass.launch.id(gid.x) {
                 let vol = VolumeView {
                     // By value: the pipeline's specialized copy (held by reference in this
                     // struct, rust-gpu dropped every read of it).
-                    desc: desc[0].specialized(lookup, cells_per_brick, brick_log2),
+                    desc: desc[0].specialized(lookup, cells_per_brick, brick_log2, brick_stepping),
                     voxels: Pages {
                         p0: voxels,
                         p1: voxels_1,

@@ -30,12 +30,13 @@ fn shared_struct_layouts() {
     assert_eq!(size_of::<Pcg32>(), 16);
     assert_eq!(align_of::<Pcg32>(), 8);
     assert_eq!(size_of::<Complex>(), 8);
-    assert_eq!(size_of::<GridDesc>(), 68);
+    assert_eq!(size_of::<GridDesc>(), 72);
     assert_eq!(std::mem::offset_of!(GridDesc, brick_steps), 48);
     assert_eq!(std::mem::offset_of!(GridDesc, voxel_steps), 52);
     assert_eq!(std::mem::offset_of!(GridDesc, cells_per_brick), 56);
     assert_eq!(std::mem::offset_of!(GridDesc, cell_steps), 60);
     assert_eq!(std::mem::offset_of!(GridDesc, brick_log2), 64);
+    assert_eq!(std::mem::offset_of!(GridDesc, brick_stepping), 68);
     assert_eq!(size_of::<Brick>(), 24);
     assert_eq!(std::mem::offset_of!(Brick, cells), 20);
     assert_eq!(size_of::<RenderParams>(), 228);

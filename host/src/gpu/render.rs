@@ -51,7 +51,7 @@ impl<'a> GpuVolume<'a> {
             .map(|page| gpu.upload(bytemuck::cast_slice(page)))
             .collect::<Result<Vec<_>, _>>()
             .context("uploading the volume")?;
-        let grid = GridSpec::of(&desc, pages.len() > 1);
+        let grid = GridSpec::of(&desc, pages.len() > 1, gpu.is_software());
         Ok(GpuVolume {
             gpu,
             pages,
@@ -185,18 +185,21 @@ fn specialization(params: Option<&RenderParams>, stage_kind: u32, grid: GridSpec
         grid.cells_per_brick,
         grid.brick_log2,
         importance,
+        grid.brick_stepping,
     ]
 }
 
-/// The resident grid's values of the kernels' specialization constants 3 to 6: whether the
-/// pool spans several pages, the lookup, the cells per brick (1: the fixed grid) and
-/// `GridDesc::brick_log2`, each as the bound `GridDesc` holds it.
+/// The resident grid's values of the kernels' specialization constants 3 to 6 and 8: whether
+/// the pool spans several pages, the lookup, the cells per brick (1: the fixed grid),
+/// `GridDesc::brick_log2`, each as the bound `GridDesc` holds it, and
+/// `GridDesc::brick_stepping`, chosen per device.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct GridSpec {
     pub paged: bool,
     pub lookup: u32,
     pub cells_per_brick: u32,
     pub brick_log2: u32,
+    pub brick_stepping: u32,
 }
 
 impl GridSpec {
@@ -206,7 +209,13 @@ impl GridSpec {
     /// round differently from the CPU in the last bit (2 of 384 pixels,
     /// `tests/tests/adaptive.rs`; its blend is what shader compilers like to fuse), and the
     /// bytes must agree.
-    pub fn of(desc: &shared::volume::grid::GridDesc, paged: bool) -> Self {
+    ///
+    /// On a software device (`software`: lavapipe, which runs every branch arm of its 8 lanes
+    /// under masks) the traversals step through all-zero bricks wherever that is exact
+    /// (`GridDesc::can_step`): the straight-line skip costs more in every iteration
+    /// than the iterations it saves (anchor jackknife 793 -> 421 ns/ray, docs/results/speed.md).
+    /// Hardware GPUs skip, as the CPU does, until measured there.
+    pub fn of(desc: &shared::volume::grid::GridDesc, paged: bool, software: bool) -> Self {
         use shared::volume::grid::Lookup;
         GridSpec {
             paged,
@@ -217,6 +226,7 @@ impl GridSpec {
             },
             cells_per_brick: desc.cells_per_brick(),
             brick_log2: desc.brick_log2,
+            brick_stepping: u32::from(software && desc.can_step()),
         }
     }
 
@@ -228,6 +238,7 @@ impl GridSpec {
             lookup: 0,
             cells_per_brick: 1,
             brick_log2: 4,
+            brick_stepping: 0,
         }
     }
 }
@@ -626,18 +637,40 @@ mod tests {
             brick_log2: brick_log2_of(b),
             ..GridDesc::default()
         };
-        let g = GridSpec::of(&desc(Lookup::Stochastic, 0, 16), true);
+        let g = GridSpec::of(&desc(Lookup::Stochastic, 0, 16), true, false);
         assert_eq!(
             (g.paged, g.lookup, g.cells_per_brick, g.brick_log2),
             (true, 1, 1, 4)
         );
-        let g = GridSpec::of(&desc(Lookup::Nearest, 4, 12), false);
+        let g = GridSpec::of(&desc(Lookup::Nearest, 4, 12), false, false);
         assert_eq!((g.lookup, g.cells_per_brick, g.brick_log2), (0, 4, 32));
-        let g = GridSpec::of(&desc(Lookup::Trilinear, 1, 8), false);
+        let g = GridSpec::of(&desc(Lookup::Trilinear, 1, 8), false, false);
         assert_eq!(
             (g.lookup, g.cells_per_brick, g.brick_log2),
             (UNSPECIALIZED, 1, 3)
         );
+    }
+
+    /// Software devices step through empty bricks exactly where the brick budget is the
+    /// stepping bound; hardware devices and grids with a smaller (skipping) budget skip.
+    #[test]
+    fn software_devices_step_through_empty_bricks_only_within_the_stepping_bound() {
+        use shared::volume::grid::GridDesc;
+        let desc = |brick_steps: u32, voxel_steps: u32| GridDesc {
+            dims: [256, 256, 256, 0],
+            brick_dims: [16, 16, 16, 0],
+            brick_steps,
+            voxel_steps,
+            ..GridDesc::default()
+        };
+        // The stepping bounds: 3 * 16 + 3 bricks, 3 * 256 + 3 voxels.
+        for (b, v) in [(0, 0), (51, 771), (52, 1000), (1000, 0)] {
+            assert_eq!(GridSpec::of(&desc(b, v), false, true).brick_stepping, 1);
+            assert_eq!(GridSpec::of(&desc(b, v), false, false).brick_stepping, 0);
+        }
+        for (b, v) in [(1, 0), (50, 0), (0, 770), (20, 100)] {
+            assert_eq!(GridSpec::of(&desc(b, v), false, true).brick_stepping, 0);
+        }
     }
 
     /// (s_begin, ids) per run step, `None` per barrier.

@@ -395,7 +395,9 @@ impl GridDda {
         // and lands in the same cell at the same t. Only where the ray ends inside the brick do
         // the segments differ (the skip's is empty, the step's ends at t_end), and a segment of
         // zero statistics adds 0 to every sum either way.
-        if (level != NO_SKIP) & (level != 0) {
+        // A pipeline that steps through all-zero bricks (`GridDesc::brick_stepping`, folded by
+        // specialization) leaves the skip out entirely.
+        if (vol.desc.brick_stepping == 0) & (level != NO_SKIP) & (level != 0) {
             let t0 = self.t;
             if self.skip_cube(level) {
                 let t1 = self.t;
@@ -407,8 +409,9 @@ impl GridDda {
 
     /// The next voxel segment of a voxel traversal ([`GridDda::voxels`]), or, in an all-zero
     /// brick whose cube can be skipped, the whole skipped span as one segment; the flag is true
-    /// for a voxel the caller reads (false for a skip: extinction 0 throughout). One skip or
-    /// one step per call, no loop. Call only while `!done`.
+    /// for a voxel the caller reads (false in an all-zero brick: extinction 0 throughout). One
+    /// skip or one step per call, no loop; a pipeline that steps through all-zero bricks
+    /// (`GridDesc::brick_stepping`) never skips. Call only while `!done`.
     #[inline]
     pub fn step_voxel(&mut self, vol: &VolumeView) -> (Segment, bool) {
         let cell = self.cell();
@@ -420,14 +423,15 @@ impl GridDda {
                 d.brick_of(cell[2]),
             ])
             .skip_level();
-        if level != NO_SKIP {
+        let zero = level != NO_SKIP;
+        if (vol.desc.brick_stepping == 0) & zero {
             let t0 = self.t;
             if self.skip_cube(level) {
                 let t1 = self.t;
                 return (Segment { t0, t1, cell }, false);
             }
         }
-        (self.step(), true)
+        (self.step(), !zero)
     }
 
     /// Skips the aligned cube of 2^`level` bricks per axis (`unit << level` cells, clipped to the

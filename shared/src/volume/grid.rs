@@ -90,6 +90,12 @@ pub struct GridDesc {
     /// log2 of [`GridDesc::brick_size`] when it is a power of two, else [`BRICK_DIVIDES`]: a
     /// voxel's brick is then a shift, not a division ([`GridDesc::brick_of`]).
     pub brick_log2: u32,
+    /// 1: the brick traversal steps through all-zero bricks instead of skipping their cubes
+    /// ([`crate::volume::dda::GridDda::step_brick`]); 0 (the builder's value): it skips. The same
+    /// segment sums either way (an all-zero segment adds 0 and takes no sample); stepping is
+    /// the faster form on SIMD devices that run every branch arm under masks, and exact only
+    /// where the budgets are the stepping bounds ([`GridDesc::can_step`]).
+    pub brick_stepping: u32,
 }
 
 /// [`GridDesc::brick_log2`] of a brick size that is not a power of two (bricks by division).
@@ -130,17 +136,37 @@ impl GridDesc {
     }
 
     /// `self` with the fields a pipeline fixes by specialization constants replaced: the
-    /// lookup, the cells per brick and [`GridDesc::brick_log2`]
-    /// ([`crate::spec::UNSPECIALIZED`] keeps a field). The host passes the values of the grid it binds, so nothing changes but that
-    /// the driver folds them and compiles only the code of this grid's layout and lookup.
+    /// lookup, the cells per brick, [`GridDesc::brick_log2`] and [`GridDesc::brick_stepping`]
+    /// ([`crate::spec::UNSPECIALIZED`] keeps a field). The host passes the values of the grid
+    /// it binds (stepping only where [`GridDesc::can_step`]), so the segment sums do not
+    /// change; the driver folds the values and compiles only this grid's layout and lookup.
     #[inline]
-    pub fn specialized(&self, lookup: u32, cells_per_brick: u32, brick_log2: u32) -> GridDesc {
+    pub fn specialized(
+        &self,
+        lookup: u32,
+        cells_per_brick: u32,
+        brick_log2: u32,
+        brick_stepping: u32,
+    ) -> GridDesc {
         GridDesc {
             lookup: or_keep(lookup, self.lookup),
             cells_per_brick: or_keep(cells_per_brick, self.cells_per_brick),
             brick_log2: or_keep(brick_log2, self.brick_log2),
+            brick_stepping: or_keep(brick_stepping, self.brick_stepping),
             ..*self
         }
+    }
+
+    /// Whether the brick and voxel budgets are the stepping bounds: then traversals that step
+    /// through every all-zero brick ([`GridDesc::brick_stepping`]) and traversals that skip
+    /// their cubes (never more iterations than stepping) both reach the end of every ray
+    /// uncapped, with the same segment sums and reads. Where the builder's bound from the
+    /// occupied bricks is smaller (long, mostly empty grids), only skipping fits it.
+    #[inline]
+    pub fn can_step(&self) -> bool {
+        let (b, d) = (self.brick_dims, self.dims);
+        (self.brick_budget() == traversal_budget(0, [b[0], b[1], b[2]]))
+            & (self.voxel_budget() == traversal_budget(0, [d[0], d[1], d[2]]))
     }
 
     /// Iteration budget of one traversal of the bricks ([`GridDesc::brick_steps`]).
