@@ -379,6 +379,13 @@ fn lights_or_default(
         shared::sampling::lights::MAX_LIGHTS,
         lights.len()
     );
+    for (k, l) in lights.iter().enumerate() {
+        crate::lighting::check_emission(
+            &format!("--light {}: the intensity", k + 1),
+            l.intensity as f64,
+            "lower it",
+        )?;
+    }
     if !lights.is_empty() {
         return Ok(lights.to_vec());
     }
@@ -723,6 +730,9 @@ pub fn plan_render_outputs(args: &RenderOptions) -> Result<std::path::PathBuf> {
     plan.input("--volume", Path::new(&args.scene.volume))
         .file("--out", &args.out)
         .file("the PNG preview of --out", &png);
+    if let Some(crate::lighting::EnvSource::File(env)) = &args.env {
+        plan.input("--env", env);
+    }
     if let Some(json) = &args.json {
         plan.file("--json", json);
     }
@@ -971,6 +981,7 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
 
     let flags = crate::diagnostics::RayFlags::of(&pixels, args.spp);
     flags.warn(&params);
+    crate::diagnostics::check_finite(&pixels, args.width)?;
     let t: Vec<f32> = pixels.iter().map(|p| p.t_mean).collect();
     let rays = pixels.len() as f64 * args.spp as f64;
     let samples: f64 = pixels.iter().map(|p| p.samples as f64).sum();
@@ -1421,6 +1432,9 @@ fn plan_eval_outputs(
     let mut plan = OutputPlan::new();
     plan.input("--volume", Path::new(&args.scene.volume))
         .dir("--out-dir", &args.out_dir);
+    if let Some(crate::lighting::EnvSource::File(env)) = &args.env {
+        plan.input("--env", env);
+    }
     for image in images {
         plan.file("an image of --out-dir", image);
     }

@@ -140,3 +140,51 @@ fn estimator_advice(params: &RenderParams) -> String {
         _ => "an internal loop bound was reached".into(),
     }
 }
+
+/// Refuses an image with a pixel whose mean is not finite (an overflow of f32 in the light
+/// transport: radiance near a point light, or an estimator outside its range), naming the first
+/// such pixel and how many there are: a result is right or refused, never written with inf or NaN.
+pub fn check_finite(pixels: &[PixelOut], width: u32) -> anyhow::Result<()> {
+    let bad = |p: &PixelOut| {
+        let v = [p.t_mean, p.rgb_mean.r, p.rgb_mean.g, p.rgb_mean.b];
+        !v.iter().all(|x| x.is_finite())
+    };
+    let count = pixels.iter().filter(|p| bad(p)).count();
+    if let Some(k) = pixels.iter().position(bad) {
+        let p = &pixels[k];
+        let w = width.max(1) as usize;
+        anyhow::bail!(
+            "{count} of {} pixels are not finite, the first at x {}, y {} (value {}, RGB {}, {}, \
+             {}): the radiance overflowed f32 there (a light too bright for the scene, or one \
+             inside the medium, where 1 / r^2 grows without bound); nothing was written. Lower \
+             the light's intensity or move it out of the volume",
+            pixels.len(),
+            k % w,
+            k / w,
+            p.t_mean,
+            p.rgb_mean.r,
+            p.rgb_mean.g,
+            p.rgb_mean.b
+        );
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A pixel that is not finite is refused with its position and the count; finite images pass.
+    #[test]
+    fn non_finite_pixels_are_refused_by_position() {
+        let mut pixels = vec![PixelOut::default(); 12];
+        assert!(check_finite(&pixels, 4).is_ok());
+        pixels[6].rgb_mean.g = f32::INFINITY;
+        pixels[9].t_mean = f32::NAN;
+        let e = check_finite(&pixels, 4).unwrap_err().to_string();
+        assert!(
+            e.starts_with("2 of 12 pixels") && e.contains("x 2, y 1"),
+            "{e}"
+        );
+    }
+}

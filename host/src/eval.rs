@@ -352,6 +352,7 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
     step(setup, 0, estimators.len(), "the reference", ref_params.spp);
     let reference = render(setup.backend, setup.volume, &ref_params, setup.progress)
         .context("rendering the reference")?;
+    crate::diagnostics::check_finite(&reference, w).context("rendering the reference")?;
     let ref_t: Vec<f32> = reference.iter().map(|p| p.t_mean).collect();
     let (reference_exr, reference_png) = (
         setup.out_dir.join("reference.exr"),
@@ -376,6 +377,8 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
         let (pixels, elapsed_ms, built) = setup
             .backend
             .timed(|| render(setup.backend, setup.volume, &params, setup.progress))
+            .with_context(|| format!("rendering {}", spec.name))?;
+        crate::diagnostics::check_finite(&pixels, w)
             .with_context(|| format!("rendering {}", spec.name))?;
         let bias: Vec<f32> = pixels
             .iter()

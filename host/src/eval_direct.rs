@@ -280,9 +280,11 @@ fn write_insets(pngs: &[String], out: &Path) -> Result<()> {
             }
         }
     }
-    out_img
-        .save(out)
-        .with_context(|| format!("writing {}", out.display()))
+    crate::output::write_atomically(out, |tmp| {
+        out_img
+            .save(tmp)
+            .with_context(|| format!("writing {}", out.display()))
+    })
 }
 
 /// Per-pixel luminance mean and variance of one sample.
@@ -320,6 +322,8 @@ fn render_one(
     let (pixels, elapsed_ms, built) = setup
         .backend
         .timed(|| crate::render::render_resident_lit(resident, params, lights, setup.progress))
+        .with_context(|| format!("rendering {stem}"))?;
+    crate::diagnostics::check_finite(&pixels, params.width)
         .with_context(|| format!("rendering {stem}"))?;
     let rgb: Vec<[f32; 3]> = pixels
         .iter()

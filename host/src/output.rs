@@ -33,11 +33,13 @@ fn write_exr_layer(
         encoding,
         channels,
     );
-    Image::from_layer(layer)
-        .write()
-        .non_parallel()
-        .to_file(path)
-        .with_context(|| format!("writing {}", path.display()))
+    write_atomically(path, |tmp| {
+        Image::from_layer(layer)
+            .write()
+            .non_parallel()
+            .to_file(tmp)
+            .with_context(|| format!("writing {}", path.display()))
+    })
 }
 
 /// sRGB encoding of a linear value in [0, 1].
@@ -54,20 +56,81 @@ pub fn srgb8(v: f32) -> u8 {
 /// Writes a grayscale sRGB PNG preview of linear values (clamped to [0, 1]).
 pub fn write_png(path: &Path, w: u32, h: u32, values: &[f32]) -> Result<()> {
     let bytes: Vec<u8> = values.iter().map(|&v| srgb8(v)).collect();
-    image::save_buffer(path, &bytes, w, h, image::ColorType::L8)
-        .with_context(|| format!("writing {}", path.display()))
+    write_atomically(path, |tmp| {
+        image::save_buffer(tmp, &bytes, w, h, image::ColorType::L8)
+            .with_context(|| format!("writing {}", path.display()))
+    })
 }
 
 /// Writes an RGB8 PNG (false-colour images).
 pub fn write_rgb_png(path: &Path, w: u32, h: u32, rgb: &[u8]) -> Result<()> {
-    image::save_buffer(path, rgb, w, h, image::ColorType::Rgb8)
-        .with_context(|| format!("writing {}", path.display()))
+    write_atomically(path, |tmp| {
+        image::save_buffer(tmp, rgb, w, h, image::ColorType::Rgb8)
+            .with_context(|| format!("writing {}", path.display()))
+    })
 }
 
 /// Writes any serializable value as pretty JSON.
 pub fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<()> {
     let text = serde_json::to_string_pretty(value)?;
-    std::fs::write(path, text + "\n").with_context(|| format!("writing {}", path.display()))
+    write_text(path, &(text + "\n"))
+}
+
+/// Writes a text file ([`write_atomically`]).
+pub fn write_text(path: &Path, text: &str) -> Result<()> {
+    write_atomically(path, |tmp| {
+        std::fs::write(tmp, text).with_context(|| format!("writing {}", path.display()))
+    })
+}
+
+/// Writes file `path` through `write`, which is given a new temporary file in the same
+/// directory (same extension, for writers that choose the format by it), then renames that into
+/// place: an interrupted or failed write leaves the previous file, never a half-written one,
+/// and no other name of the old file (a hard link) changes. A symbolic link at `path` is
+/// written through: its target is replaced, the link stays.
+pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    let is_link = std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink());
+    let target = if is_link {
+        std::fs::canonicalize(path).unwrap_or_else(|_| path.to_owned())
+    } else {
+        path.to_owned()
+    };
+    let dir = match target.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_owned(),
+        _ => PathBuf::from("."),
+    };
+    let name = target
+        .file_name()
+        .with_context(|| format!("{}: not a file path", path.display()))?;
+    let suffix = target
+        .extension()
+        .map(|e| format!(".{}", e.to_string_lossy()))
+        .unwrap_or_default();
+    let prefix = format!(".{}.partial-", name.to_string_lossy());
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(&prefix).suffix(&suffix);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        // Like a plain create: 0666 less the umask (tempfile's default is 0600).
+        builder.permissions(std::fs::Permissions::from_mode(0o666));
+    }
+    let tmp = builder.tempfile_in(&dir).with_context(|| {
+        format!(
+            "writing {}: cannot create a temporary file in {}; check its permissions",
+            path.display(),
+            dir.display()
+        )
+    })?;
+    // Dropping `tmp` on an error removes the temporary file.
+    write(tmp.path())?;
+    tmp.persist(&target).map_err(|e| e.error).with_context(|| {
+        format!(
+            "writing {}: renaming the finished file into place",
+            path.display()
+        )
+    })?;
+    Ok(())
 }
 
 /// Creates the parent directory of `path` if needed.
@@ -94,8 +157,28 @@ enum Kind {
 pub struct OutputPlan {
     /// (what writes it, for messages; the path as given; its absolute, normalized form; kind)
     entries: Vec<(String, PathBuf, PathBuf, Kind)>,
-    /// Files that are read and must never be written (the input volume).
-    inputs: Vec<(String, PathBuf)>,
+    /// Files that are read and must never be written (the input volume, light probes, ...):
+    /// (what reads it, its normalized path, its file identity).
+    inputs: Vec<(String, PathBuf, Option<FileId>)>,
+}
+
+/// A file's identity (device, inode) after following links: two names of one file, through a
+/// symbolic or a hard link, have the same identity.
+type FileId = (u64, u64);
+
+/// The identity of the file `path` names, following links (None where it does not exist, or
+/// off Unix).
+fn file_id(path: &Path) -> Option<FileId> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        std::fs::metadata(path).ok().map(|m| (m.dev(), m.ino()))
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = path;
+        None
+    }
 }
 
 impl OutputPlan {
@@ -114,10 +197,12 @@ impl OutputPlan {
         self.push(what, path, Kind::Dir)
     }
 
-    /// Records a file the command reads (`what`, e.g. "--volume"), so no output may replace it.
+    /// Records a file the command reads (`what`, e.g. "--volume"), so no output may replace it,
+    /// by any name (links included).
     pub fn input(&mut self, what: &str, path: &Path) -> &mut Self {
         if path.is_file() {
-            self.inputs.push((what.to_owned(), normalize(path)));
+            self.inputs
+                .push((what.to_owned(), normalize(path), file_id(path)));
         }
         self
     }
@@ -145,14 +230,29 @@ impl OutputPlan {
     /// Refuses two outputs on the same path and outputs on inputs.
     fn check_clashes(&self) -> Result<()> {
         for (i, (what, path, norm, kind)) in self.entries.iter().enumerate() {
-            if let Some((other, _)) = self.inputs.iter().find(|(_, input)| input == norm) {
+            if let Some((other, _, _)) = self.inputs.iter().find(|(_, input, _)| input == norm) {
                 bail!(
                     "{what} {} would overwrite the input {other}; choose another output path",
                     path.display()
                 );
             }
+            // An existing output that is an input under another name (a symbolic or hard link).
+            let id = file_id(path).filter(|_| *kind == Kind::File);
+            if let Some((other, input, _)) = self
+                .inputs
+                .iter()
+                .find(|(_, _, i)| id.is_some() && *i == id)
+            {
+                bail!(
+                    "{what} {} would overwrite the input {other} ({}): they are the same file \
+                     (a link); choose another output path",
+                    path.display(),
+                    input.display()
+                );
+            }
             for (what2, path2, norm2, kind2) in &self.entries[..i] {
-                let same = norm == norm2 && (*kind == Kind::File || *kind2 == Kind::File);
+                let linked = id.is_some() && *kind2 == Kind::File && file_id(path2) == id;
+                let same = linked || norm == norm2 && (*kind == Kind::File || *kind2 == Kind::File);
                 if same {
                     bail!(
                         "{what2} and {what} are the same path ({} and {}): one would overwrite \
@@ -301,4 +401,27 @@ pub fn write_png_rgb_exposed(
         .flat_map(|p| p.map(|v| srgb8(v * exposure)))
         .collect();
     write_rgb_png(path, w, h, &bytes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A write that fails leaves the previous file as it was and no temporary file.
+    #[test]
+    fn a_failed_write_leaves_the_previous_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("out.json");
+        std::fs::write(&path, "previous").unwrap();
+        let err = write_atomically(&path, |tmp| {
+            std::fs::write(tmp, "half")?;
+            anyhow::bail!("interrupted")
+        });
+        assert!(err.is_err());
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "previous");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+        write_text(&path, "new").unwrap();
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "new");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
 }

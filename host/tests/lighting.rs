@@ -701,7 +701,10 @@ fn bad_options_are_refused_by_build() {
 
 /// Scales and intensities that overflow f32 radiance are refused, never rendered as infinity:
 /// --env-scale 3e38 on a probe of radiance 2 (texels 6e38), and a sun of irradiance 1e36 on the
-/// real sun's disk (radiance 1.5e40); 1e30 (finite radiance) is accepted.
+/// real sun's disk (radiance 1.5e40). So are radiances above `MAX_EMISSION` (1e12), which are
+/// finite but overflow the integrators' f32 sums of squares (issue 43, item 2: --env-scale 1e30,
+/// once accepted, rendered infinite pixels): 5e11 x 2 is accepted, 1e12 x 2 refused with the
+/// largest safe scale.
 #[test]
 fn radiance_overflowing_f32_is_refused() {
     let dir = tempfile::tempdir().unwrap();
@@ -721,11 +724,25 @@ fn radiance_overflowing_f32_is_refused() {
     );
     assert!(msg.contains("--env-scale"), "{msg}");
     let l = lights(&LightingOptions {
-        env_scale: 1e30,
+        env_scale: 5e11,
         ..file()
     })
     .unwrap();
-    assert_env_finite(&l, "x 1e30");
+    assert_env_finite(&l, "x 5e11");
+    for scale in [1e12, 1e30] {
+        let msg = format!(
+            "{:#}",
+            lights(&LightingOptions {
+                env_scale: scale,
+                ..file()
+            })
+            .unwrap_err()
+        );
+        assert!(
+            msg.contains("c.exr") && msg.contains("1e12") && msg.contains("--env-scale 5.000e11"),
+            "{msg}"
+        );
+    }
     let msg = format!(
         "{:#}",
         lights(&LightingOptions {
@@ -895,6 +912,39 @@ fn bad_light_flags_are_refused() {
         ),
     ];
     refuse_all(&exr, &["--integrator", "direct"], cases);
+}
+
+/// Lights too bright for the integrators' f32 sums are refused before rendering, naming the light
+/// and the largest accepted value (issue 43, item 2: each rendered infinite pixels at exit 0):
+/// `--light 0,0,0,3e38` with `path` and `mis-jackknife`, a `.hdr` texel at the RGBE maximum.
+#[test]
+fn lights_beyond_the_f32_sums_are_refused_before_rendering() {
+    let dir = tempfile::tempdir().unwrap();
+    let exr = dir.path().join("r.exr");
+    let hdr = dir.path().join("max.hdr");
+    write_hdr(&hdr, 2, 1, &[rgbe([255; 3], 255), rgbe([128; 3], 129)]);
+    let cases: Vec<(Vec<&str>, Vec<&str>)> = vec![
+        (
+            vec![
+                "--integrator",
+                "path",
+                "--env",
+                "none",
+                "--light",
+                "0,0,0,3e38",
+            ],
+            vec!["light 1", "1e12", "intensity"],
+        ),
+        (
+            vec!["--integrator", "mis-jackknife", "--light", "0,0,0,1e13"],
+            vec!["--light 1", "1e12"],
+        ),
+        (
+            vec!["--integrator", "direct", "--env", s(&hdr)],
+            vec!["max.hdr", "brightest texel", "1e12", "--env-scale"],
+        ),
+    ];
+    refuse_all(&exr, &[], cases);
 }
 
 /// Flags that do not apply are refused, not ignored: `--env sky`, `--sun`, `--env-scale` without

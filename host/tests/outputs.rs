@@ -111,6 +111,90 @@ fn out_over_the_input_volume_is_refused() {
     assert_eq!(std::fs::read(&vol).unwrap(), before);
 }
 
+/// Outputs that are an input under another name (a symbolic link to it, named like the EXR,
+/// the JSON or the PNG preview, or a hard link) are refused by file identity, and the input keeps
+/// its bytes (issue 43, item 1: each case wrote over the volume and exited 0).
+#[cfg(unix)]
+#[test]
+fn outputs_linked_to_an_input_are_refused_and_the_input_survives() {
+    let dir = tempfile::tempdir().unwrap();
+    let vol = dir.path().join("v.vdb");
+    std::fs::copy(fixture("density_zip.vdb"), &vol).unwrap();
+    let before = std::fs::read(&vol).unwrap();
+    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_owned();
+    std::os::unix::fs::symlink(&vol, p("link.exr")).unwrap();
+    std::os::unix::fs::symlink(&vol, p("link.json")).unwrap();
+    std::os::unix::fs::symlink(&vol, p("pre.png")).unwrap();
+    std::fs::hard_link(&vol, p("hard.exr")).unwrap();
+    let (link, r, json, pre, hard) = (
+        p("link.exr"),
+        p("r.exr"),
+        p("link.json"),
+        p("pre.exr"),
+        p("hard.exr"),
+    );
+    let cases: [(&[&str], &str); 4] = [
+        (&["--out", &link], "--out"),
+        (&["--out", &r, "--json", &json], "--json"),
+        (&["--out", &pre], "PNG preview"),
+        (&["--out", &hard], "--out"),
+    ];
+    for (flags, what) in cases {
+        let mut args = vec!["--volume", s(&vol)];
+        args.extend_from_slice(flags);
+        let out = render(&args);
+        assert_refused(&out, &[what, "input --volume", "same file"]);
+        assert_eq!(std::fs::read(&vol).unwrap(), before, "{flags:?}");
+    }
+    assert!(!Path::new(&r).exists() && !Path::new(&pre).exists());
+}
+
+/// A study's outputs may not replace its `--profile` CSV through a link either.
+#[cfg(unix)]
+#[test]
+fn a_study_output_linked_to_its_profile_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("p.csv");
+    std::fs::write(&csv, "t,mu\n0,1\n1,2\n").unwrap();
+    let link = dir.path().join("p.json");
+    std::os::unix::fs::symlink(&csv, &link).unwrap();
+    let out = host()
+        .args(["study", "profile", "--profile", s(&csv), "--trials", "100"])
+        .args(["--json", s(&link), "--plot", s(&dir.path().join("p.png"))])
+        .output()
+        .unwrap();
+    assert_refused(&out, &["--json", "input --profile", "same file"]);
+    assert_eq!(std::fs::read_to_string(&csv).unwrap(), "t,mu\n0,1\n1,2\n");
+}
+
+/// A symbolic link that is not an input is written through (the target gets the image, the link
+/// stays); a hard-linked name is replaced alone (the other name keeps the old bytes).
+#[cfg(unix)]
+#[test]
+fn outputs_are_written_through_links_without_touching_other_names() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| dir.path().join(name);
+    std::fs::write(p("target.exr"), b"old").unwrap();
+    std::os::unix::fs::symlink(p("target.exr"), p("link.exr")).unwrap();
+    assert_ok(&render(&["--out", s(&p("link.exr"))]));
+    assert!(std::fs::symlink_metadata(p("link.exr"))
+        .unwrap()
+        .file_type()
+        .is_symlink());
+    assert_ne!(std::fs::read(p("target.exr")).unwrap(), b"old");
+    std::fs::write(p("a.exr"), b"old").unwrap();
+    std::fs::hard_link(p("a.exr"), p("b.exr")).unwrap();
+    assert_ok(&render(&["--out", s(&p("a.exr"))]));
+    assert_eq!(std::fs::read(p("b.exr")).unwrap(), b"old");
+    assert_ne!(std::fs::read(p("a.exr")).unwrap(), b"old");
+    // No temporary file is left behind.
+    let names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(names.iter().all(|n| !n.contains("partial")), "{names:?}");
+}
+
 #[test]
 fn unwritable_outputs_are_refused_before_rendering() {
     let dir = tempfile::tempdir().unwrap();

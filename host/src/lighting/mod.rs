@@ -22,6 +22,23 @@ pub const SUN_RADIUS_DEG: f32 = 0.2666;
 /// Direction toward the default sun (about 35 degrees above the horizon, in front of the volume
 /// and to the left as the default camera sees it): unnormalized.
 pub const DEFAULT_SUN: [f32; 3] = [0.7, 0.6, -0.45];
+/// Largest radiance (light-probe texels times `--env-scale`, the sun's disk) and point-light
+/// intensity accepted. The integrators multiply a light's value by transmittance, albedo, phase
+/// and geometry factors and sum each pixel's samples and their squares in f32; at 1e12 the
+/// squares of 2^18 samples keep a headroom of 10^9 for those factors. Lights inside the medium
+/// can still exceed it (1 / r^2 near a point light): a pixel that is not finite is an error.
+pub const MAX_EMISSION: f64 = 1e12;
+
+/// Refuses light `what` whose radiance or intensity `value` is above [`MAX_EMISSION`].
+pub fn check_emission(what: &str, value: f64, fix: &str) -> Result<()> {
+    ensure!(
+        value <= MAX_EMISSION,
+        "{what}: {value:.3e} is above {MAX_EMISSION:.0e}, the largest radiance or intensity the \
+         renderer accepts (the integrators' f32 sums of squared radiance must stay finite); {fix}"
+    );
+    Ok(())
+}
+
 /// Share of the light pmf spread uniformly over the kinds present (so none is starved).
 const UNIFORM_SHARE: f64 = 0.1;
 /// Colour of the sun (linear Rec. 709, luminance 1): a slightly warm white.
@@ -201,6 +218,19 @@ pub fn build(opts: &LightingOptions, center: [f64; 3], radius: f64) -> Result<Sc
     let mut env_data = vec![0.0f32];
     let mut w_env = 0.0;
     if let Some(map) = map {
+        let brightest = map.texels.iter().flatten().fold(0.0f32, |a, v| a.max(*v));
+        let what = match &opts.env {
+            EnvSource::File(p) => format!("--env {}", p.display()),
+            _ => "the sky".to_owned(),
+        };
+        check_emission(
+            &format!("{what}: its brightest texel times --env-scale"),
+            brightest as f64 * opts.env_scale as f64,
+            &format!(
+                "use --env-scale {:.3e} or less",
+                MAX_EMISSION / (brightest as f64).max(f64::MIN_POSITIVE)
+            ),
+        )?;
         let (data, integral) = map.data(opts.env_scale);
         ensure!(
             integral.is_finite() && data.iter().all(|v| v.is_finite()),
@@ -237,7 +267,22 @@ pub fn build(opts: &LightingOptions, center: [f64; 3], radius: f64) -> Result<Sc
              the intensity or widen the disk",
             spec.radius_deg
         );
+        check_emission(
+            &format!(
+                "--sun: the radiance of intensity {e:.3e} over a disk of {} degrees",
+                spec.radius_deg
+            ),
+            r.r.max(r.g).max(r.b) as f64,
+            "lower the intensity or widen the disk",
+        )?;
         w_sun = e;
+    }
+    for (k, l) in opts.points.iter().enumerate() {
+        check_emission(
+            &format!("point light {} (--light or --lights random)", k + 1),
+            l.intensity as f64,
+            "lower its intensity",
+        )?;
     }
     let w_points: f64 = opts
         .points

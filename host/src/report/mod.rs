@@ -206,7 +206,7 @@ pub fn run(args: &ReportOptions) -> Result<()> {
     };
     let html = render_html(&data)?;
     let index = out.join("index.html");
-    std::fs::write(&index, html).with_context(|| format!("writing {}", index.display()))?;
+    crate::output::write_text(&index, &html)?;
     println!("wrote {}", index.display());
     Ok(())
 }
@@ -420,8 +420,11 @@ impl Files<'_> {
             _ => false,
         };
         if !same {
-            std::fs::copy(from, &to)
-                .with_context(|| format!("copying {} to {}", from.display(), to.display()))?;
+            crate::output::write_atomically(&to, |tmp| {
+                std::fs::copy(from, tmp)
+                    .map(drop)
+                    .with_context(|| format!("copying {} to {}", from.display(), to.display()))
+            })?;
         }
         Ok(format!("{}/{}", url_escape(self.id), url_escape(name)))
     }

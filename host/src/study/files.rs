@@ -19,9 +19,12 @@ pub struct Output {
 
 impl Output {
     /// Checks before the study runs that `--json` and the plot (or, by default, `out/`) are
-    /// distinct and writable.
-    pub fn check(&self) -> Result<()> {
+    /// distinct, writable, and not the file `profile` (a `--profile` CSV, by any name).
+    pub fn check(&self, profile: Option<&Path>) -> Result<()> {
         let mut plan = crate::output::OutputPlan::new();
+        if let Some(profile) = profile {
+            plan.input("--profile", profile);
+        }
         if let Some(json) = &self.json {
             plan.file("--json", json);
         }

@@ -83,9 +83,20 @@ fn output_of(command: &Study) -> &Output {
     }
 }
 
+/// The `--profile` of a study that reads one (a built-in name or a CSV file).
+fn profile_of(command: &Study) -> Option<&str> {
+    match command {
+        Study::Profile(a) => Some(&a.profile.profile),
+        Study::Table1(a) => Some(&a.profile.profile),
+        Study::Histogram(a) => Some(&a.profile.profile),
+        Study::Convergence(a) => Some(&a.profile.profile),
+        Study::Normal(_) | Study::Distributions(_) | Study::MisBias(_) => None,
+    }
+}
+
 /// Checks the output flags, then runs the study on the current thread pool.
 fn run_study(command: &Study) -> Result<()> {
-    output_of(command).check()?;
+    output_of(command).check(profile_of(command).map(std::path::Path::new))?;
     match command {
         Study::Normal(a) => normal::run(a),
         Study::Distributions(a) => distributions::run(a),

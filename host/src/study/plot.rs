@@ -84,7 +84,7 @@ pub fn save(path: &Path, figure: &impl Figure) -> Result<()> {
                 figure.draw(&root)?;
                 root.present().drawn()?;
             }
-            std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
+            crate::output::write_text(path, &text)
         }
         _ => bail!("{}: plots are .png or .svg", path.display()),
     }
@@ -94,15 +94,17 @@ pub fn save(path: &Path, figure: &impl Figure) -> Result<()> {
 fn write_png(path: &Path, rgb: &[u8], w: u32, h: u32) -> Result<()> {
     use image::codecs::png::{CompressionType, FilterType, PngEncoder};
     use image::ImageEncoder;
-    let file =
-        std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
-    PngEncoder::new_with_quality(
-        std::io::BufWriter::new(file),
-        CompressionType::Best,
-        FilterType::Adaptive,
-    )
-    .write_image(rgb, w, h, image::ExtendedColorType::Rgb8)
-    .with_context(|| format!("writing {}", path.display()))
+    crate::output::write_atomically(path, |tmp| {
+        let file =
+            std::fs::File::create(tmp).with_context(|| format!("creating {}", path.display()))?;
+        PngEncoder::new_with_quality(
+            std::io::BufWriter::new(file),
+            CompressionType::Best,
+            FilterType::Adaptive,
+        )
+        .write_image(rgb, w, h, image::ExtendedColorType::Rgb8)
+        .with_context(|| format!("writing {}", path.display()))
+    })
 }
 
 /// How a series is drawn.
