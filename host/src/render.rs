@@ -211,6 +211,20 @@ pub fn make_camera(
 /// Most samples per pixel per pass (see [`shared::kernels::render::RenderPass`] for why passes exist).
 pub const SPP_PER_PASS: u32 = 16;
 
+/// Loop iterations one high-resolution sample of Alg. 1 (and of the ray-marching baselines)
+/// costs a GPU invocation: one of the sample loop and one for entering the brick loop inside it.
+/// lavapipe's limiter is one counter per invocation, decremented at the end of every loop
+/// iteration of any loop, also where no lane ran the body (a loop entered and left at once), so
+/// a loop entry costs an iteration (measured: one ray of 8192 samples runs 16384; a jackknife
+/// with --n 4096 at 7 spp per pass lost its later samples on lavapipe).
+pub const ITERATIONS_PER_SAMPLE: u64 = 2;
+
+/// Loop iterations of unbiased ray marching's power series besides its estimates: the degree's
+/// roulette (<= MAX_DEGREE), then per pivot (<= MAX_DEGREE + 1) the symmetric means (one loop
+/// entry and <= MAX_DEGREE iterations per offset) and the terms (P_j's loop each), about 1,600
+/// for MAX_DEGREE = 8; rounded up.
+const SERIES_ITERATIONS: u64 = 2_000;
+
 /// Upper bound on the loop iterations one primary ray of this estimator can take.
 pub fn loop_iterations_per_ray(
     params: &RenderParams,
@@ -249,26 +263,33 @@ pub fn loop_iterations_per_ray(
         // of estimates on the camera ray and two shadow rays, and two passes over the lights.
         return fixed
             + 2 * tracking
-            + 6 * (3 * bricks + 2 * params.n as u64)
+            + 6 * (3 * bricks + 2 * ITERATIONS_PER_SAMPLE * params.n as u64)
             + 2 * shared::sampling::lights::MAX_LIGHTS as u64;
     }
     fixed
         + match E::from_u32(params.estimator) {
-            E::Jackknife | E::NaiveMean | E::NaiveSingle => 3 * bricks + 2 * params.n as u64,
+            E::Jackknife | E::NaiveMean | E::NaiveSingle => {
+                3 * bricks + 2 * ITERATIONS_PER_SAMPLE * params.n as u64
+            }
             E::JackknifeAdaptive => {
-                3 * bricks + 2 * shared::estimators::optical_depth::MAX_ADAPTIVE_STRATA as u64
+                3 * bricks
+                    + 2 * ITERATIONS_PER_SAMPLE
+                        * shared::estimators::optical_depth::MAX_ADAPTIVE_STRATA as u64
             }
             E::RegularTracking => voxels,
             E::BiasedRayMarching => {
-                3 * bricks + shared::estimators::ray_marching::MAX_BIASED_SAMPLES as u64
+                3 * bricks
+                    + ITERATIONS_PER_SAMPLE
+                        * shared::estimators::ray_marching::MAX_BIASED_SAMPLES as u64
             }
             E::UnbiasedRayMarching => {
                 let estimates = shared::estimators::ray_marching::MAX_DEGREE as u64 + 1;
                 bricks
                     + estimates
                         * (2 * bricks
-                            + shared::estimators::ray_marching::MAX_UNBIASED_SAMPLES as u64)
-                    + 100
+                            + ITERATIONS_PER_SAMPLE
+                                * shared::estimators::ray_marching::MAX_UNBIASED_SAMPLES as u64)
+                    + SERIES_ITERATIONS
             }
             E::TrackLength | E::RatioTracking => bricks + tracking,
         }

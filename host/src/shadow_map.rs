@@ -147,7 +147,7 @@ pub fn frame(lo: [f64; 3], hi: [f64; 3], sun_dir: V3, resolution: u32) -> MsmDes
         axis_v: f(v.map(|x| x * side)),
         depth_len: depth as f32,
         dir: f(d),
-        _pad: 0,
+        ones: u32::MAX,
         dequant: shared::shadows::msm::U16_DEQUANT,
     }
 }

@@ -53,6 +53,15 @@ pub fn is_finite(x: f32) -> bool {
     (x.to_bits() & 0x7f80_0000) != 0x7f80_0000
 }
 
+/// `x` itself, as a value a compiler cannot see through: its bits and `ones` (all bits set,
+/// read from a buffer). A product passed through here is rounded on its own: no shader compiler
+/// can fuse it into a following sum (one rounding instead of two), as lavapipe did in the
+/// 16-bit shadow-map quantization. Identity on the CPU.
+#[inline]
+pub fn rounded(x: f32, ones: u32) -> f32 {
+    f32::from_bits(x.to_bits() & ones)
+}
+
 /// |x| by clearing the sign bit.
 #[inline]
 pub fn abs(x: f32) -> f32 {

@@ -229,7 +229,7 @@ fn shadow_map_lookups_are_bit_identical() {
         axis_v: shared::geometry::V3::new(0.0, 0.0, 2.0),
         depth_len: 4.0,
         dir: shared::geometry::V3::new(0.0, -1.0, 0.0),
-        _pad: 0,
+        ones: u32::MAX,
         dequant: shared::shadows::msm::U16_DEQUANT,
     };
     let modes = [Shadows::Msm4, Shadows::Msm4U16, Shadows::Msm6];
@@ -248,7 +248,7 @@ fn shadow_map_lookups_are_bit_identical() {
                     left -= w;
                 }
                 b = add_atom6(b, 1.0, left);
-                let w = store_texel(mode, [b[1], b[2], b[3], b[4], b[5], b[6]]);
+                let w = store_texel(mode, [b[1], b[2], b[3], b[4], b[5], b[6]], u32::MAX);
                 words[n * t..n * t + n].copy_from_slice(&w[..n]);
             }
             probe::MsmLookupIn {

@@ -314,7 +314,7 @@ fn homogeneous_cube() -> (
         axis_v: V3::new(0.0, 0.0, 2.0),
         depth_len: 3.0,
         dir: V3::new(0.0, -1.0, 0.0),
-        _pad: 0,
+        ones: u32::MAX,
         dequant: shared::shadows::msm::U16_DEQUANT,
     };
     (packed, w2i, desc)
@@ -387,7 +387,7 @@ fn map_texels_match_an_f64_march() {
         axis_v: v_axis,
         depth_len: 4.0,
         dir,
-        _pad: 0,
+        ones: u32::MAX,
         dequant: shared::shadows::msm::U16_DEQUANT,
     };
     let view = packed.view();
@@ -445,7 +445,9 @@ fn stored_maps_of_a_homogeneous_cube_six_beat_four() {
     for mode in [Shadows::Msm4U16, Shadows::Msm4, Shadows::Msm6] {
         let w = mode.words_per_texel() as usize;
         let map: Vec<u32> = (0..64)
-            .flat_map(|k| store_texel(mode, build_raw_texel(&view, &w2i, &desc, k))[..w].to_vec())
+            .flat_map(|k| {
+                store_texel(mode, build_raw_texel(&view, &w2i, &desc, k), desc.ones)[..w].to_vec()
+            })
             .collect();
         let mut err = 0.0f32;
         for k in 0..=20 {
@@ -461,4 +463,29 @@ fn stored_maps_of_a_homogeneous_cube_six_beat_four() {
     }
     assert!(worst[2] < worst[1] && worst[2] < worst[0], "{worst:?}");
     assert!(worst[0] < 0.1, "{worst:?}");
+}
+
+/// The 16-bit quantization with its products rounded one by one (`quantize_u16`, what maps store)
+/// equals `to_unorm16` of `quantize_transform` on the CPU, on 100,000 random moment vectors of
+/// random depth distributions (seed 11).
+#[test]
+fn quantize_u16_equals_the_transform_then_unorm16() {
+    use shared::shadows::msm::quantize_u16;
+    for k in 0..100_000u32 {
+        let mut b: Moments4 = [1.0, 0.0, 0.0, 0.0, 0.0];
+        let atoms = 1 + pcg_hash(k ^ 11) % 4;
+        let mut left = 1.0f32;
+        for a in 0..atoms {
+            let z = 2.0 * unit_f32(pcg_hash(k * 8 + a)) - 1.0;
+            let w = if a + 1 == atoms {
+                left
+            } else {
+                left * unit_f32(pcg_hash(k * 8 + a + 4))
+            };
+            left -= w;
+            b = add_atom(b, z, w);
+        }
+        let u = quantize_transform(b);
+        assert_eq!(quantize_u16(b, u32::MAX), u.map(to_unorm16), "{b:?}");
+    }
 }

@@ -11,6 +11,7 @@ mod gpu_vs_cpu;
 mod layout;
 mod light_sampling;
 mod lookup;
+mod loop_budget;
 mod mis;
 mod msm;
 mod msm_render;

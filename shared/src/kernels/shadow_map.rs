@@ -43,5 +43,9 @@ pub fn msm_store_texel(lighting: &Lighting, raw: &[f32], pass: &MsmPass, k: u32)
         pass.radius,
         k,
     );
-    store_texel(Shadows::from_u32(lighting.shadows), m)
+    store_texel(
+        Shadows::from_u32(lighting.shadows),
+        m,
+        lighting.shadow_map.ones,
+    )
 }

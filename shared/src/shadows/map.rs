@@ -7,9 +7,9 @@
 //! reconstruction.
 
 use super::msm::{
-    add_atom6, bias, bias6, dequantize_u16, quantize_transform, shadow_bounds6_flagged,
-    shadow_bounds_flagged, shadow_estimate, to_unorm16, Moments4, Moments6, ALPHA6_F32, ALPHA_F32,
-    ALPHA_U16, TARGET6, TARGET_F32, TARGET_U16,
+    add_atom6, bias, bias6, dequantize_u16, quantize_u16, shadow_bounds6_flagged,
+    shadow_bounds_flagged, shadow_estimate, Moments4, Moments6, ALPHA6_F32, ALPHA_F32, ALPHA_U16,
+    TARGET6, TARGET_F32, TARGET_U16,
 };
 use crate::geometry::{to_index_space, Affine3x4, Ray, V3};
 use crate::math::{exp, floor};
@@ -30,7 +30,9 @@ pub struct MsmDesc {
     pub axis_v: V3,
     pub depth_len: f32,
     pub dir: V3,
-    pub _pad: u32,
+    /// All bits set (`u32::MAX`): a value no compiler can know, the barrier of
+    /// [`crate::math::rounded`] in the 16-bit quantization ([`super::msm::quantize_u16`]).
+    pub ones: u32,
     /// [`super::msm::U16_DEQUANT`], read at run time (see [`dequantize_u16`]).
     pub dequant: [f32; 12],
 }
@@ -268,14 +270,14 @@ pub fn filter_texel(
 
 /// The stored words of one texel from its (prefiltered) moments b_1 .. b_6, in the layout of
 /// `mode` (unused words 0): f32 bits, or four 16-bit unorm values of the quantization transform
-/// packed two per word.
-pub fn store_texel(mode: Shadows, m: [f32; RAW_PER_TEXEL]) -> [u32; 6] {
+/// packed two per word (`ones`: [`MsmDesc::ones`]).
+pub fn store_texel(mode: Shadows, m: [f32; RAW_PER_TEXEL], ones: u32) -> [u32; 6] {
     let mut w = [0u32; 6];
     match mode {
         Shadows::Msm4U16 => {
-            let q = quantize_transform([1.0, m[0], m[1], m[2], m[3]]);
-            w[0] = to_unorm16(q[0]) | (to_unorm16(q[1]) << 16);
-            w[1] = to_unorm16(q[2]) | (to_unorm16(q[3]) << 16);
+            let q = quantize_u16([1.0, m[0], m[1], m[2], m[3]], ones);
+            w[0] = q[0] | (q[1] << 16);
+            w[1] = q[2] | (q[3] << 16);
         }
         _ => {
             let n = mode.words_per_texel() as usize;
