@@ -321,6 +321,37 @@ fn sweep_lists(args: &BenchOptions) -> Result<(Vec<&'static EstimatorSpec>, Vec<
     ))
 }
 
+/// Checks a `--sweep-files` path before any work: a readable regular file named `.vdb` or
+/// `.nvdb` (its contents are read when its turn comes).
+fn check_sweep_file(f: &std::path::Path) -> Result<()> {
+    let meta = std::fs::metadata(f).with_context(|| {
+        format!(
+            "--sweep-files {}: cannot read it; check the path",
+            f.display()
+        )
+    })?;
+    anyhow::ensure!(
+        meta.is_file(),
+        "--sweep-files {}: not a regular file (a directory, FIFO or device); pass .vdb or .nvdb \
+         files",
+        f.display()
+    );
+    let ext = f
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    anyhow::ensure!(
+        matches!(ext.as_deref(), Some("vdb" | "nvdb")),
+        "--sweep-files {}: not a volume file; pass .vdb (OpenVDB) or .nvdb (NanoVDB) files",
+        f.display()
+    );
+    std::fs::File::open(f).map(drop).with_context(|| {
+        format!(
+            "--sweep-files {}: cannot open it; check its permissions",
+            f.display()
+        )
+    })
+}
+
 /// `host bench`.
 pub fn run(args: &BenchOptions) -> Result<BenchReport> {
     let lookup = args.lookup;
@@ -337,6 +368,7 @@ pub fn run(args: &BenchOptions) -> Result<BenchReport> {
     }
     plan.input("--volume", std::path::Path::new(&args.scene.volume));
     for f in &args.sweep_files {
+        check_sweep_file(f)?;
         plan.input("--sweep-files", f);
     }
     plan.check()?;

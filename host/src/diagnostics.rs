@@ -24,7 +24,14 @@ pub struct RayFlags {
     /// Rays with a moment-shadow-map lookup whose reconstruction fell back to a stronger bias
     /// or fewer moments (`--shadows msm4|msm6`).
     pub msm_fallback_rays: u64,
+    /// Pixels of the image.
+    pub pixels: u64,
+    /// Pixels whose rays read at least one voxel (0: no ray met the volume's density).
+    pub pixels_hit: u64,
 }
+
+/// Fraction of pixels reading a voxel below which a render warns that it barely sees the volume.
+pub const HIT_WARN_FRACTION: f64 = 0.001;
 
 impl RayFlags {
     /// Sums the per-pixel counts of an image rendered with `spp` samples per pixel.
@@ -34,6 +41,8 @@ impl RayFlags {
             capped_rays: pixels.iter().map(|p| p.capped as u64).sum(),
             jackknife_outside_rays: pixels.iter().map(|p| p.outside as u64).sum(),
             msm_fallback_rays: pixels.iter().map(|p| p.fallback as u64).sum(),
+            pixels: pixels.len() as u64,
+            pixels_hit: pixels.iter().filter(|p| p.samples > 0).count() as u64,
         }
     }
 
@@ -61,6 +70,20 @@ impl RayFlags {
                 self.rays,
                 100.0 * outside,
                 shared::estimators::transmittance::S_REGIME
+            ));
+        }
+        if self.pixels > 0 && self.pixels_hit == 0 {
+            out.push(
+                "no ray of the image read a voxel of the volume: every pixel shows the background \
+                 (T = 1); check that --camera, --look-at and --fov frame the volume, and \
+                 --density-scale"
+                    .to_owned(),
+            );
+        } else if (self.pixels_hit as f64) < HIT_WARN_FRACTION * self.pixels as f64 {
+            out.push(format!(
+                "only {} of {} pixels read a voxel of the volume: the camera barely sees it; \
+                 check --camera, --look-at and --fov",
+                self.pixels_hit, self.pixels
             ));
         }
         if self.msm_fallback_rays > 0 {
@@ -186,5 +209,22 @@ mod tests {
             e.starts_with("2 of 12 pixels") && e.contains("x 2, y 1"),
             "{e}"
         );
+    }
+
+    /// An image no ray of which read a voxel warns; so does one where under 0.1 % did; one hit
+    /// pixel in 100 does not.
+    #[test]
+    fn images_that_miss_the_volume_warn() {
+        let params = RenderParams::default();
+        let mut pixels = vec![PixelOut::default(); 2000];
+        let warns = |p: &[PixelOut]| RayFlags::of(p, 1).warnings(&params);
+        assert!(warns(&pixels)[0].starts_with("no ray of the image read a voxel"));
+        pixels[7].samples = 3;
+        assert!(warns(&pixels)[0].starts_with("only 1 of 2000 pixels"));
+        for p in pixels.iter_mut().step_by(100) {
+            p.samples = 1;
+        }
+        assert!(warns(&pixels).is_empty());
+        assert_eq!(RayFlags::of(&pixels, 1).pixels_hit, 21);
     }
 }

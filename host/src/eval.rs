@@ -367,7 +367,14 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
         .map(|p| pixel_std(p, setup.reference_spp).powi(2) / f64::from(setup.reference_spp))
         .collect();
     let mask: Vec<bool> = ref_t.iter().map(|&t| t < 1.0).collect();
-    let count = mask.iter().filter(|&&m| m).count().max(1);
+    let count = mask.iter().filter(|&&m| m).count();
+    anyhow::ensure!(
+        count >= MIN_EVAL_PIXELS,
+        "only {count} of {} reference pixels see the volume (T < 1); the statistics need at \
+         least {MIN_EVAL_PIXELS}: frame the volume (--camera, --look-at, --fov) or raise --width \
+         and --height",
+        ref_t.len()
+    );
 
     let mut reports = Vec::new();
     for (k, spec) in estimators.iter().enumerate() {
@@ -485,6 +492,9 @@ pub fn parse_list(list: &str) -> Result<Vec<&'static EstimatorSpec>> {
         })
         .collect()
 }
+
+/// Fewest reference pixels with T < 1 over which `host eval` computes its statistics.
+pub const MIN_EVAL_PIXELS: usize = 16;
 
 /// Writes the report as JSON.
 pub fn write_report(path: &Path, report: &EvalReport) -> Result<()> {

@@ -132,7 +132,7 @@ fn bench_times_a_series_of_volume_files() {
         .join(",");
     let dir = tempfile::tempdir().unwrap();
     let json = dir.path().join("bench.json");
-    let run = |list: &str| {
+    let run_with = |list: &str, quiet: &str| {
         Command::new(env!("CARGO_BIN_EXE_host"))
             .args([
                 "bench",
@@ -154,7 +154,7 @@ fn bench_times_a_series_of_volume_files() {
                 "jackknife",
                 "--sweep-estimators",
                 "jackknife,ratio",
-                "--quiet",
+                quiet,
                 "--sweep-files",
                 list,
             ])
@@ -163,6 +163,7 @@ fn bench_times_a_series_of_volume_files() {
             .output()
             .unwrap()
     };
+    let run = |list: &str| run_with(list, "--quiet");
     let out = run(&list);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
@@ -196,4 +197,16 @@ fn bench_times_a_series_of_volume_files() {
         stderr.contains("--sweep-files") && stderr.contains("missing.vdb"),
         "{stderr}"
     );
+    // Before any work (issue 43, item 6: it failed after the whole bench): without --quiet, the
+    // bench's first line, printed once the main volume is loaded, never appears; so does a
+    // directory or a file of another kind.
+    let exr = dir.path().join("image.exr");
+    std::fs::write(&exr, b"not a volume").unwrap();
+    for bad in [missing.clone(), dir.path().to_owned(), exr] {
+        let out = run_with(&format!("{list},{}", bad.display()), "--seed=1");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{stderr}");
+        assert!(stderr.starts_with("error: --sweep-files"), "{stderr}");
+        assert!(!stderr.contains("bench: "), "{stderr}");
+    }
 }

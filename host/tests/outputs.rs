@@ -195,6 +195,69 @@ fn outputs_are_written_through_links_without_touching_other_names() {
     assert!(names.iter().all(|n| !n.contains("partial")), "{names:?}");
 }
 
+/// A view that sees nothing of the volume says so (issue 43, item 8: `--fov 3e-6` rendered
+/// T = 1 everywhere with an empty stderr, and `eval` gave statistics over "1" pixel): `render`
+/// warns and records `pixels_hit` 0; `eval` refuses statistics over fewer than 16 pixels.
+#[test]
+fn views_that_miss_the_volume_warn_and_eval_refuses_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let exr = dir.path().join("r.exr");
+    let json_path = dir.path().join("r.json");
+    let out = host()
+        .args([
+            "render",
+            "--backend",
+            "cpu",
+            "--resolution",
+            "32",
+            "--width",
+            "16",
+        ])
+        .args([
+            "--height",
+            "16",
+            "--spp",
+            "1",
+            "--fov",
+            "3e-6",
+            "--out",
+            s(&exr),
+        ])
+        .args(["--json", s(&json_path)])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("no ray of the image read a voxel"),
+        "{stderr}"
+    );
+    assert_eq!(json(&json_path)["pixels_hit"], 0);
+    let out = host()
+        .args([
+            "eval",
+            "--backend",
+            "cpu",
+            "--resolution",
+            "32",
+            "--width",
+            "16",
+        ])
+        .args(["--height", "16", "--spp", "2", "--fov", "3e-6", "-q"])
+        .args([
+            "--estimators",
+            "jackknife",
+            "--out-dir",
+            s(&dir.path().join("ev")),
+        ])
+        .output()
+        .unwrap();
+    assert_refused(
+        &out,
+        &["only 0 of 256 reference pixels", "at least 16", "--fov"],
+    );
+}
+
 #[test]
 fn unwritable_outputs_are_refused_before_rendering() {
     let dir = tempfile::tempdir().unwrap();
