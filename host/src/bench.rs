@@ -166,7 +166,7 @@ pub struct BenchReport {
 
 /// Parses a comma-separated list of estimator names ("all": every one).
 fn estimators(list: &str, flag: &str) -> Result<Vec<&'static EstimatorSpec>> {
-    crate::eval::parse_list(list).with_context(|| flag.to_string())
+    crate::eval::parse_list_of(list, flag)
 }
 
 /// Parses a comma-separated list of positive integers.

@@ -475,6 +475,11 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
 
 /// Parses a comma-separated estimator list ("all" for every one but the reference).
 pub fn parse_list(list: &str) -> Result<Vec<&'static EstimatorSpec>> {
+    parse_list_of(list, "--estimators")
+}
+
+/// [`parse_list`] of the flag `flag` (named in the error).
+pub fn parse_list_of(list: &str, flag: &str) -> Result<Vec<&'static EstimatorSpec>> {
     if list == "all" {
         return Ok(crate::estimators::ESTIMATORS
             .iter()
@@ -485,7 +490,7 @@ pub fn parse_list(list: &str) -> Result<Vec<&'static EstimatorSpec>> {
         .map(|n| {
             by_name(n.trim()).with_context(|| {
                 format!(
-                    "--estimators: unknown estimator {n:?}; choose from: {}",
+                    "{flag}: unknown estimator {n:?}; choose from: {}",
                     crate::estimators::names()
                 )
             })

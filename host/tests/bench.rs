@@ -210,3 +210,24 @@ fn bench_times_a_series_of_volume_files() {
         assert!(!stderr.contains("bench: "), "{stderr}");
     }
 }
+
+/// An unknown estimator is named once with its flag (issue 43, item 10: "--estimators:
+/// --estimators: unknown estimator").
+#[test]
+fn unknown_estimators_are_named_with_their_flag_once() {
+    for (flag, extra) in [
+        ("--estimators", None),
+        ("--sweep-estimators", Some("--sweep")),
+    ] {
+        let out = Command::new(env!("CARGO_BIN_EXE_host"))
+            .args(["bench", "--backend", "cpu", flag, "foo"])
+            .args(extra)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{stderr}");
+        let expected = format!("error: {flag}: unknown estimator \"foo\"");
+        assert!(stderr.starts_with(&expected), "{stderr}");
+        assert_eq!(stderr.matches(flag).count(), 1, "{stderr}");
+    }
+}

@@ -199,6 +199,27 @@ fn same_seed_gives_identical_exr_across_runs_threads_and_backends() {
     assert!(read(&a) != read(&b), "seeds 1 and 2 gave the same image");
 }
 
+/// An environment variable that is not a number is refused naming it (issue 43, item 10: it
+/// was ignored), on either backend, before any output is written.
+#[test]
+fn a_malformed_buffer_limit_in_the_environment_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    for v in ["abc", "-1", "1e3", ""] {
+        let out = render(
+            dir.path(),
+            &["--backend", "cpu"],
+            &[("JK_GPU_MAX_BUFFER_BYTES", v)],
+        );
+        let stderr = text(&out);
+        assert_eq!(out.status.code(), Some(1), "{v:?}: {stderr}");
+        assert!(
+            stderr.contains("JK_GPU_MAX_BUFFER_BYTES"),
+            "{v:?}: {stderr}"
+        );
+        assert!(!dir.path().join("r.exr").exists(), "{v:?}");
+    }
+}
+
 #[test]
 fn images_larger_than_a_gpu_buffer_are_tiled_with_identical_results() {
     let (whole, tiled) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());

@@ -75,6 +75,8 @@ pub fn parse() -> Result<Cli, clap::Error> {
 
 /// Runs the parsed command through the library.
 pub fn run(cli: &Cli) -> Result<()> {
+    // The environment is input too: checked before any work.
+    crate::gpu::forced_max_buffer_bytes()?;
     match &cli.command {
         None => crate::commands::run_render(&cli.render.options()).map(|_| ()),
         Some(Command::Render(args)) => crate::commands::run_render(&args.options()).map(|_| ()),

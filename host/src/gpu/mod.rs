@@ -133,9 +133,8 @@ impl Gpu {
             0 => range,
             a => range.min(a),
         };
-        let forced = std::env::var("JK_GPU_MAX_BUFFER_BYTES")
-            .ok()
-            .and_then(|v| v.parse::<u64>().ok());
+        // Checked before any work (`host::cli::run`); an invalid value is refused there.
+        let forced = forced_max_buffer_bytes().ok().flatten();
         forced.map_or(device, |f| f.clamp(64, device))
     }
 
@@ -535,5 +534,23 @@ impl Drop for Gpu {
         unsafe {
             let _ = self.owner.device.device_wait_idle();
         }
+    }
+}
+
+/// `JK_GPU_MAX_BUFFER_BYTES` (lowers the largest GPU buffer, to exercise tiling and paging in
+/// tests): unset, or a whole number of bytes; anything else is an error naming it.
+pub fn forced_max_buffer_bytes() -> anyhow::Result<Option<u64>> {
+    match std::env::var("JK_GPU_MAX_BUFFER_BYTES") {
+        Err(std::env::VarError::NotPresent) => Ok(None),
+        Err(e) => {
+            anyhow::bail!("JK_GPU_MAX_BUFFER_BYTES: {e}; unset it or give a whole number of bytes")
+        }
+        Ok(v) => match v.trim().parse::<u64>() {
+            Ok(n) => Ok(Some(n)),
+            Err(_) => anyhow::bail!(
+                "JK_GPU_MAX_BUFFER_BYTES={v:?} is not a whole number of bytes (it lowers the \
+                 largest GPU buffer, for tests); unset it or give a number such as 4096"
+            ),
+        },
     }
 }
