@@ -326,6 +326,12 @@ pub fn load_volume(
         }
         return Ok((loaded.volume, 1.0, Some(loaded.grid)));
     }
+    if let (Some(grid), true) = (&scene.grid, crate::procedural::NAMES.contains(&spec)) {
+        bail!(
+            "--grid {grid:?}: the embedded volume {spec:?} is one density field without grids; \
+             --grid picks a grid of a .vdb or .nvdb file (drop it, or give --volume a file)"
+        );
+    }
     if let Some(check) = check {
         let n = u64::from(scene.resolution);
         (check.0)(&crate::io::Topology {

@@ -455,6 +455,18 @@ fn ignored_flags_are_errors_not_labels() {
     assert_ok(&render(&ok));
 }
 
+/// `--grid` with an embedded volume is refused, not ignored (issue 43, item 10).
+#[test]
+fn grid_with_an_embedded_volume_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = render(&["--grid", "density", "--out", s(&dir.path().join("r.exr"))]);
+    assert_refused(
+        &out,
+        &["--grid \"density\"", "embedded volume \"cloud\"", ".vdb"],
+    );
+    assert!(!dir.path().join("r.exr").exists());
+}
+
 #[test]
 fn the_grid_read_is_named_in_stdout_and_json() {
     let dir = tempfile::tempdir().unwrap();
