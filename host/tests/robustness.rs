@@ -199,6 +199,47 @@ fn same_seed_gives_identical_exr_across_runs_threads_and_backends() {
     assert!(read(&a) != read(&b), "seeds 1 and 2 gave the same image");
 }
 
+/// Issue 43, item 4: under an address-space limit (`ulimit -v 1000000`, 1 GB; free memory is
+/// larger) a volume whose brick table needs about 0.9 GiB besides the process's own address space
+/// is refused with an error naming the memory, where the allocation aborted the process (exit
+/// 134) when only MemAvailable was checked.
+#[cfg(target_os = "linux")]
+#[test]
+fn loads_beyond_the_address_space_limit_are_refused_not_aborted() {
+    let dir = tempfile::tempdir().unwrap();
+    let huge = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/fixtures/huge.vdb");
+    let out = Command::new("sh")
+        .arg("-c")
+        .arg("ulimit -v 1000000 && exec \"$0\" \"$@\"")
+        .arg(env!("CARGO_BIN_EXE_host"))
+        .args(["render", "--volume"])
+        .arg(&huge)
+        .args([
+            "--brick-size",
+            "8",
+            "--backend",
+            "cpu",
+            "--width",
+            "8",
+            "--height",
+            "8",
+        ])
+        .args(["--spp", "1", "--quiet", "--out"])
+        .arg(dir.path().join("r.exr"))
+        .output()
+        .unwrap();
+    let stderr = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.starts_with("error:") && !stderr.contains("panicked"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("huge.vdb") && stderr.contains("of memory available"),
+        "{stderr}"
+    );
+}
+
 /// An environment variable that is not a number is refused naming it (issue 43, item 10: it
 /// was ignored), on either backend, before any output is written.
 #[test]

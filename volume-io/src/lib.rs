@@ -573,8 +573,8 @@ fn check_bytes(bytes: u64, what: &str, available: Option<u64>) -> Result<()> {
         ensure!(
             bytes <= available,
             "{what} need {:.1} GiB at their peak (values, then the f16 pool), more than the \
-             {:.1} GiB of memory available; crop the volume to the region of interest or \
-             resample it coarser",
+             {:.1} GiB of memory available (the least of free memory, `ulimit -v` and the \
+             cgroup's limit); crop the volume to the region of interest or resample it coarser",
             gib(bytes),
             gib(available)
         );
@@ -582,12 +582,114 @@ fn check_bytes(bytes: u64, what: &str, available: Option<u64>) -> Result<()> {
     Ok(())
 }
 
-/// The memory the OS says is available (Linux: MemAvailable of /proc/meminfo), if known.
+/// The memory this process may still allocate, if known (Linux): the smallest of what the OS
+/// says is available (MemAvailable), what the address-space limit leaves (`ulimit -v`, RLIMIT_AS,
+/// less the current VmSize) and what the memory cgroup leaves (v2 memory.max less
+/// memory.current, v1 memory.limit_in_bytes less memory.usage_in_bytes, each plus the inactive
+/// file cache it counts). An allocation past either limit aborts the process instead of
+/// failing, so loads check against all three.
 pub fn available_memory() -> Option<u64> {
-    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let read = |p: &str| std::fs::read_to_string(p).ok();
+    [
+        read("/proc/meminfo").and_then(|t| mem_available(&t)),
+        read("/proc/self/limits")
+            .zip(read("/proc/self/status"))
+            .and_then(|(l, s)| address_space_left(&l, &s)),
+        cgroup_memory_left(),
+    ]
+    .into_iter()
+    .flatten()
+    .min()
+}
+
+/// MemAvailable of /proc/meminfo, in bytes.
+fn mem_available(meminfo: &str) -> Option<u64> {
+    kib_field(meminfo, "MemAvailable:")
+}
+
+/// A `Name:  N kB` field of /proc files, in bytes.
+fn kib_field(text: &str, name: &str) -> Option<u64> {
+    let line = text.lines().find(|l| l.starts_with(name))?;
     let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     kib.checked_mul(1024)
+}
+
+/// The soft address-space limit of /proc/self/limits less the VmSize of /proc/self/status
+/// (None when unlimited).
+fn address_space_left(limits: &str, status: &str) -> Option<u64> {
+    let line = limits
+        .lines()
+        .find(|l| l.starts_with("Max address space"))?;
+    let soft: u64 = line
+        .trim_start_matches("Max address space")
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()?;
+    let used = kib_field(status, "VmSize:").unwrap_or(0);
+    Some(soft.saturating_sub(used))
+}
+
+/// What this process's memory cgroup leaves (None without a limit or a readable cgroup).
+fn cgroup_memory_left() -> Option<u64> {
+    let cgroups = std::fs::read_to_string("/proc/self/cgroup").ok()?;
+    let read = |p: String| std::fs::read_to_string(p).ok();
+    for line in cgroups.lines() {
+        let mut parts = line.splitn(3, ':');
+        let (_, controllers, path) = (parts.next()?, parts.next()?, parts.next()?);
+        // v2: "0::/path"; v1: "N:memory:/path". The path may be outside this mount namespace,
+        // so the mount's root is tried too.
+        let (dir, max, current, inactive) = if controllers.is_empty() {
+            (
+                "/sys/fs/cgroup",
+                "memory.max",
+                "memory.current",
+                "inactive_file",
+            )
+        } else if controllers.split(',').any(|c| c == "memory") {
+            (
+                "/sys/fs/cgroup/memory",
+                "memory.limit_in_bytes",
+                "memory.usage_in_bytes",
+                "total_inactive_file",
+            )
+        } else {
+            continue;
+        };
+        for base in [format!("{dir}{path}"), dir.to_owned()] {
+            if let (Some(m), Some(c)) = (
+                read(format!("{base}/{max}")),
+                read(format!("{base}/{current}")),
+            ) {
+                // Usage counts the page cache; its inactive part is reclaimed before an
+                // allocation fails (the working set of docker and the kubelet).
+                let cache = read(format!("{base}/memory.stat"))
+                    .and_then(|t| stat_field(&t, inactive))
+                    .unwrap_or(0);
+                if let Some(left) = cgroup_left(&m, &c) {
+                    return Some(left.saturating_add(cache.min(c.trim().parse().unwrap_or(0))));
+                }
+            }
+        }
+    }
+    None
+}
+
+/// A `name value` line of a cgroup's memory.stat.
+fn stat_field(stat: &str, name: &str) -> Option<u64> {
+    stat.lines()
+        .find_map(|l| l.strip_prefix(name)?.strip_prefix(' ')?.trim().parse().ok())
+}
+
+/// A cgroup's limit less its usage (None for "max" or a limit too large to be one: cgroup v1
+/// writes about 2^63 for none).
+fn cgroup_left(max: &str, current: &str) -> Option<u64> {
+    let limit: u64 = max.trim().parse().ok()?;
+    if limit >= 1 << 60 {
+        return None;
+    }
+    let used: u64 = current.trim().parse().ok()?;
+    Some(limit.saturating_sub(used))
 }
 
 /// Longest axis of a sparse grid's bounding box, in voxels: index coordinates are i32, and the
@@ -688,6 +790,38 @@ impl Dense {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The memory limits parse from the kernel's text formats: MemAvailable, the address-space
+    /// limit less VmSize (None when unlimited), a cgroup's limit less usage (None for "max" or
+    /// v1's 2^63 - 4096).
+    #[test]
+    fn memory_limits_parse() {
+        assert_eq!(
+            mem_available("MemTotal: 100 kB\nMemAvailable:    2048 kB\n"),
+            Some(2 << 20)
+        );
+        let limits = "Max stack size            8388608              unlimited            bytes\n\
+                      Max address space         8192000000           unlimited            bytes\n";
+        let status = "Name:\thost\nVmSize:\t  1000 kB\n";
+        assert_eq!(
+            address_space_left(limits, status),
+            Some(8_192_000_000 - 1_024_000)
+        );
+        let unlimited =
+            "Max address space         unlimited            unlimited            bytes\n";
+        assert_eq!(address_space_left(unlimited, status), None);
+        assert_eq!(
+            cgroup_left("3000000000\n", "1000000000\n"),
+            Some(2_000_000_000)
+        );
+        assert_eq!(cgroup_left("max\n", "1000\n"), None);
+        assert_eq!(cgroup_left("9223372036854771712\n", "1000\n"), None);
+        assert_eq!(cgroup_left("100\n", "1000\n"), Some(0));
+        let stat = "cache 5\ntotal_inactive_file 4096\ninactive_file 7\n";
+        assert_eq!(stat_field(stat, "total_inactive_file"), Some(4096));
+        assert_eq!(stat_field(stat, "inactive_file"), Some(7));
+        assert!(available_memory().is_some_and(|b| b > 0));
+    }
 
     fn entry(name: &str, value_type: &str, supported: bool) -> GridEntry {
         GridEntry::new(name.into(), value_type.into(), supported)
