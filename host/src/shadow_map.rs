@@ -213,8 +213,9 @@ pub fn build_into(
     }
     ensure!(
         lights.lighting.sun.present != 0,
-        "--shadows {}: the moment shadow map is the sun's; add --sun x,y,z (or --env sky, \
-         whose sun it is), or use --shadows rays",
+        "--shadows {}: the moment shadow map is the sun's, and this scene has none (--light and \
+         --lights replace the default sky and its sun); add --sun x,y,z (or --env sky, whose \
+         sun it is), or use --shadows rays",
         name(opts.kind)
     );
     let mode = opts.mode();

@@ -620,3 +620,33 @@ fn bench_report_and_study_outputs_are_checked_before_work() {
     ]);
     assert_refused(&out, &["--json", "a_file"]);
 }
+
+/// The help says what the lights do (issue 43, item 9): --light and --lights replace the default
+/// sky, `path` and `restir` take --albedo r,g,b, --env and --sun, the sun's colour is stated; and
+/// a shadow map without a sun says why there is none.
+#[test]
+fn light_help_names_every_lit_integrator_and_the_sky_rule() {
+    let out = host().args(["render", "--help"]).output().unwrap();
+    let help = String::from_utf8_lossy(&out.stdout).to_string();
+    for words in [
+        "Like --light, it replaces the default sky unless --env is given",
+        "(RGB: `direct`, `path`, `restir`)",
+        "Environment light of `direct`, `path`, `restir`",
+        "Sun of `direct`, `path`, `restir`",
+        "(1, 0.93, 0.85)",
+    ] {
+        assert!(help.contains(words), "--help lacks {words:?}");
+    }
+    let out = render(&[
+        "--integrator",
+        "restir",
+        "--lights",
+        "random:4",
+        "--shadows",
+        "msm4",
+    ]);
+    assert_refused(
+        &out,
+        &["--light and --lights replace the default sky", "--sun"],
+    );
+}

@@ -48,7 +48,7 @@ pub struct EvalArgs {
     #[arg(long, default_value_t = defaults::ALBEDO, allow_hyphen_values = true, value_parser = f32_in(0.0, 1.0))]
     pub albedo: f32,
     /// `--integrators direct`: environment light (`sky`, `none` or a .exr / .hdr probe) [default:
-    /// sky, unless only --sun or --light are given].
+    /// sky, unless --sun or --light is given].
     #[arg(long, value_parser = super::parsers::parse_env)]
     pub env: Option<crate::lighting::EnvSource>,
     /// `--integrators direct`: multiplier of the environment map, finite and >= 0.

@@ -128,22 +128,24 @@ pub struct RenderArgs {
     #[arg(long, value_parser = crate::integrators::parse_integrator)]
     pub integrator: Option<shared::params::Integrator>,
     /// A point light "x,y,z,intensity" in world units (repeat for more; default: two lights
-    /// inside the volume; with `direct`, none).
+    /// inside the volume; with `direct`, `path`, `restir`: none, and a --light replaces the
+    /// default sky unless --env is given).
     #[arg(long = "light", value_parser = crate::integrators::parse_light, allow_hyphen_values = true)]
     pub lights: Vec<shared::sampling::lights::PointLight>,
-    /// `direct`, `path`: `random:N[,seed]` adds N point lights scattered in and around the
-    /// volume, of random colour and intensities over three orders of magnitude (seed default 1;
-    /// selected by power).
+    /// `direct`, `path`, `restir`: `random:N[,seed]` adds N point lights scattered in and around
+    /// the volume, of random colour and intensities over three orders of magnitude (seed default
+    /// 1; selected by power). Like --light, it replaces the default sky unless --env is given.
     #[arg(long = "lights", value_parser = crate::lighting::random::parse_random_lights)]
     pub random_lights: Option<crate::lighting::random::RandomLights>,
     #[command(flatten)]
     pub restir: super::restir::RestirArgs,
-    /// Single-scattering albedo: one value or r,g,b (RGB: `direct` only), each in [0, 1].
+    /// Single-scattering albedo: one value or r,g,b (RGB: `direct`, `path`, `restir`), each in
+    /// [0, 1].
     #[arg(long, default_value = "0.8", allow_hyphen_values = true, value_parser = parse_albedo)]
     pub albedo: [f32; 3],
-    /// Environment light of `direct`: `sky` (the embedded Preetham daylight sky with its sun),
-    /// `none`, or an equirectangular .exr / .hdr light probe [default: sky, unless only --sun or
-    /// --light are given].
+    /// Environment light of `direct`, `path`, `restir`: `sky` (the embedded Preetham daylight sky
+    /// with its sun), `none`, or an equirectangular .exr / .hdr light probe [default: sky, unless
+    /// --sun, --light or --lights is given].
     #[arg(long, value_parser = parse_env)]
     pub env: Option<crate::lighting::EnvSource>,
     /// Multiplier of the environment map's radiance, finite and >= 0.
@@ -152,9 +154,11 @@ pub struct RenderArgs {
     /// Rotation of the environment map about +y, in degrees (-360 to 360).
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = f32_in(-360.0, 360.0))]
     pub env_rotate: f32,
-    /// Sun of `direct`: "x,y,z[,intensity[,angular_radius_deg]]", the direction toward it, its
-    /// irradiance perpendicular to it (default: 4x the sky's horizontal irradiance with --env
-    /// sky, else 1) and its angular radius (default 0.2666; 0: a delta light).
+    /// Sun of `direct`, `path`, `restir`: "x,y,z[,intensity[,angular_radius_deg]]", the direction
+    /// toward it, its irradiance perpendicular to it (default: 4x the sky's horizontal irradiance
+    /// with --env sky, else 1) and its angular radius (default 0.2666; 0: a delta light). Its
+    /// colour is a slightly warm white: linear Rec. 709 (1, 0.93, 0.85) scaled to luminance 1,
+    /// times the intensity.
     #[arg(long, value_parser = parse_sun, allow_hyphen_values = true)]
     pub sun: Option<crate::lighting::SunSpec>,
     /// `direct`, `path`: transmittance of light samples toward the sun: shadow rays through
