@@ -60,7 +60,21 @@ impl RayFlags {
             ));
         }
         let outside = self.jackknife_outside_rays as f64 / self.rays.max(1) as f64;
-        if outside > OUTSIDE_WARN_FRACTION {
+        if outside > OUTSIDE_WARN_FRACTION
+            && params.estimator == Estimator::JackknifeAdaptive as u32
+        {
+            out.push(format!(
+                "{} of {} rays ({:.2}%) have jackknife-adaptive estimates outside the regime of \
+                 Eq. 4's normal model: S > {}, or an estimate that took no sample (the ray's \
+                 importance integral F is at most --f-delta, so its one stratum is sampled with \
+                 probability F / F_delta): expect bias there; lower --f-delta (README: regime of \
+                 the jackknife)",
+                self.jackknife_outside_rays,
+                self.rays,
+                100.0 * outside,
+                shared::estimators::transmittance::S_REGIME
+            ));
+        } else if outside > OUTSIDE_WARN_FRACTION {
             out.push(format!(
                 "{} of {} rays ({:.2}%) have jackknife estimates with S > {} (optical-depth \
                  estimates too far apart for Eq. 4's normal model, paper Sec. 6.3): expect bias \

@@ -2,7 +2,8 @@
 //! shadow rays share.
 
 use crate::estimators::optical_depth::{
-    adaptive_capped, estimate_pair, estimate_pair_adaptive, estimate_single, prepare,
+    adaptive_capped, adaptive_unsampled, estimate_pair, estimate_pair_adaptive, estimate_single,
+    prepare,
 };
 use crate::estimators::ray_marching::{biased_ray_marching, unbiased_ray_marching};
 use crate::estimators::tracking::{
@@ -62,10 +63,10 @@ pub fn transmittance(
                 cfg.lookup,
                 rng,
             );
-            let tally = est
-                .tally()
-                .capped_if(capped)
-                .outside_if(transmittance::outside_regime(est.x0, est.x1));
+            let tally = est.tally().capped_if(capped).outside_if(
+                transmittance::outside_regime(est.x0, est.x1)
+                    | adaptive_unsampled(&prep, f_delta, est.samples),
+            );
             (transmittance::jackknife(est.x0, est.x1), tally, rng)
         }
         Estimator::BiasedRayMarching => {

@@ -178,6 +178,16 @@ pub fn adaptive_capped(prep: &Prep, f_delta: f32) -> bool {
     f_delta > 0.0 && prep.f > f_delta * MAX_ADAPTIVE_STRATA as f32
 }
 
+/// True when an estimate of the adaptive variant took no sample although the ray has importance:
+/// with F <= F_delta each estimate has one partial stratum, sampled with probability F / F_delta,
+/// and one without its sample is the control variate alone. The pair's S (Eq. 4) then says
+/// nothing of the estimates' spread and the jackknife's normal model does not hold, so the ray
+/// counts as outside the regime (`samples`: both estimates' samples).
+#[inline]
+pub fn adaptive_unsampled(prep: &Prep, f_delta: f32, samples: u32) -> bool {
+    (prep.f > 0.0) & (Strata::adaptive(prep, f_delta).n0 == 1) & (samples < 2)
+}
+
 /// How Alg. 1 divides the importance CDF: step, strata per estimate, and whether targets past
 /// F are skipped (adaptive) or clamped into the last brick (fixed count; only rounding).
 #[derive(Clone, Copy, Debug)]
