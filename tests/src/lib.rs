@@ -140,3 +140,19 @@ pub fn lumpy_blobs(n: u32, cell: u32) -> DenseVolume {
         }
     })
 }
+
+/// A 24^3 volume in [-1, 1]^3 with empty blocks, thin wisps and dense cores (the density
+/// sweep's and the loop-budget tests' volume).
+pub fn lumpy_cells() -> DenseVolume {
+    use shared::rng::{pcg_hash, unit_f32};
+    let n = 24u32;
+    volume("lumpy", [n; 3], unit_cube(n), |x, y, z| {
+        let cell = pcg_hash(x / 4 + 101 * (y / 4) + 10007 * (z / 4));
+        let fine = unit_f32(pcg_hash(x + n * (y + n * z)));
+        match cell % 4 {
+            0 => 0.0,
+            1 => 0.02 * fine,
+            _ => 0.25 + fine,
+        }
+    })
+}

@@ -7,30 +7,15 @@ use host::diagnostics::RayFlags;
 use host::render::render_scene;
 use host::volume::DenseVolume;
 use host::Backend;
-use integration_tests::{assert_bytes_equal, camera_params, gpu, test_lights, unit_cube, volume};
+use integration_tests::{assert_bytes_equal, camera_params, gpu, lumpy_cells, test_lights};
 use shared::kernels::render::PixelOut;
 use shared::params::Estimator;
 use shared::params::RenderParams;
 use shared::params::{Integrator, TransmittanceHat};
-use shared::rng::{pcg_hash, unit_f32};
 use shared::volume::grid::Lookup;
 
 /// Density scales of the sweep: empty, thin, the embedded volumes' range, opaque, absurd.
 const SCALES: [f32; 9] = [0.0, 1e-6, 0.5, 8.0, 1e3, 1e5, 1e10, 1e20, 1e30];
-
-/// A 24^3 volume in [-1, 1]^3 with empty blocks, thin wisps and dense cores.
-fn lumpy() -> DenseVolume {
-    let n = 24u32;
-    volume("lumpy", [n; 3], unit_cube(n), |x, y, z| {
-        let cell = pcg_hash(x / 4 + 101 * (y / 4) + 10007 * (z / 4));
-        let fine = unit_f32(pcg_hash(x + n * (y + n * z)));
-        match cell % 4 {
-            0 => 0.0,
-            1 => 0.02 * fine,
-            _ => 0.25 + fine,
-        }
-    })
-}
 
 /// The sweep's parameters for an image of `px` x `px` pixels.
 fn params(vol: &DenseVolume, px: u32) -> RenderParams {
@@ -75,7 +60,7 @@ fn both(gpu: &Backend, packed: &PackedVolume, p: &RenderParams, what: &str) -> V
 #[test]
 fn every_estimator_is_bit_identical_and_finite_at_every_density() {
     let gpu = Backend::Gpu(gpu());
-    let vol = lumpy();
+    let vol = lumpy_cells();
     for lookup in Lookup::ALL {
         for scale in SCALES {
             let packed = pack(&vol, scale, 8, lookup).unwrap();
@@ -125,7 +110,7 @@ fn reads_t_hat(i: Integrator) -> bool {
 #[test]
 fn every_integrator_is_bit_identical_and_finite_at_every_density() {
     let gpu = Backend::Gpu(gpu());
-    let vol = lumpy();
+    let vol = lumpy_cells();
     for lookup in Lookup::ALL {
         for scale in SCALES {
             let packed = pack(&vol, scale, 8, lookup).unwrap();
@@ -177,7 +162,7 @@ fn tracking_in_an_opaque_medium_is_not_rendered_as_empty() {
     // image mean of ratio tracking and track-length (nearest lookups: exact completion) must
     // match regular tracking's exact value within 4.5 standard errors (64 pixels x 64 spp,
     // seed 5; every ray that reaches the cap is counted).
-    let vol = lumpy();
+    let vol = lumpy_cells();
     let packed = pack(&vol, 1e5, 8, Lookup::Nearest).unwrap();
     let mut p = params(&vol, 8);
     p.spp = 64;

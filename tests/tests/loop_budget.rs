@@ -9,31 +9,15 @@
 
 use host::bricks::pack;
 use host::render::render_scene;
-use host::volume::DenseVolume;
 use host::Backend;
-use integration_tests::{assert_bytes_equal, camera_params, gpu, test_lights, unit_cube, volume};
+use integration_tests::{assert_bytes_equal, camera_params, gpu, lumpy_cells, test_lights};
 use shared::params::{Estimator, RenderParams};
-use shared::rng::{pcg_hash, unit_f32};
 use shared::volume::grid::Lookup;
-
-/// The density sweep's 24^3 volume with empty blocks, thin wisps and dense cores.
-fn lumpy() -> DenseVolume {
-    let n = 24u32;
-    volume("lumpy", [n; 3], unit_cube(n), |x, y, z| {
-        let cell = pcg_hash(x / 4 + 101 * (y / 4) + 10007 * (z / 4));
-        let fine = unit_f32(pcg_hash(x + n * (y + n * z)));
-        match cell % 4 {
-            0 => 0.0,
-            1 => 0.02 * fine,
-            _ => 0.25 + fine,
-        }
-    })
-}
 
 #[test]
 fn many_samples_per_ray_give_the_same_bytes_on_both_backends() {
     let gpu = Backend::Gpu(gpu());
-    let vol = lumpy();
+    let vol = lumpy_cells();
     // (estimator, density scale, spp, n): the three cases that differed.
     let cases = [
         (Estimator::Jackknife, 1.0f32, 8u32, 4096u32),
