@@ -215,6 +215,28 @@ def grid_class_files():
     instance.name = "copy"
     vdb.write(os.path.join(OUT, "instance.vdb"), grids=[fog, instance])
     EXPECTED["instance.vdb"] = ("copy", ["instance of grid 'density'", "--grid density"])
+    duplicate_names()
+
+
+def duplicate_names():
+    """Two grids both named "density" (OpenVDB keeps both, with a hidden counter): refused
+    unless one is picked as density[k], never the first one silently."""
+    import pyopenvdb as vdb
+
+    grids = []
+    for k, ijk in enumerate([(0, 0, 0), (3, 3, 3)]):
+        g = vdb.FloatGrid()
+        g.name = "density"
+        g.getAccessor().setValueOn(ijk, 1.0 + k)
+        grids.append(g)
+    path = os.path.join(OUT, "duplicate_names.vdb")
+    vdb.write(path, grids=grids)
+    words = ["2 grids are named 'density'", "--grid density[0] or --grid density[1]"]
+    EXPECTED["duplicate_names.vdb"] = ("-", words)
+    nvdb = os.path.join(OUT, "duplicate_names.nvdb")
+    subprocess.run(["nanovdb_convert", "-f", "-z", path, nvdb], check=True,
+                   stdout=subprocess.DEVNULL)
+    EXPECTED["duplicate_names.nvdb"] = ("-", words)
 
 
 def main():

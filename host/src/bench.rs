@@ -571,13 +571,17 @@ fn sweep(
     let cases: Vec<(u32, u32, bool)> = resolutions
         .iter()
         .map(|&r| (r, args.width, true))
-        .chain(sizes.iter().map(|&s| (args.scene.resolution, s, false)))
+        .chain(
+            sizes
+                .iter()
+                .map(|&s| (args.scene.embedded_resolution(), s, false)),
+        )
         .collect();
     let mut cached: Option<(u32, crate::commands::Scene, f64)> = None;
     for (resolution, size, is_resolution) in cases {
         if cached.as_ref().is_none_or(|(r, _, _)| *r != resolution) {
             let mut scene_args = args.scene.clone();
-            scene_args.resolution = resolution;
+            scene_args.resolution = Some(resolution);
             let t = Instant::now();
             let scene = crate::commands::prepare_scene(
                 &scene_args,
@@ -649,6 +653,8 @@ fn sweep_files(
     for file in &args.sweep_files {
         let mut scene_args = args.scene.clone();
         scene_args.volume = file.display().to_string();
+        // --resolution sizes the embedded volume of the main benchmark, not these files.
+        scene_args.resolution = None;
         let rss_before_bytes = reset_peak_rss().then(|| memory_line("VmRSS:")).flatten();
         let t = Instant::now();
         let scene = crate::commands::prepare_scene(

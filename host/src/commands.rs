@@ -56,8 +56,9 @@ pub struct SceneOptions {
     pub grid: Option<String>,
     /// Set negative densities of a file to 0 instead of refusing it.
     pub clamp_negative: bool,
-    /// Voxels per axis of an embedded volume.
-    pub resolution: u32,
+    /// Voxels per axis of an embedded volume (None: [`defaults::RESOLUTION`]); refused with a
+    /// file, which has its own grid.
+    pub resolution: Option<u32>,
     /// Extinction per unit of stored density (None: the volume's own).
     pub density_scale: Option<f32>,
     /// Voxels per brick along each axis.
@@ -76,13 +77,20 @@ pub struct SceneOptions {
     pub up: crate::render::UpAxis,
 }
 
+impl SceneOptions {
+    /// Voxels per axis of an embedded volume: `--resolution` or its default.
+    pub fn embedded_resolution(&self) -> u32 {
+        self.resolution.unwrap_or(defaults::RESOLUTION)
+    }
+}
+
 impl Default for SceneOptions {
     fn default() -> Self {
         SceneOptions {
             volume: defaults::VOLUME.into(),
             grid: None,
             clamp_negative: false,
-            resolution: defaults::RESOLUTION,
+            resolution: None,
             density_scale: None,
             brick_size: defaults::BRICK_SIZE,
             supervoxel_format: jackknife::SupervoxelFormat::F32,
@@ -223,6 +231,9 @@ pub struct EvalOptions {
     /// `--integrators path`: vertices before roulette, most vertices.
     pub rr_depth: u32,
     pub max_depth: u32,
+    /// Henyey-Greenstein asymmetry g of the integrators' phase function, in (-1, 1) (None: 0,
+    /// isotropic; refused without `integrators`).
+    pub hg_g: Option<f32>,
     pub exposure: f32,
     pub n: u32,
     pub f_delta: f32,
@@ -262,6 +273,7 @@ impl Default for EvalOptions {
             sun: None,
             rr_depth: defaults::RR_DEPTH,
             max_depth: defaults::MAX_DEPTH,
+            hg_g: None,
             exposure: defaults::EXPOSURE,
             n: defaults::N,
             f_delta: defaults::F_DELTA,
@@ -299,6 +311,14 @@ pub fn lookup_name(lookup: Lookup) -> String {
     format!("{lookup:?}").to_lowercase()
 }
 
+/// Whether `--volume` names a file (it exists, or ends in .vdb / .nvdb) rather than an embedded
+/// volume.
+pub fn is_volume_file(spec: &str) -> bool {
+    let path = Path::new(spec);
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+    path.exists() || ext.eq_ignore_ascii_case("vdb") || ext.eq_ignore_ascii_case("nvdb")
+}
+
 /// An embedded volume by name or a volume file by path, with its default density scale and, for
 /// a file, the name of the grid read; `check` sees the bounding box before any voxel is read
 /// or generated.
@@ -308,8 +328,14 @@ pub fn load_volume(
 ) -> Result<(Volume, f32, Option<String>)> {
     let spec = scene.volume.as_str();
     let path = Path::new(spec);
-    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
-    if path.exists() || ext.eq_ignore_ascii_case("vdb") || ext.eq_ignore_ascii_case("nvdb") {
+    if is_volume_file(spec) {
+        if let Some(n) = scene.resolution {
+            bail!(
+                "--resolution {n}: {} is a volume file, whose grid has its own voxel counts; \
+                 --resolution sets the size of an embedded volume (drop it)",
+                path.display()
+            );
+        }
         let options = crate::io::LoadOptions {
             grid: scene.grid.as_deref(),
             clamp_negative: scene.clamp_negative,
@@ -326,6 +352,7 @@ pub fn load_volume(
         }
         return Ok((loaded.volume, 1.0, Some(loaded.grid)));
     }
+    let resolution = scene.embedded_resolution();
     if let (Some(grid), true) = (&scene.grid, crate::procedural::NAMES.contains(&spec)) {
         bail!(
             "--grid {grid:?}: the embedded volume {spec:?} is one density field without grids; \
@@ -333,13 +360,13 @@ pub fn load_volume(
         );
     }
     if let Some(check) = check {
-        let n = u64::from(scene.resolution);
+        let n = u64::from(resolution);
         (check.0)(&crate::io::Topology {
             dims: [n; 3],
             tile_voxels: 0,
         })?;
     }
-    match crate::procedural::by_name(spec, scene.resolution) {
+    match crate::procedural::by_name(spec, resolution) {
         Some(v) => Ok((v, crate::procedural::default_density_scale(spec), None)),
         None => bail!(
             "--volume {spec:?} is neither a file nor an embedded volume; embedded volumes: {}",
@@ -1339,6 +1366,12 @@ pub fn run_eval(args: &EvalOptions) -> Result<()> {
         "the --restir-* flags apply to --integrators restir; add it or drop them"
     );
     let given_direct = args.env.is_some() || args.sun.is_some();
+    if let (Some(g), None) = (args.hg_g, &args.integrators) {
+        bail!(
+            "--hg-g {g}: the phase function is the integrators'; transmittance evaluations have \
+             none (add --integrators or drop --hg-g)"
+        );
+    }
     anyhow::ensure!(
         !given_direct,
         "--env and --sun only apply to --integrators direct; add it or drop them"
@@ -1461,6 +1494,7 @@ fn run_eval_integrators(
     let lights = lights_or_default(&args.lights, args.albedo, args.exposure, vol)?;
     params.light_count = lights.len() as u32;
     params.albedo = args.albedo;
+    params.hg_g = args.hg_g.unwrap_or(0.0);
     params.pixel_jitter = 1;
     params.t_hat = args.t_hat as u32;
     let setup = crate::eval::EvalSetup {
@@ -1535,7 +1569,7 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
         restir: args.restir,
         rr_depth: args.rr_depth,
         max_depth: args.max_depth,
-        hg_g: 0.0,
+        hg_g: args.hg_g.unwrap_or(0.0),
         t_hat: TransmittanceHat::Jackknife,
         exposure: args.exposure,
         width: args.width,
@@ -1572,6 +1606,7 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
         pixel_jitter: 1,
         rr_depth: args.rr_depth,
         max_depth: args.max_depth,
+        hg_g: args.hg_g.unwrap_or(0.0),
         ..Default::default()
     };
     if integrators.contains(&Integrator::Restir) {

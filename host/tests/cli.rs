@@ -121,19 +121,15 @@ fn small_render(
 ) -> (std::process::Output, serde_json::Value) {
     let exr = dir.join("r.exr");
     let json = dir.join("r.json");
+    // A volume file has its own voxel counts: --resolution sizes the embedded cloud only.
+    let file = extra
+        .iter()
+        .any(|a| a.ends_with(".vdb") || a.ends_with(".nvdb"));
+    let resolution: &[&str] = if file { &[] } else { &["--resolution", "64"] };
     let out = host()
-        .args([
-            "render",
-            "--resolution",
-            "64",
-            "--width",
-            "40",
-            "--height",
-            "32",
-            "--spp",
-            "2",
-            "--quiet",
-        ])
+        .arg("render")
+        .args(resolution)
+        .args(["--width", "40", "--height", "32", "--spp", "2", "--quiet"])
         .args([
             "--out",
             exr.to_str().unwrap(),

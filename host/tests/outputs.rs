@@ -9,19 +9,23 @@ fn host() -> Command {
     Command::new(env!("CARGO_BIN_EXE_host"))
 }
 
-/// A small CPU render with `extra` flags (outputs are given by the caller).
+/// A small CPU render with `extra` flags (outputs are given by the caller); the embedded cloud
+/// at 32^3 unless `extra` names a volume file.
 fn render(extra: &[&str]) -> Output {
+    let file = extra
+        .iter()
+        .any(|a| a.ends_with(".vdb") || a.ends_with(".nvdb"));
+    let resolution: &[&str] = if file { &[] } else { &["--resolution", "32"] };
     host()
+        .arg("render")
+        .args(resolution)
         .args([
-            "render",
             "--width",
             "16",
             "--height",
             "16",
             "--spp",
             "1",
-            "--resolution",
-            "32",
             "--backend",
             "cpu",
             "--quiet",
@@ -453,6 +457,74 @@ fn ignored_flags_are_errors_not_labels() {
         o,
     ];
     assert_ok(&render(&ok));
+}
+
+/// `--resolution` with a volume file is refused, not ignored (issue 43, item 10), in render, eval
+/// and report (where it is refused only when no volume of the list is embedded).
+#[test]
+fn resolution_with_a_volume_file_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let vdb = fixture("density_zip.vdb");
+    let exr = dir.path().join("r.exr");
+    let out = host()
+        .args([
+            "render",
+            "--backend",
+            "cpu",
+            "--resolution",
+            "32",
+            "--volume",
+        ])
+        .args([s(&vdb), "--out", s(&exr)])
+        .output()
+        .unwrap();
+    assert_refused(&out, &["--resolution 32", "density_zip.vdb", "drop it"]);
+    assert!(!exr.exists());
+    let out = host()
+        .args(["eval", "--backend", "cpu", "--resolution", "32", "--volume"])
+        .args([s(&vdb), "--out-dir", s(dir.path())])
+        .output()
+        .unwrap();
+    assert_refused(&out, &["--resolution 32", "density_zip.vdb"]);
+    let out = host()
+        .args([
+            "report",
+            "--backend",
+            "cpu",
+            "--resolution",
+            "32",
+            "--volumes",
+        ])
+        .args([s(&vdb), "--out", s(&dir.path().join("report"))])
+        .output()
+        .unwrap();
+    assert_refused(&out, &["--resolution 32", "no volume to evaluate is one"]);
+    let out = host()
+        .args(["report", "--backend", "cpu", "--grid", "density"])
+        .args(["--out", s(&dir.path().join("report"))])
+        .output()
+        .unwrap();
+    assert_refused(&out, &["--grid \"density\"", "drop --grid"]);
+    assert!(!dir.path().join("report").join("index.html").exists());
+}
+
+/// `eval --hg-g` reaches the integrators' phase function and is refused without them (issue 43,
+/// item 10).
+#[test]
+fn eval_hg_g_needs_integrators() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = host()
+        .args(["eval", "--backend", "cpu", "--hg-g", "0.5"])
+        .args(["--out-dir", s(dir.path())])
+        .output()
+        .unwrap();
+    assert_refused(&out, &["--hg-g 0.5", "--integrators"]);
+    let out = host()
+        .args(["eval", "--backend", "cpu", "--hg-g", "1"])
+        .args(["--out-dir", s(dir.path())])
+        .output()
+        .unwrap();
+    assert_refused(&out, &["--hg-g", "must be in (-1, 1)"]);
 }
 
 /// `--grid` with an embedded volume is refused, not ignored (issue 43, item 10).

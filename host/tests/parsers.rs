@@ -148,6 +148,7 @@ const NUMERIC_FLAGS: &[(&[&str], &str)] = &[
     (&["eval"], "--seed"),
     (&["eval"], "--bias-scale"),
     (&["eval"], "--std-scale"),
+    (&["eval"], "--hg-g"),
     (&["report"], "--resolution"),
     (&["report"], "--n"),
     (&["report"], "--width"),
@@ -157,6 +158,8 @@ const NUMERIC_FLAGS: &[(&[&str], &str)] = &[
     (&["report"], "--seed"),
     (&["report"], "--bias-scale"),
     (&["report"], "--std-scale"),
+    (&["report"], "--density-scale"),
+    (&["report"], "--fov"),
     (&["probe"], "--count"),
     (&["probe"], "--tau"),
     (&["probe"], "--sigma"),
@@ -210,7 +213,8 @@ fn numeric_values(cli: &host::cli::Cli) -> Vec<f64> {
     match command {
         C::Render(a) => {
             let s = &a.scene;
-            let mut v = vec![s.resolution as f64, s.brick_size as f64, s.fov as f64];
+            let mut v = vec![s.brick_size as f64, s.fov as f64];
+            v.extend(s.resolution.map(f64::from));
             v.extend(s.density_scale.map(f64::from));
             v.extend(s.cell_size.map(f64::from));
             v.extend(s.split_ratio.map(f64::from));
@@ -227,20 +231,17 @@ fn numeric_values(cli: &host::cli::Cli) -> Vec<f64> {
             v.extend([a.f_delta, a.albedo, a.exposure, a.bias_scale, a.std_scale].map(f64::from));
             v.extend([a.env_scale, a.env_rotate].map(f64::from));
             v.extend([a.rr_depth, a.max_depth].map(f64::from));
+            v.extend(a.hg_g.map(f64::from));
             v
         }
-        C::Report(a) => [
-            a.resolution,
-            a.n,
-            a.width,
-            a.height,
-            a.spp,
-            a.integrator_spp,
-        ]
-        .map(f64::from)
-        .into_iter()
-        .chain([a.bias_scale, a.std_scale].map(f64::from))
-        .collect(),
+        C::Report(a) => a
+            .resolution
+            .into_iter()
+            .chain([a.n, a.width, a.height, a.spp, a.integrator_spp])
+            .map(f64::from)
+            .chain([a.bias_scale, a.std_scale, a.fov].map(f64::from))
+            .chain(a.density_scale.map(f64::from))
+            .collect(),
         C::Probe(a) => vec![a.count as f64, a.tau as f64, a.sigma as f64],
         C::Bench(a) => [a.width, a.height, a.spp, a.n, a.reps, a.warmup]
             .map(f64::from)

@@ -22,12 +22,15 @@ fn text(out: &Output) -> String {
     )
 }
 
-/// `host render` of a tiny image (of a 48^3 volume unless `extra` sets `--resolution`) with
+/// `host render` of a tiny image (of a 48^3 volume unless `extra` sets `--resolution` or a file) with
 /// `extra` flags into `dir`; returns the output.
 fn render(dir: &Path, extra: &[&str], env: &[(&str, &str)]) -> Output {
     let mut cmd = host();
     cmd.arg("render");
-    if !extra.contains(&"--resolution") {
+    let file = extra
+        .iter()
+        .any(|a| a.ends_with(".vdb") || a.ends_with(".nvdb"));
+    if !extra.contains(&"--resolution") && !file {
         cmd.args(["--resolution", "48"]);
     }
     cmd.args([

@@ -276,20 +276,47 @@ impl GridEntry {
     }
 }
 
-/// Picks the grid to load: `requested`, else "density", else the first supported grid.
-fn select_grid(grids: &[GridEntry], requested: Option<&str>) -> Result<usize> {
+/// Picks the grid to load: `requested`, else "density", else the first supported grid. Returns
+/// its index and label: the name, or `name[k]` (OpenVDB's own notation, k from 0) when several
+/// grids share the name; a shared name without `[k]` is refused, never resolved silently.
+fn select_grid(grids: &[GridEntry], requested: Option<&str>) -> Result<(usize, String)> {
     ensure!(!grids.is_empty(), "the file contains no grids");
     let name = requested.unwrap_or(DEFAULT_GRID);
-    let found = grids.iter().position(|g| g.name == name);
-    let index = match (found, requested) {
-        (Some(i), _) => i,
+    let named: Vec<usize> = (0..grids.len())
+        .filter(|&i| grids[i].name == name)
+        .collect();
+    if named.len() > 1 {
+        let labels: Vec<String> = (0..named.len()).map(|k| format!("{name}[{k}]")).collect();
+        bail!(
+            "{} grids are named '{name}' ({}); pick one with --grid {} (available grids: {})",
+            named.len(),
+            labels.join(", "),
+            labels.join(" or --grid "),
+            list(grids)
+        );
+    }
+    let (found, label) = match (named.first(), requested.and_then(indexed)) {
+        (Some(&i), _) => (Some(i), name.to_owned()),
+        (None, Some((base, k))) => {
+            let same: Vec<usize> = (0..grids.len())
+                .filter(|&i| grids[i].name == base)
+                .collect();
+            (same.get(k).copied(), name.to_owned())
+        }
+        (None, None) => (None, name.to_owned()),
+    };
+    let (index, label) = match (found, requested) {
+        (Some(i), _) => (i, label),
         (None, Some(_)) => bail!("no grid named '{name}'; available grids: {}", list(grids)),
-        (None, None) => grids.iter().position(|g| g.supported).with_context(|| {
-            format!(
-                "no '{DEFAULT_GRID}' grid and no float grid to fall back on; available grids: {}",
-                list(grids)
-            )
-        })?,
+        (None, None) => {
+            let i = grids.iter().position(|g| g.supported).with_context(|| {
+                format!(
+                    "no '{DEFAULT_GRID}' grid and no float grid to fall back on; available grids: {}",
+                    list(grids)
+                )
+            })?;
+            (i, grids[i].name.clone())
+        }
     };
     let g = &grids[index];
     if let (false, Some(why)) = (g.supported, &g.why) {
@@ -302,14 +329,28 @@ fn select_grid(grids: &[GridEntry], requested: Option<&str>) -> Result<usize> {
         g.value_type,
         list(grids)
     );
-    Ok(index)
+    Ok((index, label))
 }
 
-/// "name (type), ..." for messages.
+/// `name[k]` split into the name and k, if `s` has that form.
+fn indexed(s: &str) -> Option<(&str, usize)> {
+    let (base, rest) = s.strip_suffix(']')?.rsplit_once('[')?;
+    Some((base, rest.parse().ok()?))
+}
+
+/// "name (type), ..." for messages; a name several grids share is written `name[k]`.
 fn list(grids: &[GridEntry]) -> String {
     grids
         .iter()
-        .map(|g| format!("{} ({})", g.name, g.value_type))
+        .enumerate()
+        .map(|(i, g)| {
+            let same = grids.iter().filter(|h| h.name == g.name).count();
+            let k = grids[..i].iter().filter(|h| h.name == g.name).count();
+            match same {
+                1 => format!("{} ({})", g.name, g.value_type),
+                _ => format!("{}[{k}] ({})", g.name, g.value_type),
+            }
+        })
         .collect::<Vec<_>>()
         .join(", ")
 }
@@ -834,9 +875,9 @@ mod tests {
             entry("heat", "float", true),
             entry("density", "float", true),
         ];
-        assert_eq!(select_grid(&grids, None).unwrap(), 2);
-        assert_eq!(select_grid(&grids[..2], None).unwrap(), 1);
-        assert_eq!(select_grid(&grids, Some("heat")).unwrap(), 1);
+        assert_eq!(select_grid(&grids, None).unwrap(), (2, "density".into()));
+        assert_eq!(select_grid(&grids[..2], None).unwrap(), (1, "heat".into()));
+        assert_eq!(select_grid(&grids, Some("heat")).unwrap().0, 1);
         let err = select_grid(&grids, Some("smoke")).unwrap_err().to_string();
         assert!(
             err.contains("no grid named 'smoke'") && err.contains("vel (vec3s), heat (float)"),
@@ -846,6 +887,38 @@ mod tests {
         assert!(err.contains("vec3s"), "{err}");
         let err = select_grid(&grids[..1], None).unwrap_err().to_string();
         assert!(err.contains("no float grid"), "{err}");
+    }
+
+    /// Two grids named alike are refused unless picked as `name[k]` (issue 43, item 10).
+    #[test]
+    fn shared_grid_names_are_refused_unless_indexed() {
+        let grids = [
+            entry("density", "float", true),
+            entry("heat", "float", true),
+            entry("density", "float", true),
+        ];
+        for requested in [None, Some("density")] {
+            let err = select_grid(&grids, requested).unwrap_err().to_string();
+            assert!(
+                err.contains("2 grids are named 'density'")
+                    && err.contains("--grid density[0] or --grid density[1]")
+                    && err.contains("density[1] (float)"),
+                "{err}"
+            );
+        }
+        assert_eq!(
+            select_grid(&grids, Some("density[1]")).unwrap(),
+            (2, "density[1]".into())
+        );
+        assert_eq!(select_grid(&grids, Some("density[0]")).unwrap().0, 0);
+        let err = select_grid(&grids, Some("density[2]"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("no grid named 'density[2]'"), "{err}");
+        assert_eq!(
+            select_grid(&grids, Some("heat")).unwrap(),
+            (1, "heat".into())
+        );
     }
 
     #[test]

@@ -38,8 +38,11 @@ pub fn load(
     preflight(&mut super::stream_file(path)?)?;
     let file = NvdbFile::open(path).map_err(explain)?;
     let entries: Vec<GridEntry> = file.grids().iter().map(entry).collect();
-    let chosen = &file.grids()[select_grid(&entries, grid)?];
-    load_grid(chosen, cap, options).with_context(|| format!("grid '{}'", chosen.name()))
+    let (index, label) = select_grid(&entries, grid)?;
+    let chosen = &file.grids()[index];
+    let mut loaded = load_grid(chosen, cap, options).with_context(|| format!("grid '{label}'"))?;
+    loaded.grid = label;
+    Ok(loaded)
 }
 
 /// Walks the file's segments and grid metadata as `nanovdb-rs` will, refusing what would make it

@@ -69,8 +69,12 @@ pub fn load(
             _ => d.entry.clone(),
         })
         .collect();
-    let chosen = &descriptors[super::select_grid(&entries, grid)?];
-    read_grid(&mut r, chosen, cap, options).with_context(|| format!("grid '{}'", chosen.entry.name))
+    let (index, label) = super::select_grid(&entries, grid)?;
+    let chosen = &descriptors[index];
+    let mut loaded =
+        read_grid(&mut r, chosen, cap, options).with_context(|| format!("grid '{label}'"))?;
+    loaded.grid = label;
+    Ok(loaded)
 }
 
 /// Checks the magic number and format version and skips the file-level metadata.

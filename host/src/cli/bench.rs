@@ -68,7 +68,7 @@ pub struct BenchArgs {
     #[arg(long)]
     pub json: Option<PathBuf>,
     /// No progress lines.
-    #[arg(long)]
+    #[arg(long, short)]
     pub quiet: bool,
 }
 

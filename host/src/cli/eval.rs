@@ -1,6 +1,8 @@
 //! Flags of `host eval`.
 
-use super::parsers::{f32_in, parse_f_delta, parse_positive, BackendArg, LookupArg, THatArg};
+use super::parsers::{
+    f32_in, f32_open, parse_f_delta, parse_positive, BackendArg, LookupArg, THatArg,
+};
 use super::render::SceneArgs;
 use crate::commands::{defaults, EvalOptions};
 use clap::Args;
@@ -66,6 +68,10 @@ pub struct EvalArgs {
     /// `--integrators path`: most vertices of a path, 1 to 1024.
     #[arg(long, default_value_t = defaults::MAX_DEPTH, allow_hyphen_values = true, value_parser = clap::value_parser!(u32).range(1..=1024))]
     pub max_depth: u32,
+    /// `--integrators`: Henyey-Greenstein asymmetry g of the phase function, in (-1, 1)
+    /// [default: 0, isotropic].
+    #[arg(long, allow_hyphen_values = true, value_parser = f32_open(-1.0, 1.0))]
+    pub hg_g: Option<f32>,
     /// Multiplier before the PNG previews' tone mapping, a finite number > 0.
     #[arg(long, default_value_t = defaults::EXPOSURE, allow_hyphen_values = true, value_parser = parse_positive)]
     pub exposure: f32,
@@ -134,6 +140,7 @@ impl EvalArgs {
             sun: self.sun,
             rr_depth: self.rr_depth,
             max_depth: self.max_depth,
+            hg_g: self.hg_g,
             exposure: self.exposure,
             n: self.n,
             f_delta: self.f_delta,

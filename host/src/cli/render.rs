@@ -21,9 +21,10 @@ pub struct SceneArgs {
     /// Set negative densities of a volume file to 0 (with a warning) instead of refusing it.
     #[arg(long)]
     pub clamp_negative: bool,
-    /// Voxels per axis of an embedded volume, 8 to 1024.
-    #[arg(long, allow_hyphen_values = true, default_value_t = defaults::RESOLUTION, value_parser = clap::value_parser!(u32).range(8..=1024))]
-    pub resolution: u32,
+    /// Voxels per axis of an embedded volume, 8 to 1024 [default: 256] (a volume file has its own
+    /// grid: refused with one).
+    #[arg(long, allow_hyphen_values = true, value_parser = clap::value_parser!(u32).range(8..=1024))]
+    pub resolution: Option<u32>,
     /// Extinction per unit of stored density, 0 to 3.4e38 (default: the embedded volume's own, 1
     /// for files); optical depths through the volume above 1e35 are refused.
     #[arg(long, allow_hyphen_values = true, value_parser = parse_density_scale)]

@@ -1,6 +1,9 @@
 //! Flags of `host report`.
 
-use super::parsers::{parse_positive, BackendArg, LookupArg};
+use super::parsers::{
+    f32_open, parse_density_scale, parse_positive, parse_vec3, BackendArg, LookupArg, UpArg,
+};
+use crate::commands::{defaults, SceneOptions};
 use crate::report::ReportOptions;
 use clap::Args;
 use std::path::PathBuf;
@@ -26,9 +29,28 @@ pub struct ReportArgs {
     /// tab per integrator with an equal-time column, std^2 x ms).
     #[arg(long = "from-eval", value_name = "DIR")]
     pub from_eval: Vec<PathBuf>,
-    /// Voxels per axis of an embedded volume, 8 to 1024.
-    #[arg(long, allow_hyphen_values = true, default_value_t = 256, value_parser = clap::value_parser!(u32).range(8..=1024))]
-    pub resolution: u32,
+    /// Voxels per axis of the embedded volumes, 8 to 1024 [default: 256].
+    #[arg(long, allow_hyphen_values = true, value_parser = clap::value_parser!(u32).range(8..=1024))]
+    pub resolution: Option<u32>,
+    /// Grid to read from the volume files (default: "density", else the first float grid).
+    #[arg(long)]
+    pub grid: Option<String>,
+    /// Extinction per unit of stored density of every volume, 0 to 3.4e38 (default: the
+    /// embedded volume's own, 1 for files).
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_density_scale)]
+    pub density_scale: Option<f32>,
+    /// Camera position x,y,z in world units (default: framing each volume from the front).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub camera: Option<[f32; 3]>,
+    /// Point the camera looks at, x,y,z (default: each volume's center).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub look_at: Option<[f32; 3]>,
+    /// The volumes' up axis: y (default), z (Blender, Houdini caches) or x.
+    #[arg(long, value_enum, default_value_t = UpArg::Y)]
+    pub up: UpArg,
+    /// Vertical field of view in degrees, in (0, 180).
+    #[arg(long, default_value_t = defaults::FOV, allow_hyphen_values = true, value_parser = f32_open(0.0, 180.0))]
+    pub fov: f32,
     /// Lookups of the new evaluations (see `host eval --lookup`).
     #[arg(long, value_enum, default_value_t = LookupArg::Nearest)]
     pub lookup: LookupArg,
@@ -73,7 +95,16 @@ impl ReportArgs {
             estimators: self.estimators.clone(),
             integrators: self.integrators.clone(),
             from_eval: self.from_eval.clone(),
-            resolution: self.resolution,
+            scene: SceneOptions {
+                resolution: self.resolution,
+                grid: self.grid.clone(),
+                density_scale: self.density_scale,
+                camera: self.camera,
+                look_at: self.look_at,
+                up: self.up.into(),
+                fov: self.fov,
+                ..SceneOptions::default()
+            },
             lookup: self.lookup.into(),
             n: self.n,
             width: self.width,

@@ -140,10 +140,15 @@ pub struct HistogramArgs {
     #[command(flatten)]
     pub profile: ProfileFlag,
     /// Sample counts N (columns), each 1 to 10^6, at most 16 of them.
-    #[arg(long, allow_hyphen_values = true, value_delimiter = ',', default_values_t = [2usize, 5, 10, 20], value_parser = count_in(1, MAX_SAMPLES as u64))]
+    #[arg(long, allow_hyphen_values = true, value_delimiter = ',', default_value = "2,5,10,20", value_parser = count_in(1, MAX_SAMPLES as u64))]
     pub n: Vec<usize>,
     /// Sampling schemes (rows): uniform, stratified or iid (midpoint is deterministic).
-    #[arg(long, value_enum, value_delimiter = ',', default_values_t = [SamplingArg::Stratified, SamplingArg::Uniform])]
+    #[arg(
+        long,
+        value_enum,
+        value_delimiter = ',',
+        default_value = "stratified,uniform"
+    )]
     pub sampling: Vec<SamplingArg>,
     /// Estimates per histogram, 2 to 2 x 10^7 (each is kept in memory).
     #[arg(long, allow_hyphen_values = true, default_value_t = 1_000_000, value_parser = clap::value_parser!(u64).range(2..=MAX_HISTOGRAM_TRIALS))]
@@ -169,8 +174,12 @@ pub struct ConvergenceArgs {
     #[arg(long, allow_hyphen_values = true, default_value_t = 10_000, value_parser = clap::value_parser!(u64).range(2..=100_000_000))]
     pub trials: u64,
     /// Sampling schemes (curves).
-    #[arg(long, value_enum, value_delimiter = ',',
-          default_values_t = [SamplingArg::Midpoint, SamplingArg::Uniform, SamplingArg::Stratified, SamplingArg::Iid])]
+    #[arg(
+        long,
+        value_enum,
+        value_delimiter = ',',
+        default_value = "midpoint,uniform,stratified,iid"
+    )]
     pub sampling: Vec<SamplingArg>,
     #[command(flatten)]
     pub out: OutputArgs,
@@ -180,7 +189,7 @@ pub struct ConvergenceArgs {
 pub struct MisBiasArgs {
     /// u0,u1,v0,v1 of g(tau) = (u0 e^-tau + u1) / (v0 e^-tau + v1) (Eq. 11): four finite
     /// numbers in [-10^6, 10^6]; v0 and v1 not both 0.
-    #[arg(long, value_delimiter = ',', default_values_t = [1.0f32, 0.0, 1.0, 0.5], allow_hyphen_values = true, value_parser = parse_g_coefficient)]
+    #[arg(long, value_delimiter = ',', default_value = "1,0,1,0.5", allow_hyphen_values = true, value_parser = parse_g_coefficient)]
     pub g: Vec<f32>,
     /// Largest tau of the grid, in (0, 20].
     #[arg(long, allow_hyphen_values = true, default_value_t = 4.0, value_parser = positive_up_to(MAX_TAU))]
@@ -217,7 +226,7 @@ pub struct OutputArgs {
     #[arg(long)]
     pub plot: Option<PathBuf>,
     /// Hide the progress bar.
-    #[arg(long)]
+    #[arg(long, short)]
     pub quiet: bool,
 }
 

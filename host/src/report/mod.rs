@@ -127,7 +127,9 @@ pub struct ReportOptions {
     pub integrators: Option<String>,
     /// Existing `host eval` outputs (directories or JSON files).
     pub from_eval: Vec<PathBuf>,
-    pub resolution: u32,
+    /// Grid, density scale, embedded resolution and camera of every volume of `volumes` (its
+    /// `volume` is not read; `resolution` reaches embedded volumes, `grid` files).
+    pub scene: SceneOptions,
     pub lookup: Lookup,
     pub n: u32,
     pub width: u32,
@@ -172,6 +174,7 @@ pub fn run(args: &ReportOptions) -> Result<()> {
     if !volumes.is_empty() {
         crate::eval::parse_list(&args.estimators)?;
     }
+    check_scene_flags(&args.scene, &volumes)?;
     for volume in &volumes {
         anyhow::ensure!(!volume.is_empty(), "--volumes: empty volume name");
         let base = slug(&volume_label(volume));
@@ -211,13 +214,37 @@ pub fn run(args: &ReportOptions) -> Result<()> {
     Ok(())
 }
 
+/// Refuses `--resolution` when no volume is embedded and `--grid` when none is a file: each
+/// would be ignored.
+fn check_scene_flags(scene: &SceneOptions, volumes: &[String]) -> Result<()> {
+    let files = volumes
+        .iter()
+        .filter(|v| crate::commands::is_volume_file(v))
+        .count();
+    if let (Some(n), true) = (scene.resolution, files == volumes.len()) {
+        bail!(
+            "--resolution {n} sets the size of embedded volumes, and no volume to evaluate is one \
+             (--volumes, default cloud unless --from-eval is given): drop --resolution"
+        );
+    }
+    if let (Some(grid), 0) = (&scene.grid, files) {
+        bail!(
+            "--grid {grid:?} picks a grid of a volume file, and no volume to evaluate is one \
+             (--volumes): drop --grid"
+        );
+    }
+    Ok(())
+}
+
 /// `host eval` options for one volume of the report (defaults of `host eval` for the rest).
 fn eval_options(args: &ReportOptions, volume: &str, out_dir: PathBuf) -> EvalOptions {
+    let file = crate::commands::is_volume_file(volume);
     EvalOptions {
         scene: SceneOptions {
             volume: volume.into(),
-            resolution: args.resolution,
-            ..SceneOptions::default()
+            resolution: args.scene.resolution.filter(|_| !file),
+            grid: args.scene.grid.clone().filter(|_| file),
+            ..args.scene.clone()
         },
         lookup: args.lookup,
         estimators: args.estimators.clone(),

@@ -236,7 +236,11 @@ impl LinePanel {
             .label_style((FONT, 13))
             .axis_desc_style((FONT, 15))
             .light_line_style(WHITE);
-        if !ticks.is_empty() {
+        let number = |v: &f64| tick_label(*v);
+        mesh.y_label_formatter(&number);
+        if ticks.is_empty() {
+            mesh.x_label_formatter(&number);
+        } else {
             mesh.x_labels(ticks.len() + 1).x_label_formatter(&category);
         }
         mesh.draw().drawn()?;
@@ -301,6 +305,20 @@ impl LinePanel {
                 .drawn()?;
         }
         Ok(())
+    }
+}
+
+/// An axis tick label: the value rounded to six significant digits, plain from 0.001 to below
+/// 10^5 and in scientific notation (`1e-5`, `2.5e6`) outside.
+pub fn tick_label(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let r: f64 = format!("{v:.5e}").parse().unwrap_or(v);
+    if (1e-3..1e5).contains(&r.abs()) {
+        format!("{r}")
+    } else {
+        format!("{r:e}")
     }
 }
 
@@ -414,4 +432,21 @@ pub fn colorbar<DB: DrawingBackend>(
         }))
         .drawn()?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::tick_label;
+
+    /// Tick labels are rounded and short (issue 43: a log axis showed "999999e-5").
+    #[test]
+    fn tick_labels_are_rounded_and_short() {
+        assert_eq!(tick_label(1e-5 * (1.0 - 1e-12)), "1e-5");
+        assert_eq!(tick_label(0.30000000000000004), "0.3");
+        assert_eq!(tick_label(0.001), "0.001");
+        assert_eq!(tick_label(100.0), "100");
+        assert_eq!(tick_label(2.5e6), "2.5e6");
+        assert_eq!(tick_label(-0.0001), "-1e-4");
+        assert_eq!(tick_label(0.0), "0");
+    }
 }
