@@ -501,6 +501,20 @@ pub fn parse_list_of(list: &str, flag: &str) -> Result<Vec<&'static EstimatorSpe
 /// Fewest reference pixels with T < 1 over which `host eval` computes its statistics.
 pub const MIN_EVAL_PIXELS: usize = 16;
 
+/// Refuses integrator statistics whose reference has fewer than [`MIN_EVAL_PIXELS`] pixels
+/// whose rays read a voxel: over the rest every estimator agrees trivially.
+pub fn check_reference_sees_the_volume(reference: &[PixelOut]) -> Result<()> {
+    let count = reference.iter().filter(|p| p.samples > 0).count();
+    anyhow::ensure!(
+        count >= MIN_EVAL_PIXELS,
+        "only {count} of {} reference pixels read a voxel of the volume; the statistics need at \
+         least {MIN_EVAL_PIXELS}: frame the volume (--camera, --look-at, --fov) or raise --width \
+         and --height",
+        reference.len()
+    );
+    Ok(())
+}
+
 /// Writes the report as JSON.
 pub fn write_report(path: &Path, report: &EvalReport) -> Result<()> {
     crate::output::ensure_parent(path)?;
@@ -586,6 +600,7 @@ pub fn evaluate_integrators(
         setup.progress,
     )
     .context("rendering the reference")?;
+    check_reference_sees_the_volume(&reference)?;
     let ref_l: Vec<f32> = reference.iter().map(|p| p.t_mean).collect();
     let (reference_exr, reference_png) = (
         setup.out_dir.join("reference.exr"),

@@ -438,6 +438,7 @@ pub fn evaluate_direct(
                     &stem(ref_label, "reference"),
                     exposure,
                 )?;
+                crate::eval::check_reference_sees_the_volume(&rendered.pixels)?;
                 let r = (
                     moments(&rendered.pixels),
                     ref_params,

@@ -260,6 +260,28 @@ fn views_that_miss_the_volume_warn_and_eval_refuses_them() {
         &out,
         &["only 0 of 256 reference pixels", "at least 16", "--fov"],
     );
+    // Integrator evaluations too: single scattering, and direct under the sky.
+    for integrators in ["mis-jackknife", "direct"] {
+        let out = host()
+            .args(["eval", "--backend", "cpu", "--resolution", "32"])
+            .args([
+                "--width", "16", "--height", "16", "--spp", "2", "--fov", "3e-6",
+            ])
+            .args([
+                "-q",
+                "--estimators",
+                "jackknife",
+                "--integrators",
+                integrators,
+            ])
+            .args(["--out-dir", s(&dir.path().join(integrators))])
+            .output()
+            .unwrap();
+        assert_refused(
+            &out,
+            &["only 0 of 256 reference pixels read a voxel", "at least 16"],
+        );
+    }
 }
 
 #[test]

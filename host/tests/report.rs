@@ -635,3 +635,68 @@ fn report_reuses_eval_output_and_integrators() {
         "absolute paths in the page"
     );
 }
+
+/// `host report`'s scene flags reach its evaluations: its reference image equals that of
+/// `host eval` with the same `--density-scale`, `--camera`, `--look-at`, `--fov` and `--up`
+/// (issue 43, item 10: the flags did not exist).
+#[test]
+fn report_scene_flags_reach_the_evaluations() {
+    let tmp = tempfile::tempdir_in(env!("CARGO_TARGET_TMPDIR")).unwrap();
+    let scene = [
+        "--density-scale",
+        "40",
+        "--camera",
+        "0.2,0.9,-2.5",
+        "--look-at",
+        "0,0.1,0",
+        "--fov",
+        "31",
+        "--up",
+        "z",
+    ];
+    let common = [
+        "--backend",
+        "cpu",
+        "--resolution",
+        "24",
+        "--width",
+        "12",
+        "--height",
+        "10",
+        "--spp",
+        "2",
+        "--estimators",
+        "jackknife",
+        "--quiet",
+    ];
+    let eval = tmp.path().join("eval");
+    run_ok(
+        host()
+            .arg("eval")
+            .args(common)
+            .args(scene)
+            .arg("--out-dir")
+            .arg(&eval),
+    );
+    let report = tmp.path().join("report");
+    run_ok(
+        host()
+            .args(["report", "--volumes", "cloud"])
+            .args(common)
+            .args(scene)
+            .arg("--out")
+            .arg(&report),
+    );
+    let plain = tmp.path().join("plain");
+    run_ok(
+        host()
+            .args(["report", "--volumes", "cloud"])
+            .args(common)
+            .arg("--out")
+            .arg(&plain),
+    );
+    let read = |p: PathBuf| std::fs::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+    let from_eval = read(eval.join("reference.exr"));
+    assert_eq!(read(report.join("cloud/reference.exr")), from_eval);
+    assert_ne!(read(plain.join("cloud/reference.exr")), from_eval);
+}
