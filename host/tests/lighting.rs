@@ -401,6 +401,44 @@ fn huge_headers_are_refused_under_a_memory_limit() {
     }
 }
 
+/// A valid 16384 x 8192 probe (an 8.5 MB run-length .hdr; 2 GiB while rendering) under a
+/// 1.5 GB address-space limit is refused before its texels are decoded, naming the file, the
+/// memory it needs and a size that fits; it used to abort (issue 43, item 4).
+#[test]
+fn a_valid_probe_larger_than_the_memory_limit_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("big.hdr");
+    write_rle_hdr(&path, MAX_SIDE, MAX_SIDE / 2, [128, 64, 32, 129]);
+    let out = Command::new("sh")
+        .arg("-c")
+        .arg("ulimit -v 1500000 && exec \"$0\" \"$@\"")
+        .arg(env!("CARGO_BIN_EXE_host"))
+        .args(["render", "--integrator", "direct", "--env", s(&path)])
+        .args([
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "--spp",
+            "1",
+            "--resolution",
+            "8",
+        ])
+        .args(["--backend", "cpu", "--quiet", "--out"])
+        .arg(dir.path().join("r.exr"))
+        .output()
+        .unwrap();
+    assert_refused(
+        &out,
+        &[
+            &format!("--env {}", path.display()),
+            "16384x8192 light probe needs 2.0 GiB",
+            "ulimit -v",
+            "probe fits",
+        ],
+    );
+}
+
 // ---------------------------------------------------------------------------------------------
 // lighting::build.
 

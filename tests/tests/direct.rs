@@ -115,7 +115,7 @@ fn map_scene() -> SceneLights {
         albedo: [0.9, 0.7, 0.5],
     });
     let map = gradient_map();
-    let (data, _) = map.data(1.0);
+    let (data, _) = map.clone().data(1.0).unwrap();
     s.lighting.env = shared::sampling::env::EnvDesc {
         width: map.width,
         height: map.height,
@@ -345,7 +345,7 @@ fn single_scattering_against_quadrature(
         1.7,
     )
     .unwrap();
-    let (data, _) = map.data(1.0);
+    let (data, _) = map.clone().data(1.0).unwrap();
     lights.env = data;
     lights.lighting.env = shared::sampling::env::EnvDesc {
         width: 3,

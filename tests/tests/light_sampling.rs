@@ -204,7 +204,7 @@ impl TestMap {
             texels: self.texels.clone(),
         };
         map.check(self.name).unwrap();
-        let (data, _) = map.data(1.0);
+        let (data, _) = map.clone().data(1.0).unwrap();
         assert_eq!(data.len(), EnvDesc::data_len(self.width, self.height));
         let rot = self.rotate_deg.to_radians();
         let desc = EnvDesc {

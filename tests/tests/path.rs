@@ -106,7 +106,7 @@ fn path_passes_the_white_furnace() {
         ..no_lights()
     });
     let map = EnvMap::constant([1.0, 1.0, 1.0]);
-    let (data, _) = map.data(1.0);
+    let (data, _) = map.clone().data(1.0).unwrap();
     l.env = data;
     l.lighting.env = EnvDesc {
         width: map.width,

@@ -286,7 +286,17 @@ fn render_tiles(
     let direct = wave.is_some();
     let env_data: &[f32] = if direct { &lights.env } else { &[0.0] };
     let lighting = gpu.buffer(std::mem::size_of::<Lighting>() as u64)?;
-    let env = gpu.buffer(std::mem::size_of_val(env_data) as u64)?;
+    let env = gpu
+        .buffer(std::mem::size_of_val(env_data) as u64)
+        .with_context(|| {
+            let e = &lights.lighting.env;
+            format!(
+                "the light probe's {}x{} texels and sampling tables (4 floats per texel) do not \
+                 fit one storage buffer of this device; downsample the probe (--env) or use \
+                 --backend cpu",
+                e.width, e.height
+            )
+        })?;
     let map_data: &[u32] = if direct { &lights.shadow_map } else { &[0] };
     let shadow_map = gpu.buffer(std::mem::size_of_val(map_data) as u64)?;
     let mut uploads = vec![

@@ -8,6 +8,42 @@ use std::path::Path;
 /// Largest map side accepted (16384 x 8192 RGB texels are 1.5 GiB of f32).
 pub const MAX_SIDE: u32 = 16384;
 
+/// Bytes a light probe holds per texel at its peak while loaded and rendered on the CPU: its
+/// RGB f32 texels and their conditional CDF, one buffer ([`EnvMap::data`]). Measured: peak RSS
+/// of `host render --backend cpu --integrator direct --env` of a 16384 x 8192 .hdr at 16^3,
+/// 2.06 GiB for 134 M texels.
+pub const BYTES_PER_TEXEL: u64 = 16;
+
+/// Refuses a `w` x `h` probe whose peak ([`BYTES_PER_TEXEL`]) exceeds the memory this process
+/// may still allocate (free memory, `ulimit -v`, the cgroup's limit), before any texel memory is
+/// allocated: an allocation past a limit aborts the process.
+fn check_memory(path: &Path, w: u64, h: u64, available: Option<u64>) -> Result<()> {
+    let need = w * h * BYTES_PER_TEXEL;
+    let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
+    if let Some(available) = available {
+        let side = |s: u64| {
+            let mut s = s;
+            while s > 1 && s * s / 2 * BYTES_PER_TEXEL > available {
+                s /= 2;
+            }
+            s
+        };
+        ensure!(
+            need <= available,
+            "--env {}: the {w}x{h} light probe needs {:.1} GiB ({BYTES_PER_TEXEL} bytes per \
+             texel: RGB and its sampling tables), more than the {:.1} GiB of memory available \
+             (the least of free memory, `ulimit -v` and the cgroup's limit); downsample it (a \
+             {}x{} probe fits)",
+            path.display(),
+            gib(need),
+            gib(available),
+            side(w),
+            side(w) / 2
+        );
+    }
+    Ok(())
+}
+
 /// An equirectangular RGB map: row 0 at the +y pole, column 0 at phi = 0 (+x).
 #[derive(Debug, Clone)]
 pub struct EnvMap {
@@ -88,37 +124,53 @@ impl EnvMap {
     /// The data buffer of `shared::sampling::env` with every texel times `scale`: texels, the
     /// marginal CDF over rows and one conditional CDF per row of luminance x sin(theta).
     /// Returns (data, the integral of the scaled luminance over the sphere, int Y d omega).
-    pub fn data(&self, scale: f32) -> (Vec<f32>, f64) {
+    /// Consumes the map: its texels become the buffer's first part in place, so the peak is
+    /// the buffer ([`BYTES_PER_TEXEL`]), not the buffer and a copy of the texels.
+    pub fn data(self, scale: f32) -> Result<(Vec<f32>, f64)> {
         let (w, h) = (self.width as usize, self.height as usize);
-        let mut data = Vec::with_capacity(shared::sampling::env::EnvDesc::data_len(
-            self.width,
-            self.height,
-        ));
-        for t in &self.texels {
-            data.extend(t.iter().map(|v| v * scale));
+        let mut data: Vec<f32> = match bytemuck::allocation::try_cast_vec(self.texels) {
+            Ok(flat) => flat,
+            Err((_, texels)) => texels.into_iter().flatten().collect(),
+        };
+        let len = shared::sampling::env::EnvDesc::data_len(self.width, self.height);
+        data.try_reserve_exact(len.saturating_sub(data.len()))
+            .map_err(|_| {
+                anyhow::anyhow!(
+                    "cannot allocate {:.1} GiB for the light probe's sampling tables; downsample \
+                     the probe",
+                    len as f64 * 4.0 / (1u64 << 30) as f64
+                )
+            })?;
+        for v in data.iter_mut() {
+            *v *= scale;
         }
         let lum = |t: &[f32]| 0.2126 * t[0] as f64 + 0.7152 * t[1] as f64 + 0.0722 * t[2] as f64;
         // Per-texel weight f = Y sin(theta at the row centre); row sums give the marginal.
         let mut rows = vec![0.0f64; h];
-        let mut conditional = Vec::with_capacity(h * (w + 1));
+        let mut f = vec![0.0f64; w];
         let mut integral = 0.0f64;
         for (j, row_sum) in rows.iter_mut().enumerate() {
             let theta = std::f64::consts::PI * (j as f64 + 0.5) / h as f64;
             let s = theta.sin();
-            let f: Vec<f64> = (0..w)
-                .map(|i| lum(&data[3 * (j * w + i)..3 * (j * w + i) + 3]) * s)
-                .collect();
+            for (i, fi) in f.iter_mut().enumerate() {
+                *fi = lum(&data[3 * (j * w + i)..3 * (j * w + i) + 3]) * s;
+            }
             *row_sum = f.iter().sum();
             integral += *row_sum;
-            conditional.extend(cdf(&f));
         }
-        let marginal = cdf(&rows);
-        data.extend(marginal);
-        data.extend(conditional);
+        data.extend(cdf(&rows));
+        for (j, &row_sum) in rows.iter().enumerate() {
+            let s = (std::f64::consts::PI * (j as f64 + 0.5) / h as f64).sin();
+            for (i, fi) in f.iter_mut().enumerate() {
+                *fi = lum(&data[3 * (j * w + i)..3 * (j * w + i) + 3]) * s;
+            }
+            debug_assert_eq!(f.iter().sum::<f64>().to_bits(), row_sum.to_bits());
+            data.extend(cdf(&f));
+        }
         // Sum of Y sin(theta) dtheta dphi over texels of size (pi / h) x (2 pi / w).
         let integral =
             integral * (std::f64::consts::PI / h as f64) * (2.0 * std::f64::consts::PI / w as f64);
-        (data, integral)
+        Ok((data, integral))
     }
 }
 
@@ -153,6 +205,7 @@ fn read_exr(path: &Path) -> Result<EnvMap> {
             height: resolution.height(),
             texels: Vec::new(),
             failed: false,
+            available: volume_io::available_memory(),
         },
         |t: &mut ExrTexels, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
             t.set(pos.x(), pos.y(), [r, g, b])
@@ -164,12 +217,14 @@ fn read_exr(path: &Path) -> Result<EnvMap> {
         height: h,
         texels,
         failed,
+        available,
     } = image.layer_data.channel_data.pixels;
     ensure!(
         w as u64 <= MAX_SIDE as u64 && h as u64 <= MAX_SIDE as u64,
         "--env {}: {w}x{h} texels is larger than {MAX_SIDE} on a side; downsample the probe",
         path.display()
     );
+    check_memory(path, w as u64, h as u64, available)?;
     ensure!(
         !failed,
         "--env {}: cannot allocate memory for {w}x{h} RGB texels ({:.1} GiB); downsample the probe",
@@ -188,8 +243,11 @@ struct ExrTexels {
     width: usize,
     height: usize,
     texels: Vec<[f32; 3]>,
-    /// The image is larger than [`MAX_SIDE`] or its texels could not be allocated.
+    /// The image is larger than [`MAX_SIDE`], needs more than `available` or its texels could
+    /// not be allocated.
     failed: bool,
+    /// The memory this process may still allocate, if known.
+    available: Option<u64>,
 }
 
 impl ExrTexels {
@@ -197,7 +255,11 @@ impl ExrTexels {
     fn set(&mut self, x: usize, y: usize, rgb: [f32; 3]) {
         if self.texels.is_empty() && !self.failed {
             let n = self.width * self.height;
-            let fits = self.width <= MAX_SIDE as usize && self.height <= MAX_SIDE as usize;
+            let fits = self.width <= MAX_SIDE as usize
+                && self.height <= MAX_SIDE as usize
+                && self
+                    .available
+                    .is_none_or(|a| n as u64 * BYTES_PER_TEXEL <= a);
             if !fits || self.texels.try_reserve_exact(n).is_err() {
                 self.failed = true;
                 return;
@@ -231,6 +293,7 @@ fn read_hdr(path: &Path) -> Result<EnvMap> {
         "--env {}: {w}x{h} texels is larger than {MAX_SIDE} on a side; downsample the probe",
         path.display()
     );
+    check_memory(path, w.into(), h.into(), volume_io::available_memory())?;
     // The decoder's default 512 MiB allocation limit would refuse valid probes above 44 M texels
     // (a 16k x 8k probe is 1.6 GB); the size was bounded by MAX_SIDE above.
     let mut reader = hdr_reader(path)?;
@@ -246,7 +309,11 @@ fn read_hdr(path: &Path) -> Result<EnvMap> {
             )
         })?
         .into_rgb32f();
-    let texels = img.pixels().map(|p| p.0).collect();
+    // In place where the buffer's capacity allows (it does: the decoder allocates exactly).
+    let texels = match bytemuck::allocation::try_cast_vec(img.into_raw()) {
+        Ok(texels) => texels,
+        Err((_, raw)) => raw.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+    };
     Ok(EnvMap {
         width: w,
         height: h,

@@ -7,7 +7,7 @@ pub mod power;
 pub mod random;
 pub mod sky;
 
-use anyhow::{ensure, Result};
+use anyhow::{ensure, Context, Result};
 use env::EnvMap;
 use shared::geometry::V3;
 use shared::rgb::Rgb;
@@ -231,18 +231,18 @@ pub fn build(opts: &LightingOptions, center: [f64; 3], radius: f64) -> Result<Sc
                 MAX_EMISSION / (brightest as f64).max(f64::MIN_POSITIVE)
             ),
         )?;
-        let (data, integral) = map.data(opts.env_scale);
+        let (width, height) = (map.width, map.height);
+        let (data, integral) = map.data(opts.env_scale).with_context(|| what.clone())?;
         ensure!(
             integral.is_finite() && data.iter().all(|v| v.is_finite()),
             "--env-scale {}: the scaled light probe's radiance overflows f32 (brightest texel \
-             {:.3e}); use a smaller --env-scale",
+             {brightest:.3e}); use a smaller --env-scale",
             opts.env_scale,
-            map.texels.iter().flatten().fold(0.0f32, |a, v| a.max(*v))
         );
         let rot = (opts.env_rotate_deg as f64).to_radians();
         lighting.env = EnvDesc {
-            width: map.width,
-            height: map.height,
+            width,
+            height,
             cos_rotation: rot.cos() as f32,
             sin_rotation: rot.sin() as f32,
         };
