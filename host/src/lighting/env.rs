@@ -312,7 +312,7 @@ fn read_hdr(path: &Path) -> Result<EnvMap> {
     // In place where the buffer's capacity allows (it does: the decoder allocates exactly).
     let texels = match bytemuck::allocation::try_cast_vec(img.into_raw()) {
         Ok(texels) => texels,
-        Err((_, raw)) => raw.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+        Err((_, raw)) => raw.as_chunks::<3>().0.to_vec(),
     };
     Ok(EnvMap {
         width: w,
