@@ -10,6 +10,8 @@ loader's tests and benchmarks. Run with Debian's /usr/bin/python3.
   make_sparse_volumes.py two OUT.vdb         two active voxels at opposite corners of a 1000^3 box
   make_sparse_volumes.py line OUT.vdb        two active voxels 10^6 voxels apart along x, checked
                                              in as tests/fixtures/two_far.vdb
+  make_sparse_volumes.py corners OUT.vdb     two active voxels at the corners of a 20001^3 box of
+                                             voxels 5e25 wide, tests/fixtures/two_corners.vdb
   make_sparse_volumes.py wide OUT.vdb        two active voxels 2^32 - 1 apart along x (longer than
                                              the loaders take), checked in as tests/fixtures/wide.vdb
   make_sparse_volumes.py series DIR          the sparse series of `host bench --sweep-files`: bboxes
@@ -114,6 +116,17 @@ def line(out):
     vdb.write(out, grids=[g])
 
 
+def corners(out):
+    """Two voxels at the corners of a 20001^3 box (8.0e12 voxels), 1e30 world units apart (voxel
+    size 5e25): only two leaves to store, and a brick grid that fits only with large bricks."""
+    g = grid()
+    acc = g.getAccessor()
+    acc.setValueOn((0, 0, 0), 1.0)
+    acc.setValueOn((20000, 20000, 20000), 1.0)
+    g.transform = vdb.createLinearTransform(voxelSize=5e25)
+    vdb.write(out, grids=[g])
+
+
 def wide(out):
     """Two voxels 2^32 - 1 apart along x: a box longer than any loader takes (2^31 per axis)."""
     g = grid()
@@ -125,7 +138,7 @@ def wide(out):
 
 if __name__ == "__main__":
     modes = {"fixture": fixture, "disney": disney, "two": two, "line": line, "series": series,
-             "wide": wide}
+             "wide": wide, "corners": corners}
     if len(sys.argv) != 3 or sys.argv[1] not in modes:
         sys.exit(__doc__)
     modes[sys.argv[1]](sys.argv[2])

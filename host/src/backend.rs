@@ -337,16 +337,37 @@ pub fn topology_refusal(
     let bricks = brick_count(t.dims, brick_size);
     let need = bricks.saturating_mul(PACK_BYTES_PER_BRICK);
     let gib = |b: u64| b as f64 / f64::from(1 << 30);
+    let fits = |b: u32| brick_count(t.dims, b).saturating_mul(PACK_BYTES_PER_BRICK);
     available.filter(|&a| need > a).map(|a| {
-        format!(
-            "the {x}x{y}x{z} volume's {bricks} bricks of {brick_size}^3 need about {:.1} GiB to \
-             pack (empty or not), more than the {:.1} GiB of memory available; use a larger \
-             --brick-size or crop the volume",
+        let what = format!(
+            "the {x}x{y}x{z} volume's box holds {bricks} bricks of {brick_size}^3, which need \
+             about {:.1} GiB to pack ({PACK_BYTES_PER_BRICK} bytes each, empty or not: the \
+             renderer's brick grid spans the box of the active voxels), more than the {:.1} GiB \
+             of memory available",
             gib(need),
             gib(a)
-        )
+        );
+        let larger = (1..=MAX_BRICK_SIZE.trailing_zeros())
+            .map(|k| 1u32 << k)
+            .filter(|&b| b > brick_size);
+        // Half the memory for the bricks: the rest of the load (the brick table's growth, the
+        // pool, threads) needs room too, in address space under `ulimit -v`.
+        match larger.into_iter().find(|&b| 2 * fits(b) <= a) {
+            Some(b) => format!(
+                "{what}; --brick-size {b} or larger fits ({:.2} GiB), or crop the volume",
+                gib(fits(b))
+            ),
+            None => format!(
+                "{what}; no --brick-size fits with room to spare (even {MAX_BRICK_SIZE} needs \
+                 {:.2} GiB): crop the volume to the region of interest or resample it coarser",
+                gib(fits(MAX_BRICK_SIZE))
+            ),
+        }
     })
 }
+
+/// The largest `--brick-size`.
+pub const MAX_BRICK_SIZE: u32 = 256;
 
 /// Bytes of the brick table of a `dims` box in `brick_size`^3 bricks (the fixed grid; adaptive
 /// super-voxels add their cells to it).
@@ -462,12 +483,19 @@ mod tests {
         assert_eq!(topology_refusal(&huge, 16, None), None);
         let why = topology_refusal(&huge, 16, Some(100 << 20)).unwrap();
         assert!(
-            why.contains("2001x2001x2001 volume's 2000376 bricks of 16^3"),
+            why.contains("2001x2001x2001 volume's box holds 2000376 bricks of 16^3"),
             "{why}"
         );
-        assert!(why.contains("--brick-size"), "{why}");
-        // 1001^3 bricks of 2^3: 64 GB.
-        assert!(topology_refusal(&huge, 2, Some(32 << 30)).is_some());
+        // 63^3 bricks of 32^3: 16 MB, with room to spare in 100 MB (issue 43, item 5: advice
+        // that names a size that loads).
+        assert!(why.contains("--brick-size 32 or larger fits"), "{why}");
+        // 1001^3 bricks of 2^3: 64 GB; 8^3 bricks: 1 GB, not twice within 1.5 GB; 16^3 bricks
+        // fit.
+        let why = topology_refusal(&huge, 2, Some(3 << 29)).unwrap();
+        assert!(why.contains("--brick-size 16 or larger fits"), "{why}");
+        // In 32 KB no size fits with room to spare (8^3 bricks of 256^3: 32 KB, twice that 64).
+        let why = topology_refusal(&huge, 16, Some(32 << 10)).unwrap();
+        assert!(why.contains("no --brick-size fits"), "{why}");
         let pool = u64::from(shared::volume::grid::FIRST_EMPTY_SLOT);
         let tiles = |tile_voxels| Topology {
             dims: [4096; 3],

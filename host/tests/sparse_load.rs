@@ -236,6 +236,61 @@ fn a_sparse_file_renders_the_same_bytes_on_both_backends() {
     assert!(exrs[0] == exrs[1], "the CPU and GPU images differ");
 }
 
+/// Two voxels at the corners of a 20001^3 box (`tests/fixtures/two_corners.vdb`, 1e30 world units
+/// apart) under a 1 GB address-space limit: the sparse load holds their two leaves and two
+/// blocks of its cell table, not a table over the box (58 GiB: it was refused, and the brick
+/// grid's advice sent the user in a circle, issue 43 items 4-5); the default bricks are refused
+/// naming a --brick-size that fits, and that size renders under the same limit.
+#[test]
+fn two_voxels_at_the_corners_of_a_huge_box_load_with_the_brick_size_advised() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/fixtures/two_corners.vdb");
+    let dir = tempfile::tempdir().unwrap();
+    let limited = |extra: &[&str]| {
+        std::process::Command::new("sh")
+            .arg("-c")
+            .arg("ulimit -v 1000000 && exec \"$0\" \"$@\"")
+            .arg(env!("CARGO_BIN_EXE_host"))
+            .args([
+                "render",
+                "--backend",
+                "cpu",
+                "--volume",
+                path.to_str().unwrap(),
+            ])
+            .args(["--width", "8", "--height", "8", "--spp", "1", "--quiet"])
+            .arg("--out")
+            .arg(dir.path().join("r.exr"))
+            .arg("--json")
+            .arg(dir.path().join("r.json"))
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let out = limited(&[]);
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    for part in [
+        "two_corners.vdb",
+        "20001x20001x20001",
+        "bricks of 16^3",
+        "or larger fits",
+    ] {
+        assert!(stderr.contains(part), "{part:?} missing: {stderr}");
+    }
+    let advised = stderr
+        .split("--brick-size ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .unwrap_or_else(|| panic!("no size advised: {stderr}"));
+    let out = limited(&["--brick-size", advised]);
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(out.status.success(), "--brick-size {advised}: {stderr}");
+    let j: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("r.json")).unwrap()).unwrap();
+    // Two leaves of f32 values and two blocks of the cell table.
+    assert!(j["volume_bytes"].as_u64().unwrap() < 64 << 10, "{j}");
+}
+
 /// Two active voxels 10^6 voxels apart (`tests/fixtures/two_far.vdb`, a 1000001 x 1 x 1 box),
 /// seen down the line so that every ray crosses the empty span: the traversals' budgets come from
 /// the two occupied bricks, not the 62501 bricks of the box, so lavapipe renders it (it refused

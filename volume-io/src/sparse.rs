@@ -1,7 +1,8 @@
 //! A sparse extinction volume: the active voxels of a file's 8^3 leaves and its active tiles
 //! (or a generated volume's non-empty 8^3 cells), stored once each, addressed by a table of 8^3
-//! cells over the bounding box. No dense array of the bounding box is ever built; voxels outside
-//! every leaf and tile read as 0.
+//! cells held per block of 8^3 cells that a leaf or tile touches. No array over the bounding box
+//! is ever built, not even of cells: memory follows what is occupied, so two voxels at the
+//! corners of a huge box cost two blocks. Voxels outside every leaf and tile read as 0.
 //!
 //! Local index conventions are those of [`crate::dense::DenseVolume`]: local voxel `p` is file
 //! voxel `file_origin + p`, and a sparse volume reads exactly as the dense volume of the same
@@ -17,17 +18,53 @@ pub(crate) const CELL_VALUES: usize = 512;
 const NONE: u32 = u32::MAX;
 /// Table entry flag: the rest is an index into the tile values.
 const TILE: u32 = 1 << 31;
+/// Cells per block axis: the table is held in blocks of 8^3 cells (64^3 voxels).
+const BLOCK: u32 = 8;
+/// Cells per block.
+const BLOCK_CELLS: usize = (BLOCK * BLOCK * BLOCK) as usize;
+/// Voxels per block axis; blocks are aligned to multiples of it in file index coordinates, as
+/// OpenVDB's internal nodes are, so a tile of 64 voxels or more covers whole blocks.
+pub(crate) const BLOCK_VOXELS: i32 = (BLOCK as i32) * (CELL as i32);
+/// Bytes a block's table takes (its entries; a uniform block takes only its map entry).
+pub(crate) const BLOCK_TABLE_BYTES: u64 = BLOCK_CELLS as u64 * 4;
+/// Bytes of one block's entry in the map (key, tag and pointer or entry, hash table overhead).
+pub(crate) const BLOCK_ENTRY_BYTES: u64 = 32;
 
-/// The cells of a sparse volume: a table over the bounding box in 8^3 cells aligned to the
-/// file's index coordinates, each empty, a constant (a tile) or a leaf's 512 values.
+/// The table entries of one block of cells: one entry for all of them (none, or a tile covering
+/// the block), or one per cell (x fastest).
+#[derive(Clone, Debug)]
+enum Block {
+    Uniform(u32),
+    Table(Box<[u32; BLOCK_CELLS]>),
+}
+
+/// Blocks by key (see [`Cells::key`]); a fixed hasher, though no result depends on the order.
+type BlockMap = std::collections::HashMap<
+    u64,
+    Block,
+    std::hash::BuildHasherDefault<std::collections::hash_map::DefaultHasher>,
+>;
+
+/// Index of cell `c` in its block's table.
+fn in_block(c: [u32; 3]) -> usize {
+    let l = c.map(|v| (v % BLOCK) as usize);
+    (l[2] * BLOCK as usize + l[1]) * BLOCK as usize + l[0]
+}
+
+/// The cells of a sparse volume: 8^3 cells over the bounding box aligned to the file's index
+/// coordinates, each empty, a constant (a tile) or a leaf's 512 values, with a table entry per
+/// cell held only in the blocks a leaf or tile touches.
 #[derive(Clone, Debug)]
 pub(crate) struct Cells {
-    /// File index of the first voxel of cell (0, 0, 0), a multiple of 8 per axis.
+    /// File index of the first voxel of cell (0, 0, 0), a multiple of [`BLOCK_VOXELS`] per axis.
     origin: [i64; 3],
     /// Cells per axis.
     dims: [u32; 3],
-    /// Per cell (x fastest): [`NONE`], `TILE | k` (value `tiles[k]`) or a leaf index.
-    table: Vec<u32>,
+    /// Blocks per axis.
+    block_dims: [u32; 3],
+    /// Per cell: [`NONE`] (also every cell of a block not in the map), `TILE | k` (value
+    /// `tiles[k]`) or a leaf index.
+    blocks: BlockMap,
     /// Tile values.
     tiles: Vec<f32>,
     /// Leaf values, [`CELL_VALUES`] per leaf, value `x << 6 | y << 3 | z` (OpenVDB's order).
@@ -116,23 +153,23 @@ impl Store {
 
 impl Cells {
     /// Empty cells covering the inclusive file index box `lo..=hi`, their leaf values held as
-    /// f16 while they are halves (`half`: a half-float file) else f32; `None` if the table would
-    /// not fit memory indices.
+    /// f16 while they are halves (`half`: a half-float file) else f32; `None` if the box's
+    /// cells cannot be numbered in 64 bits.
     pub(crate) fn new(lo: [i64; 3], hi: [i64; 3], half: bool) -> Option<Self> {
-        let origin = lo.map(|v| v.div_euclid(CELL) * CELL);
+        let aligned = i64::from(BLOCK_VOXELS);
+        let origin = lo.map(|v| v.div_euclid(aligned) * aligned);
         let dims: [u32; 3] = std::array::from_fn(|a| {
             u32::try_from((hi[a] - origin[a]).div_euclid(CELL) + 1).unwrap_or(u32::MAX)
         });
-        let count = dims
+        let block_dims = dims.map(|d| d.div_ceil(BLOCK));
+        block_dims
             .iter()
-            .try_fold(1usize, |n, &d| n.checked_mul(d as usize))?;
-        let mut table = Vec::new();
-        table.try_reserve_exact(count).ok()?;
-        table.resize(count, NONE);
+            .try_fold(1u64, |n, &d| n.checked_mul(u64::from(d)))?;
         Some(Cells {
             origin,
             dims,
-            table,
+            block_dims,
+            blocks: BlockMap::default(),
             tiles: Vec::new(),
             leaves: if half {
                 Store::F16(Vec::new())
@@ -144,7 +181,50 @@ impl Cells {
 
     /// Bytes held: the table and the values.
     pub(crate) fn bytes(&self) -> u64 {
-        (self.table.len() * 4 + self.tiles.len() * 4 + self.leaves.bytes()) as u64
+        let tables = self
+            .blocks
+            .values()
+            .filter(|b| matches!(b, Block::Table(_)))
+            .count() as u64;
+        self.blocks.len() as u64 * BLOCK_ENTRY_BYTES
+            + tables * BLOCK_TABLE_BYTES
+            + (self.tiles.len() * 4 + self.leaves.bytes()) as u64
+    }
+
+    /// The map key of the block holding cell `c`.
+    fn key(&self, c: [u32; 3]) -> u64 {
+        let [bx, by, bz] = c.map(|v| u64::from(v / BLOCK));
+        let [nx, ny, _] = self.block_dims.map(u64::from);
+        (bz * ny + by) * nx + bx
+    }
+
+    /// The table entry of cell `c` (inside the grid).
+    fn entry(&self, c: [u32; 3]) -> u32 {
+        match self.blocks.get(&self.key(c)) {
+            None => NONE,
+            Some(Block::Uniform(e)) => *e,
+            Some(Block::Table(t)) => t[in_block(c)],
+        }
+    }
+
+    /// Sets the table entry of cell `c` (inside the grid).
+    fn set(&mut self, c: [u32; 3], e: u32) {
+        let key = self.key(c);
+        let block = self.blocks.entry(key).or_insert(Block::Uniform(NONE));
+        if let Block::Uniform(u) = *block {
+            if u == e {
+                return;
+            }
+            *block = Block::Table(Box::new([u; BLOCK_CELLS]));
+        }
+        if let Block::Table(t) = block {
+            t[in_block(c)] = e;
+        }
+    }
+
+    /// Total cells of the grid (x fastest, then y, then z).
+    fn cell_count(&self) -> usize {
+        self.dims.iter().map(|&d| d as usize).product()
     }
 
     /// Leaves stored.
@@ -152,17 +232,17 @@ impl Cells {
         self.leaves.len() / CELL_VALUES
     }
 
-    /// Table index of the cell holding file voxel `ijk`, if the table covers it.
-    fn cell_of(&self, ijk: [i64; 3]) -> Option<usize> {
-        let mut index = 0usize;
-        for a in (0..3).rev() {
+    /// The cell holding file voxel `ijk`, if the grid covers it.
+    fn cell_of(&self, ijk: [i64; 3]) -> Option<[u32; 3]> {
+        let mut cell = [0u32; 3];
+        for a in 0..3 {
             let c = (ijk[a] - self.origin[a]).div_euclid(CELL);
             if c < 0 || c >= i64::from(self.dims[a]) {
                 return None;
             }
-            index = index * self.dims[a] as usize + c as usize;
+            cell[a] = c as u32;
         }
-        Some(index)
+        Some(cell)
     }
 
     /// Sets every cell of an active tile of `2^log2` (>= 8) voxels per axis at `origin` (a
@@ -179,11 +259,32 @@ impl Cells {
         }
         let k = self.tiles.len() as u32;
         self.tiles.push(value);
-        let [dx, dy, _] = self.dims.map(|d| d as usize);
-        for z in lo[2]..hi[2] {
-            for y in lo[1]..hi[1] {
-                let row = (z as usize * dy + y as usize) * dx;
-                self.table[row + lo[0] as usize..row + hi[0] as usize].fill(TILE | k);
+        let (lo, hi) = (lo.map(|v| v as u32), hi.map(|v| v as u32));
+        // Block by block: one entry for a block the tile covers (within the grid), else per cell.
+        let (b_lo, b_hi) = (lo.map(|v| v / BLOCK), hi.map(|v| v.div_ceil(BLOCK)));
+        for bz in b_lo[2]..b_hi[2] {
+            for by in b_lo[1]..b_hi[1] {
+                for bx in b_lo[0]..b_hi[0] {
+                    let b = [bx, by, bz];
+                    let c_lo: [u32; 3] = std::array::from_fn(|a| (b[a] * BLOCK).max(lo[a]));
+                    let c_hi: [u32; 3] =
+                        std::array::from_fn(|a| ((b[a] + 1) * BLOCK).min(self.dims[a]).min(hi[a]));
+                    let whole = (0..3).all(|a| {
+                        c_lo[a] == b[a] * BLOCK && c_hi[a] == ((b[a] + 1) * BLOCK).min(self.dims[a])
+                    });
+                    if whole {
+                        let key = self.key(c_lo);
+                        self.blocks.insert(key, Block::Uniform(TILE | k));
+                        continue;
+                    }
+                    for z in c_lo[2]..c_hi[2] {
+                        for y in c_lo[1]..c_hi[1] {
+                            for x in c_lo[0]..c_hi[0] {
+                                self.set([x, y, z], TILE | k);
+                            }
+                        }
+                    }
+                }
             }
         }
     }
@@ -198,7 +299,7 @@ impl Cells {
         let Some(cell) = self.cell_of(origin.map(i64::from)) else {
             return;
         };
-        let entry = self.table[cell];
+        let entry = self.entry(cell);
         let n = if entry != NONE && entry & TILE == 0 {
             entry as usize
         } else {
@@ -209,7 +310,7 @@ impl Cells {
             };
             let n = self.leaf_count();
             self.leaves.push_leaf(fill);
-            self.table[cell] = n as u32;
+            self.set(cell, n as u32);
             n
         };
         for (w, &word) in mask.iter().enumerate() {
@@ -283,7 +384,7 @@ impl SparseVolume {
                 (at / (cx * cy)) as u32,
             ]
         };
-        let kinds: Vec<Option<f32>> = (0..cells.table.len())
+        let kinds: Vec<Option<f32>> = (0..cells.cell_count())
             .into_par_iter()
             .map(|at| constant(coords(at)))
             .collect();
@@ -292,11 +393,12 @@ impl SparseVolume {
             match kind {
                 Some(v) if v.to_bits() == 0 => {}
                 Some(v) => {
-                    cells.table[at] = TILE | cells.tiles.len() as u32;
+                    let k = TILE | cells.tiles.len() as u32;
+                    cells.set(coords(at), k);
                     cells.tiles.push(*v);
                 }
                 None => {
-                    cells.table[at] = leaf_cells.len() as u32;
+                    cells.set(coords(at), leaf_cells.len() as u32);
                     leaf_cells.push(at);
                 }
             }
@@ -321,7 +423,8 @@ impl SparseVolume {
         (x << 6) | (y << 3) | z
     }
 
-    /// The cells meeting the local voxel box [lo, hi), with their parts of it, in table order.
+    /// The stored cells meeting the local voxel box [lo, hi), with their parts of it, block by
+    /// block (no consumer depends on the order).
     fn pieces(&self, lo: [u32; 3], hi: [u32; 3], mut f: impl FnMut(Piece)) {
         let c = &self.cells;
         let origin = self.file_origin.unwrap_or([0; 3]);
@@ -331,24 +434,45 @@ impl SparseVolume {
         if (0..3).any(|a| lo[a] >= hi[a]) {
             return;
         }
-        let [dx, dy, _] = c.dims.map(|d| d as usize);
-        for z in c_lo[2]..c_hi[2] {
-            for y in c_lo[1]..c_hi[1] {
-                for x in c_lo[0]..c_hi[0] {
-                    let entry = c.table[(z as usize * dy + y as usize) * dx + x as usize];
-                    if entry == NONE {
-                        continue;
+        let c_lo = c_lo.map(|v| v.max(0) as u32);
+        let c_hi: [u32; 3] = std::array::from_fn(|a| c_hi[a].clamp(0, i64::from(c.dims[a])) as u32);
+        let (b_lo, b_hi) = (c_lo.map(|v| v / BLOCK), c_hi.map(|v| v.div_ceil(BLOCK)));
+        for bz in b_lo[2]..b_hi[2] {
+            for by in b_lo[1]..b_hi[1] {
+                for bx in b_lo[0]..b_hi[0] {
+                    let b = [bx, by, bz];
+                    let block = match c.blocks.get(&c.key(b.map(|v| v * BLOCK))) {
+                        None | Some(Block::Uniform(NONE)) => continue,
+                        Some(block) => block,
+                    };
+                    let lo_b: [u32; 3] = std::array::from_fn(|a| (b[a] * BLOCK).max(c_lo[a]));
+                    let hi_b: [u32; 3] = std::array::from_fn(|a| ((b[a] + 1) * BLOCK).min(c_hi[a]));
+                    for z in lo_b[2]..hi_b[2] {
+                        for y in lo_b[1]..hi_b[1] {
+                            for x in lo_b[0]..hi_b[0] {
+                                let entry = match block {
+                                    Block::Uniform(e) => *e,
+                                    Block::Table(t) => t[in_block([x, y, z])],
+                                };
+                                if entry == NONE {
+                                    continue;
+                                }
+                                let cell = [x, y, z].map(i64::from);
+                                let cell_lo: [i64; 3] =
+                                    std::array::from_fn(|a| cell[a] * CELL - shift[a]);
+                                f(Piece {
+                                    entry,
+                                    lo: std::array::from_fn(|a| {
+                                        cell_lo[a].max(i64::from(lo[a])) as u32
+                                    }),
+                                    hi: std::array::from_fn(|a| {
+                                        (cell_lo[a] + CELL).min(i64::from(hi[a])) as u32
+                                    }),
+                                    cell_lo,
+                                });
+                            }
+                        }
                     }
-                    let cell = [x, y, z];
-                    let cell_lo: [i64; 3] = std::array::from_fn(|a| cell[a] * CELL - shift[a]);
-                    f(Piece {
-                        entry,
-                        lo: std::array::from_fn(|a| cell_lo[a].max(i64::from(lo[a])) as u32),
-                        hi: std::array::from_fn(|a| {
-                            (cell_lo[a] + CELL).min(i64::from(hi[a])) as u32
-                        }),
-                        cell_lo,
-                    });
                 }
             }
         }

@@ -28,6 +28,11 @@ pub(crate) struct Survey {
     off_lattice: bool,
     /// Voxels of the active tiles with a positive value ([`super::Topology::tile_voxels`]).
     pub(crate) tile_voxels: u64,
+    /// Origins of the active tiles smaller than a block of the cell table (each makes its block
+    /// hold a table).
+    small_tiles: Vec<[i32; 3]>,
+    /// Blocks the larger active tiles cover, each one uniform entry of the cell table.
+    tile_blocks: u64,
 }
 
 impl Survey {
@@ -48,15 +53,24 @@ impl Survey {
         let dims = super::sparse_dims(lo, hi)?;
         let leaves = self.leaves.len();
         // The leaves' values (f16 from a half-float file, else f32), later the f16 pool of at
-        // most as many voxels, and the table.
-        let table = dims
-            .iter()
-            .map(|&d| u64::from(d / 8 + 2))
-            .fold(1u64, u64::saturating_mul);
+        // most as many voxels, and the cell table: a table per block a leaf or small tile
+        // touches, one entry per block a large tile covers. Nothing scales with the box.
+        let block = sparse::BLOCK_VOXELS;
+        let touched: std::collections::HashSet<[i32; 3]> = (self.leaves.iter().map(|l| l.origin))
+            .chain(self.small_tiles.iter().copied())
+            .map(|o| o.map(|v| v.div_euclid(block)))
+            .collect();
+        let table = (touched.len() as u64)
+            .saturating_mul(sparse::BLOCK_TABLE_BYTES + sparse::BLOCK_ENTRY_BYTES)
+            .saturating_add(self.tile_blocks.saturating_mul(sparse::BLOCK_ENTRY_BYTES));
         let value_bytes = if half { 2 } else { 4 };
-        let bytes = (leaves as u64 * sparse::CELL_VALUES as u64 * (value_bytes + 2))
-            .saturating_add(table.saturating_mul(4));
-        super::check_bytes(bytes, "its leaves", super::available_memory())?;
+        let bytes =
+            (leaves as u64 * sparse::CELL_VALUES as u64 * (value_bytes + 2)).saturating_add(table);
+        super::check_bytes(
+            bytes,
+            &format!("its {leaves} leaves (8^3 voxels each) and their table"),
+            super::available_memory(),
+        )?;
         let mut cells = sparse::Cells::new(lo, hi, half)
             .context("the grid's cell table does not fit memory; crop the volume")?;
         ensure!(
@@ -80,6 +94,13 @@ impl TopologySink for Survey {
             self.tile_voxels = self.tile_voxels.saturating_add(1u64 << (3 * log2));
         }
         self.bounds.include_tile(origin, log2);
+        let block_log2 = sparse::BLOCK_VOXELS.trailing_zeros();
+        if log2 < block_log2 {
+            self.small_tiles.push(origin);
+        } else {
+            let side = 1u64 << (log2 - block_log2);
+            self.tile_blocks = self.tile_blocks.saturating_add(side * side * side);
+        }
     }
 
     fn leaf(&mut self, origin: [i32; 3], mask: [u64; 8]) {
