@@ -101,8 +101,14 @@ fn optimize_one(input: &Path, output: &Path) -> Result<PathBuf, BoxError> {
     let words = spirv_tools::binary::to_binary(&bytes)?.to_vec();
     let optimized = spirv_opt_unvalidated(&words)?;
     let target = Some(TargetEnv::Vulkan_1_2);
+    // Uniform blocks are laid out as Rust lays out the shared structs (std430-like), which
+    // Vulkan 1.2's uniformBufferStandardLayout allows (the device enables it).
+    let options = spirv_tools::val::ValidatorOptions {
+        uniform_buffer_standard_layout: true,
+        ..Default::default()
+    };
     spirv_tools::val::create(target)
-        .validate(&optimized, Some(Default::default()))
+        .validate(&optimized, Some(options))
         .map_err(|e| format!("the optimized module is invalid: {e}"))?;
     let bytes: Vec<u8> = optimized.iter().flat_map(|w| w.to_le_bytes()).collect();
     std::fs::write(output, bytes)?;
@@ -177,8 +183,11 @@ struct EntryInfo {
     /// Its optimized module.
     module: PathBuf,
     name: String,
-    /// Element stride of each storage buffer, by binding number (0: not a runtime array).
+    /// Element stride of each storage buffer, by binding number (0: not a runtime array), or the
+    /// size of a uniform buffer's block.
     strides: Vec<u32>,
+    /// Bit b set: binding b is a uniform buffer (else a storage buffer).
+    uniforms: u32,
     /// Size in bytes of the push-constant block (0: none).
     push_size: u32,
 }
@@ -275,6 +284,13 @@ fn kernel_items(
     );
     arms(
         &mut s,
+        "Bit b set: binding b of set 0 is a uniform buffer (one block of `strides()[b]` bytes), \
+         else a storage buffer.",
+        "uniforms(self) -> u32",
+        &|e| format!("{:#x}", e.uniforms),
+    );
+    arms(
+        &mut s,
         "Size in bytes of the push constants.",
         "push_size(self) -> u32",
         &|e| e.push_size.to_string(),
@@ -303,6 +319,7 @@ const OP_VARIABLE: u32 = 59;
 const DECORATION_ARRAY_STRIDE: u32 = 6;
 const DECORATION_OFFSET: u32 = 35;
 const DECORATION_BINDING: u32 = 33;
+const STORAGE_UNIFORM: u32 = 2;
 const STORAGE_PUSH_CONSTANT: u32 = 9;
 const STORAGE_STORAGE_BUFFER: u32 = 12;
 
@@ -364,6 +381,7 @@ fn reflect(spv: &[u8]) -> Result<Vec<EntryInfo>, BoxError> {
 /// Bindings and push-constant size of one entry point from its interface variables.
 fn entry_info(m: &Module, name: String, interface: &[u32]) -> Result<EntryInfo, BoxError> {
     let mut strides: Vec<u32> = Vec::new();
+    let mut uniforms = 0u32;
     let mut push_size = 0;
     for id in interface {
         let Some(&(ptr, class)) = m.variables.get(id) else {
@@ -375,22 +393,28 @@ fn entry_info(m: &Module, name: String, interface: &[u32]) -> Result<EntryInfo, 
         };
         if class == STORAGE_PUSH_CONSTANT {
             push_size = m.size_of(pointee)?;
-        } else if class == STORAGE_STORAGE_BUFFER {
+        } else if class == STORAGE_STORAGE_BUFFER || class == STORAGE_UNIFORM {
             let binding = *m
                 .decorations
                 .get(&(*id, DECORATION_BINDING))
-                .ok_or_else(|| format!("{name}: storage buffer {id} has no binding"))?
+                .ok_or_else(|| format!("{name}: buffer {id} has no binding"))?
                 as usize;
             if binding >= strides.len() {
                 strides.resize(binding + 1, 0);
             }
-            strides[binding] = m.runtime_stride(pointee);
+            strides[binding] = if class == STORAGE_UNIFORM {
+                uniforms |= 1 << binding;
+                m.size_of(pointee)?
+            } else {
+                m.runtime_stride(pointee)
+            };
         }
     }
     Ok(EntryInfo {
         module: PathBuf::new(),
         name,
         strides,
+        uniforms,
         push_size,
     })
 }

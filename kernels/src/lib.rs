@@ -2,7 +2,10 @@
 //! the CPU backend calls the same functions over the same ids.
 //!
 //! Binding numbers follow `shared::kernels::launch::bindings` (rust-gpu needs integer literals in
-//! `#[spirv(binding = N)]`; the host checks them against its named bindings at compile time);
+//! `#[spirv(binding = N)]`; the host checks them against its named bindings at compile time).
+//! The per-dispatch structs (`RenderParams`, `GridDesc`, `Lighting`) are uniform blocks, every
+//! array a storage buffer: lavapipe reads a uniform block at a uniform offset with one scalar
+//! load, where each storage-buffer load is a loop over the SIMD lanes (Mesa's `emit_load_mem`);
 //! push constants are one `shared` struct per kernel (`Launch`, or `RenderPass` for `transmittance_cs` and `scattering_cs`).
 //! Specialization constants by id (host: `gpu::render::specialization`): 0 the integrator, 1 the
 //! estimator, 2 a wavefront stage's kind, 3 whether the voxel pool spans several pages (0: the
@@ -112,10 +115,10 @@ macro_rules! render_kernel {
         pub fn $name(
             #[spirv(global_invocation_id)] gid: UVec3,
             #[spirv(push_constant)] pass: &RenderPass,
-            // bindings::render::PARAMS
-            #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &[RenderParams],
+            // bindings::render::PARAMS (a uniform block, as every per-dispatch struct)
+            #[spirv(uniform, descriptor_set = 0, binding = 0)] params: &RenderParams,
             // bindings::render::DESC
-            #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] desc: &[GridDesc],
+            #[spirv(uniform, descriptor_set = 0, binding = 1)] desc: &GridDesc,
             // bindings::render::VOXELS
             #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] voxels: &[u32],
             // bindings::render::BRICKS
@@ -154,7 +157,7 @@ macro_rules! render_kernel {
                 let vol = VolumeView {
                     // By value: the pipeline's specialized copy (held by reference in this
                     // struct, rust-gpu dropped every read of it).
-                    desc: desc[0].specialized(lookup, cells_per_brick, brick_log2, brick_stepping),
+                    desc: desc.specialized(lookup, cells_per_brick, brick_log2, brick_stepping),
                     voxels: Pages {
                         p0: voxels,
                         p1: voxels_1,
@@ -174,7 +177,7 @@ macro_rules! render_kernel {
                 } else {
                     sums[slot]
                 };
-                let p = params[0].specialized(integrator, estimator, importance);
+                let p = params.specialized(integrator, estimator, importance);
                 let ($vol, $p, $lights, $i, $pass, $prev) = (&vol, &p, lights, i as u32, pass, prev);
                 sums[slot] = $call;
             }
@@ -208,9 +211,9 @@ macro_rules! wave_kernel {
             #[spirv(global_invocation_id)] gid: UVec3,
             #[spirv(push_constant)] pass: &PathPass,
             // bindings::path::PARAMS
-            #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &[RenderParams],
+            #[spirv(uniform, descriptor_set = 0, binding = 0)] params: &RenderParams,
             // bindings::path::DESC
-            #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] desc: &[GridDesc],
+            #[spirv(uniform, descriptor_set = 0, binding = 1)] desc: &GridDesc,
             // bindings::path::VOXELS
             #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] voxels: &[u32],
             // bindings::path::BRICKS
@@ -220,7 +223,7 @@ macro_rules! wave_kernel {
             // bindings::path::SUMS
             #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] sums: &mut [PixelSums],
             // bindings::path::LIGHTING
-            #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] lighting: &[Lighting],
+            #[spirv(uniform, descriptor_set = 0, binding = 6)] lighting: &Lighting,
             // bindings::path::ENV
             #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] env: &[f32],
             // bindings::path::STATES
@@ -258,7 +261,7 @@ macro_rules! wave_kernel {
                 let vol = VolumeView {
                     // By value: the pipeline's specialized copy (held by reference in this
                     // struct, rust-gpu dropped every read of it).
-                    desc: desc[0].specialized(lookup, cells_per_brick, brick_log2, brick_stepping),
+                    desc: desc.specialized(lookup, cells_per_brick, brick_log2, brick_stepping),
                     voxels: Pages {
                 p0: voxels,
                 p1: voxels_1,
@@ -273,9 +276,9 @@ macro_rules! wave_kernel {
                     bricks,
                 };
                 let slot = i - pass.sums_base as usize;
-                let p = &params[0].specialized(integrator, estimator, importance);
+                let p = &params.specialized(integrator, estimator, importance);
                 let scene = Scene {
-                    lighting: &lighting[0],
+                    lighting,
                     points: lights,
                     point_count: p.light_count,
                     env,
@@ -398,15 +401,15 @@ macro_rules! msm_build_kernel {
             #[spirv(global_invocation_id)] gid: UVec3,
             #[spirv(push_constant)] pass: &MsmPass,
             // bindings::msm_build::PARAMS
-            #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &[RenderParams],
+            #[spirv(uniform, descriptor_set = 0, binding = 0)] params: &RenderParams,
             // bindings::msm_build::DESC
-            #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] desc: &[GridDesc],
+            #[spirv(uniform, descriptor_set = 0, binding = 1)] desc: &GridDesc,
             // bindings::msm_build::VOXELS
             #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] voxels: &[u32],
             // bindings::msm_build::BRICKS
             #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] bricks: &[Brick],
             // bindings::msm_build::LIGHTING
-            #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] lighting: &[Lighting],
+            #[spirv(uniform, descriptor_set = 0, binding = 4)] lighting: &Lighting,
             // bindings::msm_build::RAW
             #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] raw: &mut [f32],
             // bindings::msm_build::VOXEL_PAGES + 0
@@ -435,7 +438,7 @@ macro_rules! msm_build_kernel {
                 let vol = VolumeView {
                     // By value: the pipeline's specialized copy (held by reference in this
                     // struct, rust-gpu dropped every read of it).
-                    desc: desc[0].specialized(lookup, cells_per_brick, brick_log2, brick_stepping),
+                    desc: desc.specialized(lookup, cells_per_brick, brick_log2, brick_stepping),
                     voxels: Pages {
                         p0: voxels,
                         p1: voxels_1,
@@ -449,7 +452,7 @@ macro_rules! msm_build_kernel {
                     },
                     bricks,
                 };
-                let m = shadow_map::msm_raw_texel(&vol, &params[0], &lighting[0], k as u32);
+                let m = shadow_map::msm_raw_texel(&vol, params, lighting, k as u32);
                 let mut c = 0;
                 while c < RAW_PER_TEXEL {
                     raw[RAW_PER_TEXEL * k + c] = m[c];
@@ -472,14 +475,14 @@ pub fn msm_store_cs(
     #[spirv(global_invocation_id)] gid: UVec3,
     #[spirv(push_constant)] pass: &MsmPass,
     // bindings::msm_store::LIGHTING
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] lighting: &[Lighting],
+    #[spirv(uniform, descriptor_set = 0, binding = 0)] lighting: &Lighting,
     // bindings::msm_store::RAW
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] raw: &[f32],
     // bindings::msm_store::MAP
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] map: &mut [u32],
 ) {
     if let Some(k) = pass.launch.id(gid.x) {
-        let l = &lighting[0];
+        let l = lighting;
         let w = shadow_map::msm_store_texel(l, raw, pass, k as u32);
         let n = shared::shadows::map::Shadows::from_u32(l.shadows).words_per_texel() as usize;
         let mut c = 0;

@@ -60,11 +60,17 @@ pub fn forced_index(value: &str, count: usize) -> Result<usize, GpuError> {
 }
 
 /// The first feature the kernels need (shaderInt64, vulkanMemoryModel) that a device lacks.
-pub fn missing_feature(shader_int64: bool, vulkan_memory_model: bool) -> Option<&'static str> {
+pub fn missing_feature(
+    shader_int64: bool,
+    vulkan_memory_model: bool,
+    uniform_buffer_standard_layout: bool,
+) -> Option<&'static str> {
     if !shader_int64 {
         Some("shaderInt64")
     } else if !vulkan_memory_model {
         Some("vulkanMemoryModel")
+    } else if !uniform_buffer_standard_layout {
+        Some("uniformBufferStandardLayout")
     } else {
         None
     }
@@ -248,7 +254,8 @@ impl DeviceOwner {
         unsafe { instance.get_physical_device_properties2(physical, &mut props2) };
         let max_allocation = maintenance3.max_memory_allocation_size;
         let memory_model = have12.vulkan_memory_model == vk::TRUE;
-        if let Some(feature) = missing_feature(int64, memory_model) {
+        let ubo_layout = have12.uniform_buffer_standard_layout == vk::TRUE;
+        if let Some(feature) = missing_feature(int64, memory_model, ubo_layout) {
             return Err(GpuError::Unsupported(description, feature));
         }
         if props.limits.max_per_stage_descriptor_storage_buffers < MAX_BINDINGS {
@@ -263,8 +270,10 @@ impl DeviceOwner {
             .queue_family_index(queue_family)
             .queue_priorities(&priorities)];
         let features = vk::PhysicalDeviceFeatures::default().shader_int64(true);
-        let mut features12 =
-            vk::PhysicalDeviceVulkan12Features::default().vulkan_memory_model(true);
+        // Uniform blocks (the render kernels' parameters) in the shared structs' layout.
+        let mut features12 = vk::PhysicalDeviceVulkan12Features::default()
+            .vulkan_memory_model(true)
+            .uniform_buffer_standard_layout(true);
         let device_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_info)
             .enabled_features(&features)
@@ -395,8 +404,15 @@ mod tests {
 
     #[test]
     fn a_device_without_a_needed_feature_is_named() {
-        assert_eq!(missing_feature(true, true), None);
-        assert_eq!(missing_feature(false, true), Some("shaderInt64"));
-        assert_eq!(missing_feature(true, false), Some("vulkanMemoryModel"));
+        assert_eq!(missing_feature(true, true, true), None);
+        assert_eq!(missing_feature(false, true, true), Some("shaderInt64"));
+        assert_eq!(
+            missing_feature(true, false, true),
+            Some("vulkanMemoryModel")
+        );
+        assert_eq!(
+            missing_feature(true, true, false),
+            Some("uniformBufferStandardLayout")
+        );
     }
 }

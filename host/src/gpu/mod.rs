@@ -454,7 +454,10 @@ impl Gpu {
                 vk::WriteDescriptorSet::default()
                     .dst_set(set)
                     .dst_binding(i as u32)
-                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .descriptor_type(resources::descriptor_type(
+                        r.pipelines[0].uniforms,
+                        i as u32,
+                    ))
                     .buffer_info(info)
             })
             .collect();

@@ -211,6 +211,7 @@ fn build(owner: &Arc<DeviceOwner>, kernel: Kernel, spec: &[u32]) -> Result<Pipel
         module,
         kernel.c_name(),
         bindings,
+        kernel.uniforms(),
         kernel.push_size(),
         spec,
     );

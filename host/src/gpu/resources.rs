@@ -82,10 +82,10 @@ fn create_buffer(
 }
 
 impl Buffer {
-    /// A device-local storage buffer of `size` bytes (at least 4), uninitialised.
+    /// A device-local storage (or uniform) buffer of `size` bytes (at least 4), uninitialised.
     pub fn new(owner: &Arc<DeviceOwner>, size: u64) -> Result<Self, GpuError> {
         use vk::BufferUsageFlags as U;
-        let usage = U::STORAGE_BUFFER | U::TRANSFER_SRC | U::TRANSFER_DST;
+        let usage = U::STORAGE_BUFFER | U::UNIFORM_BUFFER | U::TRANSFER_SRC | U::TRANSFER_DST;
         create_buffer(owner, size, usage, MemoryRole::Storage)
     }
 
@@ -174,17 +174,31 @@ pub struct Pipeline {
     pub(crate) pipeline: vk::Pipeline,
     pub(crate) layout: vk::PipelineLayout,
     pub(crate) set_layout: vk::DescriptorSetLayout,
+    /// Bit b set: binding b is a uniform buffer, else a storage buffer.
+    pub(crate) uniforms: u32,
+}
+
+/// The descriptor type of binding `b` of a layout whose uniform buffers are the bits of
+/// `uniforms`.
+pub fn descriptor_type(uniforms: u32, b: u32) -> vk::DescriptorType {
+    if uniforms >> b & 1 == 1 {
+        vk::DescriptorType::UNIFORM_BUFFER
+    } else {
+        vk::DescriptorType::STORAGE_BUFFER
+    }
 }
 
 impl Pipeline {
-    /// Builds the pipeline of `entry` in `module`, with `bindings` storage buffers at bindings
-    /// 0..bindings of set 0, `push_size` bytes of push constants and the u32 specialization
+    /// Builds the pipeline of `entry` in `module`, with `bindings` buffers at bindings
+    /// 0..bindings of set 0 (uniform buffers where `uniforms` has the binding's bit, storage
+    /// buffers elsewhere), `push_size` bytes of push constants and the u32 specialization
     /// constants `spec` (constant id i = `spec[i]`; ids the module lacks are ignored).
     pub fn new(
         owner: &Arc<DeviceOwner>,
         module: vk::ShaderModule,
         entry: &std::ffi::CStr,
         bindings: u32,
+        uniforms: u32,
         push_size: u32,
         spec: &[u32],
     ) -> Result<Self, GpuError> {
@@ -193,7 +207,7 @@ impl Pipeline {
             .map(|b| {
                 vk::DescriptorSetLayoutBinding::default()
                     .binding(b)
-                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .descriptor_type(descriptor_type(uniforms, b))
                     .descriptor_count(1)
                     .stage_flags(vk::ShaderStageFlags::COMPUTE)
             })
@@ -257,6 +271,7 @@ impl Pipeline {
             pipeline,
             layout,
             set_layout,
+            uniforms,
         })
     }
 }
@@ -306,9 +321,14 @@ impl Submitter {
             let cmd = device
                 .allocate_command_buffers(&alloc)
                 .map_err(|e| GpuError::Vulkan("vkAllocateCommandBuffers", e))?[0];
-            let sizes = [vk::DescriptorPoolSize::default()
-                .ty(vk::DescriptorType::STORAGE_BUFFER)
-                .descriptor_count(MAX_BINDINGS)];
+            let sizes = [
+                vk::DescriptorPoolSize::default()
+                    .ty(vk::DescriptorType::STORAGE_BUFFER)
+                    .descriptor_count(MAX_BINDINGS),
+                vk::DescriptorPoolSize::default()
+                    .ty(vk::DescriptorType::UNIFORM_BUFFER)
+                    .descriptor_count(MAX_BINDINGS),
+            ];
             let dp_info = vk::DescriptorPoolCreateInfo::default()
                 .max_sets(1)
                 .pool_sizes(&sizes);
