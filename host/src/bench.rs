@@ -354,6 +354,7 @@ fn check_sweep_file(f: &std::path::Path) -> Result<()> {
 
 /// `host bench`.
 pub fn run(args: &BenchOptions) -> Result<BenchReport> {
+    crate::render::check_image_memory(args.width, args.height, 1)?;
     let lookup = args.lookup;
     let specs = estimators(&args.estimators, "--estimators")?;
     if args.sweep {
@@ -361,6 +362,7 @@ pub fn run(args: &BenchOptions) -> Result<BenchReport> {
     }
     let mut plan = crate::output::OutputPlan::new();
     if args.sweep {
+        plot::check_format(&args.plot)?;
         plan.file("--plot", &args.plot);
     }
     if let Some(json) = &args.json {

@@ -319,6 +319,51 @@ pub fn is_volume_file(spec: &str) -> bool {
     path.exists() || ext.eq_ignore_ascii_case("vdb") || ext.eq_ignore_ascii_case("nvdb")
 }
 
+/// Checks `--volume` before any work: a volume file that exists as a regular file, or an
+/// embedded volume's name.
+pub fn check_volume_spec(spec: &str) -> Result<()> {
+    if is_volume_file(spec) {
+        let path = Path::new(spec);
+        anyhow::ensure!(
+            path.is_file(),
+            "{spec}: {}",
+            if path.exists() {
+                "not a regular file (a directory, FIFO or device); give a .vdb or .nvdb file"
+            } else {
+                "no such file"
+            }
+        );
+        return Ok(());
+    }
+    anyhow::ensure!(
+        crate::procedural::NAMES.contains(&spec),
+        "{spec:?} is neither a file nor an embedded volume; embedded volumes: {}",
+        crate::procedural::NAMES.join(", ")
+    );
+    Ok(())
+}
+
+/// Checks an `--integrators` list of `host eval` before any work: direct, path and restir
+/// together or alone, or single-scattering integrators.
+pub fn check_integrator_list(list: &str) -> Result<()> {
+    let names: Vec<&str> = list.split(',').map(str::trim).collect();
+    let lit = names
+        .iter()
+        .filter(|n| matches!(**n, "direct" | "path" | "restir"))
+        .count();
+    if lit == 0 {
+        crate::integrators::parse_integrator_list(list)?;
+    } else {
+        anyhow::ensure!(
+            lit == names.len(),
+            "--integrators {list}: direct, path and restir are evaluated together or alone (their \
+             entries are shadow-ray estimators under the same lights); evaluate the \
+             single-scattering integrators in a separate run"
+        );
+    }
+    Ok(())
+}
+
 /// An embedded volume by name or a volume file by path, with its default density scale and, for
 /// a file, the name of the grid read; `check` sees the bounding box before any voxel is read
 /// or generated.
@@ -894,6 +939,7 @@ fn direct_settings(
 /// prints a summary.
 pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
     check_render_flags(args)?;
+    crate::render::check_image_memory(args.width, args.height, 1)?;
     let png = plan_render_outputs(args)?;
     // The backend first: a forced GPU that is missing fails before any loading, and the pool
     // is laid out in the pages the device binds.
@@ -1324,6 +1370,7 @@ fn report_underflow(vol: &dyn VolumeData, u: &crate::bricks::Underflow, scale: f
 
 /// `host eval`: the reference and each estimator on pixel-center rays; JSON + images.
 pub fn run_eval(args: &EvalOptions) -> Result<()> {
+    crate::render::check_image_memory(args.width, args.height, 2)?;
     if let Some(list) = args.integrators.as_deref() {
         let names: Vec<&str> = list.split(',').map(str::trim).collect();
         let lit: Vec<Integrator> = names

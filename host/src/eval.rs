@@ -354,12 +354,6 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
         .context("rendering the reference")?;
     crate::diagnostics::check_finite(&reference, w).context("rendering the reference")?;
     let ref_t: Vec<f32> = reference.iter().map(|p| p.t_mean).collect();
-    let (reference_exr, reference_png) = (
-        setup.out_dir.join("reference.exr"),
-        setup.out_dir.join("reference.png"),
-    );
-    write_exr(&reference_exr, w, h, &ref_t)?;
-    crate::output::write_png(&reference_png, w, h, &ref_t)?;
     // The variance of each reference pixel's mean (0 for an exact reference: one deterministic
     // estimate per pixel), part of the noise floor of every |bias|.
     let ref_var: Vec<f64> = reference
@@ -375,6 +369,12 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
          and --height",
         ref_t.len()
     );
+    let (reference_exr, reference_png) = (
+        setup.out_dir.join("reference.exr"),
+        setup.out_dir.join("reference.png"),
+    );
+    write_exr(&reference_exr, w, h, &ref_t)?;
+    crate::output::write_png(&reference_png, w, h, &ref_t)?;
 
     let mut reports = Vec::new();
     for (k, spec) in estimators.iter().enumerate() {

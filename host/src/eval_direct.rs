@@ -316,6 +316,7 @@ fn render_one(
     lights: &SceneLights,
     stem: &str,
     exposure: f32,
+    reference: bool,
 ) -> Result<Rendered> {
     // Without the GPU pipeline builds (a kernel variant compiles on first use): the equal-time
     // calibration and the reported times compare renders, not the driver's compiler.
@@ -325,6 +326,10 @@ fn render_one(
         .with_context(|| format!("rendering {stem}"))?;
     crate::diagnostics::check_finite(&pixels, params.width)
         .with_context(|| format!("rendering {stem}"))?;
+    if reference {
+        // Before its files are written: statistics over a view that misses the volume are refused.
+        crate::eval::check_reference_sees_the_volume(&pixels)?;
+    }
     let rgb: Vec<[f32; 3]> = pixels
         .iter()
         .map(|p| [p.rgb_mean.r, p.rgb_mean.g, p.rgb_mean.b])
@@ -437,8 +442,8 @@ pub fn evaluate_direct(
                     lights,
                     &stem(ref_label, "reference"),
                     exposure,
+                    true,
                 )?;
-                crate::eval::check_reference_sees_the_volume(&rendered.pixels)?;
                 let r = (
                     moments(&rendered.pixels),
                     ref_params,
@@ -469,6 +474,7 @@ pub fn evaluate_direct(
                 lights,
                 &stem(label, "exact"),
                 exposure,
+                false,
             )?;
             Some(rendered.pixels)
         } else {
@@ -615,6 +621,7 @@ fn measure(
         lights,
         &stem(label, estimator),
         exposure,
+        false,
     )?;
     let paired: Option<(f64, f64)> = exact.map(|ex| {
         let n = px.len() as f64;

@@ -3,11 +3,22 @@
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
+    // Rust's runtime ignores SIGPIPE, so a closed stdout pipe (`host probe | head -1`) made the
+    // next println! panic; restore the default, which ends the process quietly as it does any
+    // Unix tool (outputs are renamed into place, so none is left half written).
+    #[cfg(unix)]
+    // SAFETY: at start-up, before any other thread exists; SIG_DFL is a valid disposition.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     // Usage errors exit with 1 like every other error (clap's default is 2); --help and
     // --version print to stdout and exit with 0.
     let cli = match host::cli::parse() {
         Ok(cli) => cli,
         Err(e) => {
+            if e.kind() == clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand {
+                eprintln!("error: a subcommand is required, one of the commands below\n");
+            }
             let _ = e.print();
             return if e.use_stderr() {
                 ExitCode::FAILURE

@@ -111,7 +111,11 @@ fn hostile_profile_csvs_are_clean_errors() {
         ("nan.csv", "0,nan\n1,1\n", "non-finite"),
         ("non_monotone.csv", "0,1\n2,2\n1,3\n", "increase"),
         ("negative.csv", "0,1\n1,-1\n", "non-negative"),
-        ("huge.csv", "0,1e308\n1e308,1e308\n", "overflows"),
+        ("huge.csv", "0,1e308\n1e308,1e308\n", "overflow"),
+        // Finite, but tau^4 overflows f64 (NaN skewness and kurtosis at exit 0 before).
+        ("deep.csv", "0,0\n1,1e150\n", "above 1e35"),
+        // A subnormal span: 1 / h overflows (a panic in the Bessel function before).
+        ("subnormal.csv", "0,1\n1e-320,2\n", "too close"),
         ("three_columns.csv", "0,1,2\n1,1,2\n", "t,mu"),
     ];
     for (name, text, needle) in files {
@@ -154,6 +158,24 @@ fn hostile_profile_csvs_are_clean_errors() {
     let argv: Vec<&str> = argv.iter().map(String::as_str).collect();
     let (code, out, err) = host(&argv, &[]);
     assert_eq!(code, Some(0), "{out}{err}");
+}
+
+/// A plot format the studies cannot write is refused before the study runs: no JSON is left
+/// beside a plot that was never drawn (issue 43, hostile corpus).
+#[test]
+fn unknown_plot_formats_are_refused_before_the_study() {
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("s.json");
+    let plot = dir.path().join("s.jpg");
+    let (j, p) = (json.to_str().unwrap(), plot.to_str().unwrap());
+    assert_clean_error(
+        &["study", "normal", "--quiet", "--json", j, "--plot", p],
+        &[],
+        "plots are .png or .svg",
+    );
+    assert!(!json.exists() && !plot.exists());
+    // And `host study` without a subcommand is an error like any other.
+    assert_clean_error(&["study"], &[], "a subcommand is required");
 }
 
 #[cfg(unix)]

@@ -281,7 +281,131 @@ fn views_that_miss_the_volume_warn_and_eval_refuses_them() {
             &out,
             &["only 0 of 256 reference pixels read a voxel", "at least 16"],
         );
+        let left = std::fs::read_dir(dir.path().join(integrators))
+            .map(|d| d.count())
+            .unwrap_or(0);
+        assert_eq!(left, 0, "{integrators}: a refused eval left files");
     }
+    let left = std::fs::read_dir(dir.path().join("ev"))
+        .map(|d| d.count())
+        .unwrap_or(0);
+    assert_eq!(left, 0, "a refused eval left files");
+}
+
+/// `host report` checks its volumes, integrators and `--from-eval` files before evaluating or
+/// copying anything: a refused report leaves no files (issue 43, hostile corpus).
+#[test]
+fn refused_reports_leave_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let rep = dir.path().join("rep");
+    let small = [
+        "--backend",
+        "cpu",
+        "--resolution",
+        "16",
+        "--width",
+        "8",
+        "--height",
+        "8",
+    ];
+    let files_in = |d: &Path| -> usize { walk(d).len() };
+    for (extra, words) in [
+        (
+            &["--volumes", "cloud", "--integrators", "bogus"][..],
+            &["unknown integrator \"bogus\""][..],
+        ),
+        (
+            &["--volumes", "cloud,bogus"],
+            &["\"bogus\" is neither a file nor an embedded volume"],
+        ),
+        (
+            &["--volumes", "cloud,missing.vdb"],
+            &["missing.vdb: no such file"],
+        ),
+    ] {
+        let out = host()
+            .arg("report")
+            .args(small)
+            .args(extra)
+            .args(["--spp", "2", "-q", "--out", s(&rep)])
+            .output()
+            .unwrap();
+        assert_refused(&out, words);
+        assert_eq!(files_in(&rep), 0, "{extra:?} left files");
+    }
+    // An eval whose image was deleted: refused before anything is copied.
+    let ev = dir.path().join("ev");
+    let out = host()
+        .arg("eval")
+        .args(small)
+        .args([
+            "--spp",
+            "2",
+            "-q",
+            "--estimators",
+            "jackknife",
+            "--out-dir",
+            s(&ev),
+        ])
+        .output()
+        .unwrap();
+    assert_ok(&out);
+    std::fs::remove_file(ev.join("jackknife_std.exr")).unwrap();
+    let out = host()
+        .args(["report", "--from-eval", s(&ev), "--out", s(&rep)])
+        .output()
+        .unwrap();
+    assert_refused(&out, &["jackknife_std.exr not found"]);
+    assert_eq!(files_in(&rep), 0, "a refused --from-eval import left files");
+}
+
+/// Every regular file under `d` (none if it does not exist).
+fn walk(d: &Path) -> Vec<PathBuf> {
+    let mut files = Vec::new();
+    if let Ok(entries) = std::fs::read_dir(d) {
+        for e in entries.flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                files.extend(walk(&p));
+            } else {
+                files.push(p);
+            }
+        }
+    }
+    files
+}
+
+/// An image whose buffers exceed the memory limit is refused before rendering, naming the size
+/// (it aborted in an allocation, issue 43, hostile corpus).
+#[test]
+fn images_larger_than_memory_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = Command::new("sh")
+        .arg("-c")
+        .arg("ulimit -v 2000000 && exec \"$0\" \"$@\"")
+        .arg(env!("CARGO_BIN_EXE_host"))
+        .args([
+            "render",
+            "--backend",
+            "cpu",
+            "--resolution",
+            "16",
+            "--spp",
+            "2",
+            "-q",
+        ])
+        .args(["--width", "16384", "--height", "16384", "--out"])
+        .arg(dir.path().join("r.exr"))
+        .output()
+        .unwrap();
+    assert_refused(
+        &out,
+        &[
+            "--width 16384 --height 16384",
+            "80 bytes per pixel",
+            "smaller image",
+        ],
+    );
 }
 
 #[test]

@@ -350,3 +350,57 @@ fn brick_tables_a_gpu_cannot_hold_are_refused_before_loading() {
         "{all}"
     );
 }
+
+/// A box longer than 2^31 along an axis is refused as such before the brick grid's memory is
+/// estimated, also under a memory limit: the advice of a larger --brick-size could not load it
+/// (issue 43, hostile corpus).
+#[test]
+fn boxes_no_load_takes_are_refused_before_the_brick_advice() {
+    let dir = tempfile::tempdir().unwrap();
+    let wide = malformed_dir().join("unsupported_wide.vdb");
+    let out = std::process::Command::new("sh")
+        .arg("-c")
+        .arg("ulimit -v 2000000 && exec \"$0\" \"$@\"")
+        .arg(env!("CARGO_BIN_EXE_host"))
+        .args([
+            "render",
+            "--backend",
+            "cpu",
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "-q",
+        ])
+        .args(["--volume", wide.to_str().unwrap(), "--out"])
+        .arg(dir.path().join("r.exr"))
+        .output()
+        .unwrap();
+    let all = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{all}");
+    assert!(all.contains("more than 2^31 along an axis"), "{all}");
+    assert!(!all.contains("--brick-size"), "{all}");
+}
+
+/// A closed stdout pipe ends `host` quietly (SIGPIPE, as any Unix tool), never with a panic in
+/// println! (issue 43, hostile corpus).
+#[cfg(unix)]
+#[test]
+fn a_closed_stdout_pipe_is_not_a_panic() {
+    use std::os::unix::process::ExitStatusExt;
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_host"))
+        .args(["probe", "--backend", "cpu"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(
+        out.status.success() || out.status.signal() == Some(13),
+        "{:?}: {stderr}",
+        out.status
+    );
+}

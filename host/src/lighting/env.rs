@@ -73,8 +73,13 @@ impl EnvMap {
             .to_ascii_lowercase();
         ensure!(
             path.is_file(),
-            "--env {}: no such file (give an equirectangular .exr or .hdr light probe, or `sky`)",
-            path.display()
+            "--env {}: {} (give an equirectangular .exr or .hdr light probe, or `sky`)",
+            path.display(),
+            if path.exists() {
+                "not a regular file (a directory, FIFO or device)"
+            } else {
+                "no such file"
+            }
         );
         let map = match ext.as_str() {
             "exr" => read_exr(path)?,

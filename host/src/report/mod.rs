@@ -159,11 +159,12 @@ pub fn run(args: &ReportOptions) -> Result<()> {
     crate::output::OutputPlan::new().dir("--out", out).check()?;
     let mut used = Vec::new();
     let mut sources: Vec<(String, PathBuf)> = Vec::new();
-    // Read every --from-eval first: a typo should not cost the evaluations.
+    // Read every --from-eval first, with every file it names: a typo or a missing image should
+    // not cost the evaluations, nor leave a half-copied report.
     for path in &args.from_eval {
         let json = eval_json_path(path)?;
-        load(&json)?;
         let id = unique_id(&slug(&label_of(&json)), &mut used);
+        import(&json, out, &id, true)?;
         sources.push((id, json));
     }
     let volumes = match (&args.volumes, args.from_eval.is_empty()) {
@@ -173,6 +174,12 @@ pub fn run(args: &ReportOptions) -> Result<()> {
     };
     if !volumes.is_empty() {
         crate::eval::parse_list(&args.estimators)?;
+        if let Some(list) = &args.integrators {
+            crate::commands::check_integrator_list(list)?;
+        }
+    }
+    for volume in &volumes {
+        crate::commands::check_volume_spec(volume).context("--volumes")?;
     }
     check_scene_flags(&args.scene, &volumes)?;
     for volume in &volumes {
@@ -197,7 +204,7 @@ pub fn run(args: &ReportOptions) -> Result<()> {
     }
     let mut sets = Vec::new();
     for (id, json) in &sources {
-        sets.extend(import(json, out, id)?);
+        sets.extend(import(json, out, id, false)?);
     }
     let data = ViewerData {
         title: "Jackknife transmittance: comparison viewer".into(),
@@ -386,20 +393,23 @@ fn load(json: &Path) -> Result<Loaded> {
 
 /// Copies the files of one evaluation into `out/id/` (unless they are there already) and
 /// makes its [`Set`]s (one; a `direct,path` evaluation one per integrator).
-fn import(json: &Path, out: &Path, id: &str) -> Result<Vec<Set>> {
+fn import(json: &Path, out: &Path, id: &str, dry: bool) -> Result<Vec<Set>> {
     let loaded = load(json)?;
     let src_dir = json
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
     let dest_dir = out.join(id);
-    std::fs::create_dir_all(&dest_dir)
-        .with_context(|| format!("creating {}", dest_dir.display()))?;
+    if !dry {
+        std::fs::create_dir_all(&dest_dir)
+            .with_context(|| format!("creating {}", dest_dir.display()))?;
+    }
     let mut files = Files {
         json,
         src_dir,
         dest_dir: &dest_dir,
         id,
+        dry,
     };
     let json_link = files.copy_named(json, "eval.json")?;
     Ok(match loaded {
@@ -415,6 +425,8 @@ struct Files<'a> {
     src_dir: &'a Path,
     dest_dir: &'a Path,
     id: &'a str,
+    /// Only find the files (a check before any evaluation or copy).
+    dry: bool,
 }
 
 impl Files<'_> {
@@ -446,7 +458,7 @@ impl Files<'_> {
             (Ok(a), Ok(b)) => a == b,
             _ => false,
         };
-        if !same {
+        if !same && !self.dry {
             crate::output::write_atomically(&to, |tmp| {
                 std::fs::copy(from, tmp)
                     .map(drop)

@@ -32,8 +32,14 @@ pub struct Curve {
     pub sampling: Sampling,
     /// (N, RMSE): for the midpoint rule the absolute error of its single deterministic estimate.
     pub rmse: Vec<(usize, f64)>,
-    pub slope_up_to_100: f64,
-    pub slope_from_100: f64,
+    /// None (JSON null) where fewer than two points with a nonzero error lie in the range.
+    pub slope_up_to_100: Option<f64>,
+    pub slope_from_100: Option<f64>,
+}
+
+/// A fitted slope for tables and legends: `n/a` where there is none.
+fn slope_text(slope: Option<f64>, precision: usize) -> String {
+    slope.map_or("n/a".into(), |s| format!("{s:.precision$}"))
 }
 
 /// Runs `trials` estimates per (sampling, N) and measures the RMSE about the exact tau.
@@ -80,11 +86,7 @@ pub fn measure(
                     .filter(|&&(n, e)| keep(n) && e > 0.0)
                     .map(|&(n, e)| (n as f64, e))
                     .collect();
-                if pts.len() < 2 {
-                    f64::NAN
-                } else {
-                    log_log_slope(&pts)
-                }
+                (pts.len() >= 2).then(|| log_log_slope(&pts))
             };
             Curve {
                 sampling,
@@ -157,10 +159,10 @@ impl Figure for ConvergenceFigure {
                 .map(|&(n, e)| (n as f64, e))
                 .collect();
             let label = format!(
-                "{} (slope {:.2} / {:.2})",
+                "{} (slope {} / {})",
                 c.sampling.label(),
-                c.slope_up_to_100,
-                c.slope_from_100
+                slope_text(c.slope_up_to_100, 2),
+                slope_text(c.slope_from_100, 2)
             );
             panel
                 .series
@@ -240,9 +242,13 @@ pub fn run(a: &ConvergenceOptions) -> Result<()> {
         println!();
     }
     print!("{:>6}", "slope");
-    curves
-        .iter()
-        .for_each(|c| print!(" {:>9.3} / {:<8.3}", c.slope_up_to_100, c.slope_from_100));
+    curves.iter().for_each(|c| {
+        print!(
+            " {:>9} / {:<8}",
+            slope_text(c.slope_up_to_100, 3),
+            slope_text(c.slope_from_100, 3)
+        )
+    });
     println!("   (N <= 100 / N >= 100)");
     let figure = ConvergenceFigure {
         profile: profile.name.clone(),

@@ -29,7 +29,10 @@ impl Output {
             plan.file("--json", json);
         }
         match &self.plot {
-            Some(plot) => plan.file("--plot", plot),
+            Some(plot) => {
+                super::plot::check_format(plot)?;
+                plan.file("--plot", plot)
+            }
             None => plan.dir("the default plot directory", Path::new("out")),
         };
         plan.check()
@@ -42,15 +45,16 @@ impl Output {
         report: &T,
         figure: &impl super::plot::Figure,
     ) -> Result<()> {
+        // The plot first: a JSON never stands beside a plot that could not be drawn.
+        let default = PathBuf::from(format!("out/study_{name}.png"));
+        let plot: &Path = self.plot.as_deref().unwrap_or(&default);
+        super::plot::save(plot, figure)?;
+        println!("wrote {}", plot.display());
         if let Some(path) = &self.json {
             crate::output::ensure_parent(path)?;
             crate::output::write_json(path, report)?;
             println!("wrote {}", path.display());
         }
-        let default = PathBuf::from(format!("out/study_{name}.png"));
-        let plot: &Path = self.plot.as_deref().unwrap_or(&default);
-        super::plot::save(plot, figure)?;
-        println!("wrote {}", plot.display());
         Ok(())
     }
 }

@@ -55,16 +55,29 @@ fn register_font() -> Result<()> {
     result
 }
 
+/// Refuses a plot path that is neither `.png` nor `.svg` (checked before any work).
+pub fn check_format(path: &Path) -> Result<()> {
+    match extension(path).as_str() {
+        "png" | "svg" => Ok(()),
+        _ => bail!("{}: plots are .png or .svg", path.display()),
+    }
+}
+
+/// The lower-case extension of `path` ("" without one).
+fn extension(path: &Path) -> String {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase()
+}
+
 /// Draws `figure` into `path`: `.png` or `.svg`.
 pub fn save(path: &Path, figure: &impl Figure) -> Result<()> {
+    check_format(path)?;
     register_font()?;
     crate::output::ensure_parent(path)?;
     let (w, h) = figure.size();
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("")
-        .to_ascii_lowercase();
+    let ext = extension(path);
     match ext.as_str() {
         "png" => {
             let mut buf = vec![0u8; w as usize * h as usize * 3];

@@ -32,6 +32,11 @@ pub struct Profile {
     inv_step: Option<f64>,
 }
 
+/// Largest optical depth a profile may reach (its span times its largest mu): the studies take
+/// moments of tau up to the fourth, which must stay finite in f64; the renderer refuses optical
+/// depths above 1e35 too.
+pub const MAX_OPTICAL_DEPTH: f64 = 1e35;
+
 impl Profile {
     /// Reads `t,mu` lines; blank lines, `#` comments and a non-numeric header line are skipped.
     pub fn parse(name: &str, text: &str) -> Result<Self> {
@@ -71,10 +76,20 @@ impl Profile {
         }
         let length = t[t.len() - 1] - t[0];
         let mu_max = mu.iter().copied().fold(0.0, f64::max);
-        if !(length * mu_max * 2.0).is_finite() {
+        if !(length * mu_max <= MAX_OPTICAL_DEPTH) {
             bail!(
-                "{name}: the optical depth overflows (t spans {length:e}, mu reaches {mu_max:e}); \
-                 rescale t or mu"
+                "{name}: the optical depth may reach {:e} (t spans {length:e}, mu reaches \
+                 {mu_max:e}), above {MAX_OPTICAL_DEPTH:e}, where the studies' moments of tau \
+                 overflow; rescale t or mu",
+                length * mu_max
+            );
+        }
+        if let Some(w) = t.windows(2).find(|w| !(1.0 / (w[1] - w[0])).is_finite()) {
+            bail!(
+                "{name}: knots {:e} and {:e} are too close (the reciprocal of their spacing \
+                 overflows); rescale t",
+                w[0],
+                w[1]
             );
         }
         let h = (t[t.len() - 1] - t[0]) / (t.len() - 1) as f64;
