@@ -809,6 +809,7 @@ pub fn plan_render_outputs(args: &RenderOptions) -> Result<std::path::PathBuf> {
         .file("--out", &args.out)
         .file("the PNG preview of --out", &png);
     if let Some(crate::lighting::EnvSource::File(env)) = &args.env {
+        crate::lighting::env::check_path(env)?;
         plan.input("--env", env);
     }
     if let Some(json) = &args.json {
@@ -1519,6 +1520,7 @@ fn plan_eval_outputs(
     plan.input("--volume", Path::new(&args.scene.volume))
         .dir("--out-dir", &args.out_dir);
     if let Some(crate::lighting::EnvSource::File(env)) = &args.env {
+        crate::lighting::env::check_path(env)?;
         plan.input("--env", env);
     }
     for image in images {

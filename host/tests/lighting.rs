@@ -1739,3 +1739,45 @@ fn bad_restir_and_many_light_flags_are_refused() {
     );
     assert!(!dir.path().join("e").join("eval.json").exists());
 }
+
+/// A missing `--env` is refused before the volume is read (it was refused only after loading
+/// the volume, seconds into a large file; issue 43, item 6): with a volume file that would fail
+/// to load, the error is the probe's.
+#[test]
+fn a_missing_probe_is_refused_before_the_volume_is_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let volume =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/fixtures/malformed/empty_file.vdb");
+    let missing = dir.path().join("missing.exr");
+    let (exr, ev) = (dir.path().join("r.exr"), dir.path().join("ev"));
+    for sub in ["render", "eval"] {
+        let tail = if sub == "render" {
+            ["--integrator", "direct", "--out", s(&exr)]
+        } else {
+            ["--integrators", "direct", "--out-dir", s(&ev)]
+        };
+        let out = host()
+            .args([
+                sub,
+                "--backend",
+                "cpu",
+                "--width",
+                "16",
+                "--height",
+                "16",
+                "--spp",
+                "2",
+            ])
+            .args(["--volume", s(&volume), "--env", s(&missing)])
+            .args(tail)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{sub}: {stderr}");
+        assert!(
+            stderr.contains("missing.exr: no such file"),
+            "{sub}: {stderr}"
+        );
+        assert!(!stderr.contains("empty_file.vdb"), "{sub}: {stderr}");
+    }
+}

@@ -53,6 +53,22 @@ pub struct EnvMap {
     pub texels: Vec<[f32; 3]>,
 }
 
+/// Refuses an `--env` path that is not a regular file (checked before any work, and again when
+/// the probe is read).
+pub fn check_path(path: &Path) -> Result<()> {
+    ensure!(
+        path.is_file(),
+        "--env {}: {} (give an equirectangular .exr or .hdr light probe, or `sky`)",
+        path.display(),
+        if path.exists() {
+            "not a regular file (a directory, FIFO or device)"
+        } else {
+            "no such file"
+        }
+    );
+    Ok(())
+}
+
 impl EnvMap {
     /// A map of one radiance everywhere.
     pub fn constant(rgb: [f32; 3]) -> Self {
@@ -71,16 +87,7 @@ impl EnvMap {
             .and_then(|e| e.to_str())
             .unwrap_or("")
             .to_ascii_lowercase();
-        ensure!(
-            path.is_file(),
-            "--env {}: {} (give an equirectangular .exr or .hdr light probe, or `sky`)",
-            path.display(),
-            if path.exists() {
-                "not a regular file (a directory, FIFO or device)"
-            } else {
-                "no such file"
-            }
-        );
+        check_path(path)?;
         let map = match ext.as_str() {
             "exr" => read_exr(path)?,
             "hdr" => read_hdr(path)?,
