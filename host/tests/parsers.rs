@@ -213,7 +213,7 @@ fn numeric_values(cli: &host::cli::Cli) -> Vec<f64> {
     match command {
         C::Render(a) => {
             let s = &a.scene;
-            let mut v = vec![s.brick_size as f64, s.fov as f64];
+            let mut v = vec![s.brick_size as f64, s.view.fov as f64];
             v.extend(s.resolution.map(f64::from));
             v.extend(s.density_scale.map(f64::from));
             v.extend(s.cell_size.map(f64::from));
@@ -239,7 +239,7 @@ fn numeric_values(cli: &host::cli::Cli) -> Vec<f64> {
             .into_iter()
             .chain([a.n, a.width, a.height, a.spp, a.integrator_spp])
             .map(f64::from)
-            .chain([a.bias_scale, a.std_scale, a.fov].map(f64::from))
+            .chain([a.bias_scale, a.std_scale, a.view.fov].map(f64::from))
             .chain(a.density_scale.map(f64::from))
             .collect(),
         C::Probe(a) => vec![a.count as f64, a.tau as f64, a.sigma as f64],

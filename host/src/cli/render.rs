@@ -55,6 +55,13 @@ pub struct SceneArgs {
     /// f of a brick have sqrt(f), smooth media 0.6 and more; 1 considers every brick).
     #[arg(long, allow_hyphen_values = true, value_parser = parse_split_ratio)]
     pub split_occupancy: Option<f32>,
+    #[command(flatten)]
+    pub view: ViewArgs,
+}
+
+/// The camera and the volume's up axis, shared by the scene flags and `host report`.
+#[derive(Args, Debug, Clone)]
+pub struct ViewArgs {
     /// Camera position x,y,z in world units (default: framing the volume from the front).
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub camera: Option<[f32; 3]>,
@@ -71,10 +78,23 @@ pub struct SceneArgs {
     pub fov: f32,
 }
 
+impl ViewArgs {
+    /// `scene` with this camera and up axis.
+    pub fn applied(&self, scene: SceneOptions) -> SceneOptions {
+        SceneOptions {
+            camera: self.camera,
+            look_at: self.look_at,
+            fov: self.fov,
+            up: self.up.into(),
+            ..scene
+        }
+    }
+}
+
 impl SceneArgs {
     /// The library's scene options.
     pub fn options(&self) -> SceneOptions {
-        SceneOptions {
+        self.view.applied(SceneOptions {
             volume: self.volume.clone(),
             grid: self.grid.clone(),
             clamp_negative: self.clamp_negative,
@@ -88,11 +108,8 @@ impl SceneArgs {
                 split_ratio: self.split_ratio,
                 split_occupancy: self.split_occupancy,
             },
-            camera: self.camera,
-            look_at: self.look_at,
-            fov: self.fov,
-            up: self.up.into(),
-        }
+            ..SceneOptions::default()
+        })
     }
 }
 

@@ -1,9 +1,7 @@
 //! Flags of `host report`.
 
-use super::parsers::{
-    f32_open, parse_density_scale, parse_positive, parse_vec3, BackendArg, LookupArg, UpArg,
-};
-use crate::commands::{defaults, SceneOptions};
+use super::parsers::{parse_density_scale, parse_positive, BackendArg, LookupArg};
+use crate::commands::SceneOptions;
 use crate::report::ReportOptions;
 use clap::Args;
 use std::path::PathBuf;
@@ -39,18 +37,9 @@ pub struct ReportArgs {
     /// embedded volume's own, 1 for files).
     #[arg(long, allow_hyphen_values = true, value_parser = parse_density_scale)]
     pub density_scale: Option<f32>,
-    /// Camera position x,y,z in world units (default: framing each volume from the front).
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-    pub camera: Option<[f32; 3]>,
-    /// Point the camera looks at, x,y,z (default: each volume's center).
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-    pub look_at: Option<[f32; 3]>,
-    /// The volumes' up axis: y (default), z (Blender, Houdini caches) or x.
-    #[arg(long, value_enum, default_value_t = UpArg::Y)]
-    pub up: UpArg,
-    /// Vertical field of view in degrees, in (0, 180).
-    #[arg(long, default_value_t = defaults::FOV, allow_hyphen_values = true, value_parser = f32_open(0.0, 180.0))]
-    pub fov: f32,
+    /// Camera (default: framing each volume) and up axis of every volume.
+    #[command(flatten)]
+    pub view: super::render::ViewArgs,
     /// Lookups of the new evaluations (see `host eval --lookup`).
     #[arg(long, value_enum, default_value_t = LookupArg::Nearest)]
     pub lookup: LookupArg,
@@ -95,16 +84,12 @@ impl ReportArgs {
             estimators: self.estimators.clone(),
             integrators: self.integrators.clone(),
             from_eval: self.from_eval.clone(),
-            scene: SceneOptions {
+            scene: self.view.applied(SceneOptions {
                 resolution: self.resolution,
                 grid: self.grid.clone(),
                 density_scale: self.density_scale,
-                camera: self.camera,
-                look_at: self.look_at,
-                up: self.up.into(),
-                fov: self.fov,
                 ..SceneOptions::default()
-            },
+            }),
             lookup: self.lookup.into(),
             n: self.n,
             width: self.width,
