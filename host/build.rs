@@ -30,6 +30,7 @@ fn main() -> Result<(), BoxError> {
     let mut builder = SpirvBuilder::new(kernels, "spirv-unknown-vulkan1.2")
         // PCG32 (rand_pcg's stream) needs 64-bit integers.
         .capability(Capability::Int64)
+        .capability(Capability::SampledBuffer)
         .release(true)
         .multimodule(true)
         // Keep every declared binding in each entry point's module: the host's layouts name them
@@ -188,6 +189,8 @@ struct EntryInfo {
     strides: Vec<u32>,
     /// Bit b set: binding b is a uniform buffer (else a storage buffer).
     uniforms: u32,
+    /// Bit b set: binding b is a uniform texel buffer of 32-bit words.
+    texel_buffers: u32,
     /// Size in bytes of the push-constant block (0: none).
     push_size: u32,
 }
@@ -291,6 +294,13 @@ fn kernel_items(
     );
     arms(
         &mut s,
+        "Bit b set: binding b of set 0 is a uniform texel buffer of 32-bit words (its stride \
+         `strides()[b]` is 4).",
+        "texel_buffers(self) -> u32",
+        &|e| format!("{:#x}", e.texel_buffers),
+    );
+    arms(
+        &mut s,
         "Size in bytes of the push constants.",
         "push_size(self) -> u32",
         &|e| e.push_size.to_string(),
@@ -319,7 +329,10 @@ const OP_VARIABLE: u32 = 59;
 const DECORATION_ARRAY_STRIDE: u32 = 6;
 const DECORATION_OFFSET: u32 = 35;
 const DECORATION_BINDING: u32 = 33;
+const STORAGE_UNIFORM_CONSTANT: u32 = 0;
 const STORAGE_UNIFORM: u32 = 2;
+const OP_TYPE_IMAGE: u32 = 25;
+const DIM_BUFFER: u32 = 5;
 const STORAGE_PUSH_CONSTANT: u32 = 9;
 const STORAGE_STORAGE_BUFFER: u32 = 12;
 
@@ -360,9 +373,10 @@ fn reflect(spv: &[u8]) -> Result<Vec<EntryInfo>, BoxError> {
             OP_VARIABLE if ops.len() >= 3 => {
                 m.variables.insert(ops[1], (ops[0], ops[2]));
             }
-            // OpTypeInt, OpTypeFloat, OpTypeVector, OpTypeArray, OpTypeRuntimeArray,
-            // OpTypeStruct, OpTypePointer (result id first), OpConstant (result id second).
-            21 | 22 | 23 | 28 | 29 | 30 | 32 => {
+            // OpTypeInt, OpTypeFloat, OpTypeVector, OpTypeImage, OpTypeArray,
+            // OpTypeRuntimeArray, OpTypeStruct, OpTypePointer (result id first), OpConstant
+            // (result id second).
+            21 | 22 | 23 | 25 | 28 | 29 | 30 | 32 => {
                 m.types.insert(ops[0], (op, ops[1..].to_vec()));
             }
             43 if ops.len() >= 3 => {
@@ -382,6 +396,7 @@ fn reflect(spv: &[u8]) -> Result<Vec<EntryInfo>, BoxError> {
 fn entry_info(m: &Module, name: String, interface: &[u32]) -> Result<EntryInfo, BoxError> {
     let mut strides: Vec<u32> = Vec::new();
     let mut uniforms = 0u32;
+    let mut texel_buffers = 0u32;
     let mut push_size = 0;
     for id in interface {
         let Some(&(ptr, class)) = m.variables.get(id) else {
@@ -393,6 +408,30 @@ fn entry_info(m: &Module, name: String, interface: &[u32]) -> Result<EntryInfo, 
         };
         if class == STORAGE_PUSH_CONSTANT {
             push_size = m.size_of(pointee)?;
+        } else if class == STORAGE_UNIFORM_CONSTANT {
+            // A sampled buffer image of 32-bit integers: a uniform texel buffer of words.
+            let word_buffer = match m.types.get(&pointee) {
+                Some((OP_TYPE_IMAGE, ops)) => {
+                    ops.len() >= 7
+                        && ops[1] == DIM_BUFFER
+                        && ops[5] == 1
+                        && matches!(m.types.get(&ops[0]), Some((21, t)) if t[0] == 32)
+                }
+                _ => false,
+            };
+            if !word_buffer {
+                return Err(format!("{name}: binding {id} is not a texel buffer of words").into());
+            }
+            let binding = *m
+                .decorations
+                .get(&(*id, DECORATION_BINDING))
+                .ok_or_else(|| format!("{name}: texel buffer {id} has no binding"))?
+                as usize;
+            if binding >= strides.len() {
+                strides.resize(binding + 1, 0);
+            }
+            strides[binding] = 4;
+            texel_buffers |= 1 << binding;
         } else if class == STORAGE_STORAGE_BUFFER || class == STORAGE_UNIFORM {
             let binding = *m
                 .decorations
@@ -415,6 +454,7 @@ fn entry_info(m: &Module, name: String, interface: &[u32]) -> Result<EntryInfo, 
         name,
         strides,
         uniforms,
+        texel_buffers,
         push_size,
     })
 }

@@ -132,11 +132,7 @@ pub struct Grid {
 impl Grid {
     /// Borrows the grid as the estimators' view.
     pub fn view(&self) -> VolumeView<'_> {
-        VolumeView {
-            desc: self.desc,
-            voxels: Pages::one(&self.voxels),
-            bricks: &self.bricks,
-        }
+        VolumeView::new(self.desc, Pages::one(&self.voxels), &self.bricks)
     }
 
     /// The stored f16 bits of voxel (i, j, k) (0 in an empty brick); the extinction is
@@ -488,11 +484,7 @@ impl<'a> GridBuilder<'a> {
                 ..Brick::default()
             })
             .collect();
-        let view = VolumeView {
-            desc,
-            voxels: Pages::one(&voxels),
-            bricks: &slots_only,
-        };
+        let view = VolumeView::new(desc, Pages::one(&voxels), &slots_only);
         use rayon::prelude::*;
         // A brick whose widened window lies in empty bricks only has all-zero statistics.
         let empty_around = |c: [u32; 3]| {

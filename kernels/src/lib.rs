@@ -4,19 +4,25 @@
 //! Binding numbers follow `shared::kernels::launch::bindings` (rust-gpu needs integer literals in
 //! `#[spirv(binding = N)]`; the host checks them against its named bindings at compile time).
 //! The per-dispatch structs (`RenderParams`, `GridDesc`, `Lighting`) are uniform blocks, every
-//! array a storage buffer: lavapipe reads a uniform block at a uniform offset with one scalar
+//! array a storage buffer (the voxel pool and the brick table also uniform texel buffers):
+//! lavapipe reads a uniform block at a uniform offset with one scalar
 //! load, where each storage-buffer load is a loop over the SIMD lanes (Mesa's `emit_load_mem`);
 //! push constants are one `shared` struct per kernel (`Launch`, or `RenderPass` for `transmittance_cs` and `scattering_cs`).
 //! Specialization constants by id (host: `gpu::render::specialization`): 0 the integrator, 1 the
 //! estimator, 2 a wavefront stage's kind, 3 whether the voxel pool spans several pages (0: the
 //! whole pool is binding `VOXELS`; 1: pages of `GridDesc::page_log2` words at `VOXELS` and
 //! `VOXEL_PAGES`), 4 the lookup, 5 the cells per brick (1: the fixed grid), 6 `GridDesc::brick_log2`,
-//! 7 the importance, 8 `GridDesc::brick_stepping` (`GridDesc::specialized`,
+//! 7 the importance, 8 `GridDesc::brick_stepping`, 9 whether the voxel pool (one page) and the
+//! brick table are read from their uniform texel buffers (`POOL_TEXELS`, `BRICK_TEXELS`; see
+//! `texel_tables`) instead of their storage buffers (`GridDesc::specialized`,
 //! `RenderParams::specialized`; each 0xffffffff:
 //! the buffer's value), so one module serves every variant and each pipeline holds one
 //! variant's code: lavapipe runs every branch of a SIMD group with masks, so code a pipeline
 //! cannot reach still costs time unless the driver folds it away.
 #![cfg_attr(target_arch = "spirv", no_std)]
+#![cfg_attr(target_arch = "spirv", feature(asm_experimental_arch))]
+
+mod texel_tables;
 
 use shared::integrators::direct::DirectState;
 use shared::integrators::path::PathState;
@@ -33,6 +39,7 @@ use shared::volume::grid::{Brick, GridDesc, VolumeView};
 use shared::volume::pages::Pages;
 use spirv_std::glam::UVec3;
 use spirv_std::spirv;
+use texel_tables::{TexelTables, WordTexels};
 
 /// A probe kernel (`bindings::map`): output i = `$f`(input i).
 macro_rules! map_kernel {
@@ -141,6 +148,10 @@ macro_rules! render_kernel {
             #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] voxels_6: &[u32],
             // bindings::render::VOXEL_PAGES + 6
             #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] voxels_7: &[u32],
+            // bindings::render::POOL_TEXELS
+            #[spirv(descriptor_set = 0, binding = 13)] pool_texels: &WordTexels,
+            // bindings::render::BRICK_TEXELS
+            #[spirv(descriptor_set = 0, binding = 14)] brick_texels: &WordTexels,
             // Specialization constants (host: gpu::render::specialization): integrator,
             // estimator, whether the pool spans several pages, lookup, cells per brick, brick
             // log2, brick stepping, importance.
@@ -151,6 +162,7 @@ macro_rules! render_kernel {
             #[spirv(spec_constant(id = 5, default = 4294967295))] cells_per_brick: u32,
             #[spirv(spec_constant(id = 6, default = 4294967295))] brick_log2: u32,
             #[spirv(spec_constant(id = 8, default = 4294967295))] brick_stepping: u32,
+            #[spirv(spec_constant(id = 9, default = 0))] texels: u32,
             #[spirv(spec_constant(id = 7, default = 4294967295))] importance: u32,
         ) {
             if let Some(i) = pass.launch.id(gid.x) {
@@ -170,6 +182,11 @@ macro_rules! render_kernel {
                         single: paged == 0,
                     },
                     bricks,
+                    texels: TexelTables {
+                        pool: pool_texels,
+                        bricks: brick_texels,
+                        bound: texels == 1,
+                    },
                 };
                 let slot = i - pass.sums_base as usize;
                 let prev = if pass.s_begin == 0 {
@@ -244,6 +261,10 @@ macro_rules! wave_kernel {
             #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] voxels_6: &[u32],
             // bindings::path::VOXEL_PAGES + 6
             #[spirv(storage_buffer, descriptor_set = 0, binding = 16)] voxels_7: &[u32],
+            // bindings::path::POOL_TEXELS
+            #[spirv(descriptor_set = 0, binding = 17)] pool_texels: &WordTexels,
+            // bindings::path::BRICK_TEXELS
+            #[spirv(descriptor_set = 0, binding = 18)] brick_texels: &WordTexels,
             // Specialization constants (host: gpu::render::wave_specialization): integrator,
             // estimator, the stage's kind (`$kind` of the stage), whether the pool spans several
             // pages.
@@ -255,6 +276,7 @@ macro_rules! wave_kernel {
             #[spirv(spec_constant(id = 5, default = 4294967295))] cells_per_brick: u32,
             #[spirv(spec_constant(id = 6, default = 4294967295))] brick_log2: u32,
             #[spirv(spec_constant(id = 8, default = 4294967295))] brick_stepping: u32,
+            #[spirv(spec_constant(id = 9, default = 0))] texels: u32,
             #[spirv(spec_constant(id = 7, default = 4294967295))] importance: u32,
         ) {
             if let Some(i) = pass.launch.id(gid.x) {
@@ -274,6 +296,11 @@ macro_rules! wave_kernel {
                 single: paged == 0,
             },
                     bricks,
+                    texels: TexelTables {
+                        pool: pool_texels,
+                        bricks: brick_texels,
+                        bound: texels == 1,
+                    },
                 };
                 let slot = i - pass.sums_base as usize;
                 let p = &params.specialized(integrator, estimator, importance);
@@ -426,6 +453,10 @@ macro_rules! msm_build_kernel {
             #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] voxels_6: &[u32],
             // bindings::msm_build::VOXEL_PAGES + 6
             #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] voxels_7: &[u32],
+            // bindings::msm_build::POOL_TEXELS
+            #[spirv(descriptor_set = 0, binding = 13)] pool_texels: &WordTexels,
+            // bindings::msm_build::BRICK_TEXELS
+            #[spirv(descriptor_set = 0, binding = 14)] brick_texels: &WordTexels,
             // Specialization constant (host: gpu::render::specialization): whether the
             // pool spans several pages.
             #[spirv(spec_constant(id = 3, default = 0))] paged: u32,
@@ -433,6 +464,7 @@ macro_rules! msm_build_kernel {
             #[spirv(spec_constant(id = 5, default = 4294967295))] cells_per_brick: u32,
             #[spirv(spec_constant(id = 6, default = 4294967295))] brick_log2: u32,
             #[spirv(spec_constant(id = 8, default = 4294967295))] brick_stepping: u32,
+            #[spirv(spec_constant(id = 9, default = 0))] texels: u32,
         ) {
             if let Some(k) = pass.launch.id(gid.x) {
                 let vol = VolumeView {
@@ -451,6 +483,11 @@ macro_rules! msm_build_kernel {
                         single: paged == 0,
                     },
                     bricks,
+                    texels: TexelTables {
+                        pool: pool_texels,
+                        bricks: brick_texels,
+                        bound: texels == 1,
+                    },
                 };
                 let m = shadow_map::msm_raw_texel(&vol, params, lighting, k as u32);
                 let mut c = 0;

@@ -3,9 +3,12 @@
 use super::error::GpuError;
 use ash::vk;
 
-/// Most storage buffers one dispatch can bind (`direct_cs`, `path_cs`: ten, plus the seven
-/// pages of the voxel pool beyond the first); devices must allow as many per stage.
-pub const MAX_BINDINGS: u32 = 17;
+/// Most bindings of one kernel (`direct_cs`, `path_cs`: ten buffers, the seven pages of the
+/// voxel pool beyond the first, and the two texel buffers).
+pub const MAX_BINDINGS: u32 = 19;
+/// Most storage buffers one kernel binds (`direct_cs`, `path_cs`); devices must allow as many
+/// per stage.
+pub const MAX_STORAGE_BUFFERS: u32 = 17;
 
 /// Owns the Vulkan entry, instance and logical device; destroyed last, after `device_wait_idle`.
 pub struct DeviceOwner {
@@ -258,7 +261,7 @@ impl DeviceOwner {
         if let Some(feature) = missing_feature(int64, memory_model, ubo_layout) {
             return Err(GpuError::Unsupported(description, feature));
         }
-        if props.limits.max_per_stage_descriptor_storage_buffers < MAX_BINDINGS {
+        if props.limits.max_per_stage_descriptor_storage_buffers < MAX_STORAGE_BUFFERS {
             return Err(GpuError::Unsupported(
                 description,
                 "maxPerStageDescriptorStorageBuffers >= 17 (the kernels bind up to 17 buffers)",

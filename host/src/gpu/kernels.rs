@@ -135,6 +135,8 @@ const RENDER_SIZES: [usize; render::COUNT] = {
         k += 1;
     }
     s[render::BRICKS] = size_of::<Brick>();
+    s[render::POOL_TEXELS] = size_of::<u32>();
+    s[render::BRICK_TEXELS] = size_of::<u32>();
     s[render::LIGHTS] = size_of::<PointLight>();
     s[render::SUMS] = size_of::<PixelSums>();
     s
@@ -158,6 +160,8 @@ const DIRECT_SIZES: [usize; direct::COUNT] = {
         k += 1;
     }
     s[direct::BRICKS] = size_of::<Brick>();
+    s[direct::POOL_TEXELS] = size_of::<u32>();
+    s[direct::BRICK_TEXELS] = size_of::<u32>();
     s[direct::LIGHTS] = size_of::<PointLight>();
     s[direct::SUMS] = size_of::<PixelSums>();
     s[direct::LIGHTING] = size_of::<Lighting>();
@@ -202,6 +206,8 @@ const PATH_SIZES: [usize; path::COUNT] = {
         k += 1;
     }
     s[path::BRICKS] = size_of::<Brick>();
+    s[path::POOL_TEXELS] = size_of::<u32>();
+    s[path::BRICK_TEXELS] = size_of::<u32>();
     s[path::LIGHTS] = size_of::<PointLight>();
     s[path::SUMS] = size_of::<PixelSums>();
     s[path::LIGHTING] = size_of::<Lighting>();
@@ -225,6 +231,8 @@ const MSM_BUILD_SIZES: [usize; msm_build::COUNT] = {
         k += 1;
     }
     s[msm_build::BRICKS] = size_of::<Brick>();
+    s[msm_build::POOL_TEXELS] = size_of::<u32>();
+    s[msm_build::BRICK_TEXELS] = size_of::<u32>();
     s[msm_build::LIGHTING] = size_of::<Lighting>();
     s[msm_build::RAW] = size_of::<f32>();
     s
@@ -281,6 +289,8 @@ impl<'a> RenderBuffers<'a> {
             s[render::VOXEL_PAGES + k - 1] = self.pages[k];
         }
         s[render::BRICKS] = self.bricks;
+        s[render::POOL_TEXELS] = self.pages[0];
+        s[render::BRICK_TEXELS] = self.bricks;
         s[render::LIGHTS] = self.lights;
         s[render::SUMS] = self.sums;
         s
@@ -309,6 +319,8 @@ impl<'a> LitBuffers<'a> {
             s[path::VOXEL_PAGES + k - 1] = r.pages[k];
         }
         s[path::BRICKS] = r.bricks;
+        s[path::POOL_TEXELS] = r.pages[0];
+        s[path::BRICK_TEXELS] = r.bricks;
         s[path::LIGHTS] = r.lights;
         s[path::SUMS] = r.sums;
         s[path::LIGHTING] = self.lighting;
@@ -341,6 +353,8 @@ impl<'a> MsmBuildBuffers<'a> {
             s[msm_build::VOXEL_PAGES + k - 1] = self.pages[k];
         }
         s[msm_build::BRICKS] = self.bricks;
+        s[msm_build::POOL_TEXELS] = self.pages[0];
+        s[msm_build::BRICK_TEXELS] = self.bricks;
         s[msm_build::LIGHTING] = self.lighting;
         s[msm_build::RAW] = self.raw;
         s

@@ -67,7 +67,9 @@ struct Recording {
     name: String,
     /// The pipelines of the dispatches (identical layouts).
     pipelines: Vec<Arc<Pipeline>>,
-    buffers: Vec<(vk::Buffer, u64)>,
+    /// Per binding: the buffer, its size, and its texel view where the binding is a texel
+    /// buffer.
+    buffers: Vec<(vk::Buffer, u64, Option<vk::BufferView>)>,
     /// Each command with the index of its pipeline (dispatches only).
     commands: Vec<(Command<Vec<u8>>, usize)>,
 }
@@ -138,6 +140,11 @@ impl Gpu {
         forced.map_or(device, |f| f.clamp(64, device))
     }
 
+    /// The most 32-bit words a uniform texel buffer may hold: maxTexelBufferElements.
+    pub fn max_texel_words(&self) -> u64 {
+        u64::from(self.owner.limits.max_texel_buffer_elements)
+    }
+
     /// log2 of the words per page of the voxel pool this device binds (see
     /// [`crate::bricks::page_log2_for`] of [`Gpu::max_buffer_bytes`]).
     pub fn page_log2(&self) -> u32 {
@@ -200,6 +207,18 @@ impl Gpu {
             return self.submit_raw(&work.uploads, None, &mut readbacks);
         }
         let pipelines = self.pipelines.get_all(&self.owner, &keys)?;
+        let texel_buffers = pipelines[0].texel_buffers;
+        let buffers = work
+            .buffers
+            .iter()
+            .enumerate()
+            .map(|(i, b)| {
+                let view = (texel_buffers >> i & 1 == 1)
+                    .then(|| b.texel_view())
+                    .transpose()?;
+                Ok((b.buffer, b.size, view))
+            })
+            .collect::<Result<_, GpuError>>()?;
         let mut names: Vec<&str> = Vec::new();
         for (k, _) in &keys {
             if !names.contains(&k.name()) {
@@ -209,7 +228,7 @@ impl Gpu {
         let recording = Recording {
             name: names.join(", "),
             pipelines,
-            buffers: work.buffers.iter().map(|b| (b.buffer, b.size)).collect(),
+            buffers,
             commands,
         };
         self.submit_raw(&work.uploads, Some(&recording), &mut readbacks)
@@ -440,25 +459,34 @@ impl Gpu {
         let infos: Vec<[vk::DescriptorBufferInfo; 1]> = r
             .buffers
             .iter()
-            .map(|&(buffer, size)| {
+            .map(|&(buffer, size, _)| {
                 [vk::DescriptorBufferInfo::default()
                     .buffer(buffer)
                     .offset(0)
                     .range(size)]
             })
             .collect();
+        let views: Vec<[vk::BufferView; 1]> = r
+            .buffers
+            .iter()
+            .map(|&(_, _, view)| [view.unwrap_or_default()])
+            .collect();
+        let (uniforms, texel_buffers) = (r.pipelines[0].uniforms, r.pipelines[0].texel_buffers);
         let writes: Vec<_> = infos
             .iter()
+            .zip(&views)
             .enumerate()
-            .map(|(i, info)| {
-                vk::WriteDescriptorSet::default()
+            .map(|(i, (info, view))| {
+                let ty = resources::descriptor_type(uniforms, texel_buffers, i as u32);
+                let w = vk::WriteDescriptorSet::default()
                     .dst_set(set)
                     .dst_binding(i as u32)
-                    .descriptor_type(resources::descriptor_type(
-                        r.pipelines[0].uniforms,
-                        i as u32,
-                    ))
-                    .buffer_info(info)
+                    .descriptor_type(ty);
+                if ty == vk::DescriptorType::UNIFORM_TEXEL_BUFFER {
+                    w.texel_buffer_view(view)
+                } else {
+                    w.buffer_info(info)
+                }
             })
             .collect();
         d.update_descriptor_sets(&writes, &[]);

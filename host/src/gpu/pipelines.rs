@@ -206,15 +206,7 @@ fn build(owner: &Arc<DeviceOwner>, kernel: Kernel, spec: &[u32]) -> Result<Pipel
     let module = unsafe { owner.device.create_shader_module(&info, None) }
         .map_err(|e| GpuError::Vulkan("vkCreateShaderModule", e))?;
     let start = std::time::Instant::now();
-    let p = Pipeline::new(
-        owner,
-        module,
-        kernel.c_name(),
-        bindings,
-        kernel.uniforms(),
-        kernel.push_size(),
-        spec,
-    );
+    let p = Pipeline::new(owner, module, kernel, spec);
     // SAFETY: no pipeline creation with this module is in flight; the pipeline does not need it.
     unsafe { owner.device.destroy_shader_module(module, None) };
     tracing::debug!(

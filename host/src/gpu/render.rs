@@ -21,6 +21,7 @@ use shared::params::{Integrator, RenderParams, UNSPECIALIZED};
 use shared::sampling::lighting::Lighting;
 use shared::sampling::lights::PointLight;
 use shared::shadows::map::{Shadows, RAW_PER_TEXEL};
+use shared::volume::grid::BRICK_WORDS;
 use shared::volume::pages::MAX_PAGES;
 use std::sync::Mutex;
 
@@ -51,7 +52,15 @@ impl<'a> GpuVolume<'a> {
             .map(|page| gpu.upload(bytemuck::cast_slice(page)))
             .collect::<Result<Vec<_>, _>>()
             .context("uploading the volume")?;
-        let grid = GridSpec::of(&desc, pages.len() > 1, gpu.is_software());
+        let mut grid = GridSpec::of(&desc, pages.len() > 1, gpu.is_software());
+        grid.texels = u32::from(
+            grid.texels == 1
+                && texels_fit(
+                    vol.voxels.len() as u64,
+                    vol.bricks.len() as u64,
+                    gpu.max_texel_words(),
+                ),
+        );
         Ok(GpuVolume {
             gpu,
             pages,
@@ -186,6 +195,7 @@ fn specialization(params: Option<&RenderParams>, stage_kind: u32, grid: GridSpec
         grid.brick_log2,
         importance,
         grid.brick_stepping,
+        grid.texels,
     ]
 }
 
@@ -200,6 +210,15 @@ pub struct GridSpec {
     pub cells_per_brick: u32,
     pub brick_log2: u32,
     pub brick_stepping: u32,
+    /// Specialization constant 9: 1 where the kernels read the pool and the brick table as
+    /// uniform texel buffers (`shared::volume::texels`), 0 where they read storage buffers.
+    pub texels: u32,
+}
+
+/// Whether a pool of `pool_words` words in one page and a table of `bricks` records fit
+/// uniform texel buffers of at most `max_words` words.
+fn texels_fit(pool_words: u64, bricks: u64, max_words: u64) -> bool {
+    pool_words <= max_words && bricks * u64::from(BRICK_WORDS) <= max_words
 }
 
 impl GridSpec {
@@ -215,6 +234,12 @@ impl GridSpec {
     /// (`GridDesc::can_step`): the straight-line skip costs more in every iteration
     /// than the iterations it saves (anchor jackknife 793 -> 421 ns/ray, docs/results/speed.md).
     /// Hardware GPUs skip, as the CPU does, until measured there.
+    ///
+    /// A software device also reads a one-page pool and the brick table as uniform texel
+    /// buffers (`texels`; [`GpuVolume::upload`] clears it where they exceed
+    /// maxTexelBufferElements): lavapipe loads a storage buffer lane by lane and fetches texels
+    /// as one gather (anchor jackknife 417 -> 374 ns/ray, docs/results/speed.md). Hardware
+    /// GPUs read storage buffers until measured there.
     pub fn of(desc: &shared::volume::grid::GridDesc, paged: bool, software: bool) -> Self {
         use shared::volume::grid::Lookup;
         GridSpec {
@@ -227,6 +252,7 @@ impl GridSpec {
             cells_per_brick: desc.cells_per_brick(),
             brick_log2: desc.brick_log2,
             brick_stepping: u32::from(software && desc.can_step()),
+            texels: u32::from(software && !paged),
         }
     }
 
@@ -239,6 +265,7 @@ impl GridSpec {
             cells_per_brick: 1,
             brick_log2: 4,
             brick_stepping: 0,
+            texels: 0,
         }
     }
 }
@@ -681,6 +708,20 @@ mod tests {
         for (b, v) in [(1, 0), (50, 0), (0, 770), (20, 100)] {
             assert_eq!(GridSpec::of(&desc(b, v), false, true).brick_stepping, 0);
         }
+    }
+
+    /// Software devices read one-page pools through texel buffers where both tables fit.
+    #[test]
+    fn texel_buffers_on_software_devices_for_one_page_pools_that_fit() {
+        use shared::volume::grid::GridDesc;
+        let d = GridDesc::default();
+        assert_eq!(GridSpec::of(&d, false, true).texels, 1);
+        assert_eq!(GridSpec::of(&d, true, true).texels, 0);
+        assert_eq!(GridSpec::of(&d, false, false).texels, 0);
+        assert!(texels_fit(1 << 27, (1 << 27) / 6, 1 << 27));
+        assert!(!texels_fit((1 << 27) + 1, 1, 1 << 27));
+        assert!(!texels_fit(1, (1 << 27) / 6 + 1, 1 << 27));
+        assert!(texels_fit(65_536, 10_922, 65_536));
     }
 
     /// (s_begin, ids) per run step, `None` per barrier.

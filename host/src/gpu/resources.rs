@@ -2,8 +2,9 @@
 
 use super::device::{DeviceOwner, MemoryRole, MAX_BINDINGS};
 use super::error::GpuError;
+use super::kernels::Kernel;
 use ash::vk;
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 /// A device-local storage buffer (see [`MemoryRole::Storage`]); filled and read through
 /// [`Staging`] copies by the [`super::Gpu`].
@@ -12,6 +13,8 @@ pub struct Buffer {
     pub(crate) buffer: vk::Buffer,
     memory: vk::DeviceMemory,
     pub(crate) size: u64,
+    /// Its words as a uniform texel buffer (`VK_FORMAT_R32_UINT`), made on first use.
+    texel_view: OnceLock<vk::BufferView>,
 }
 
 /// A host-visible, coherent buffer, persistently mapped: the source of uploads and the
@@ -74,6 +77,7 @@ fn create_buffer(
         buffer,
         memory,
         size,
+        texel_view: OnceLock::new(),
     };
     // SAFETY: memory of a compatible type, offset 0 (dropping `buffer` frees both on error).
     unsafe { device.bind_buffer_memory(buffer.buffer, memory, 0) }
@@ -85,13 +89,41 @@ impl Buffer {
     /// A device-local storage (or uniform) buffer of `size` bytes (at least 4), uninitialised.
     pub fn new(owner: &Arc<DeviceOwner>, size: u64) -> Result<Self, GpuError> {
         use vk::BufferUsageFlags as U;
-        let usage = U::STORAGE_BUFFER | U::UNIFORM_BUFFER | U::TRANSFER_SRC | U::TRANSFER_DST;
+        let usage = U::STORAGE_BUFFER
+            | U::UNIFORM_BUFFER
+            | U::UNIFORM_TEXEL_BUFFER
+            | U::TRANSFER_SRC
+            | U::TRANSFER_DST;
         create_buffer(owner, size, usage, MemoryRole::Storage)
     }
 
     /// Size in bytes.
     pub fn size(&self) -> u64 {
         self.size
+    }
+
+    /// The buffer's words as a uniform texel buffer of `VK_FORMAT_R32_UINT` (the first
+    /// `maxTexelBufferElements` words where it is longer: the kernels read such a buffer
+    /// through its storage binding instead).
+    pub(crate) fn texel_view(&self) -> Result<vk::BufferView, GpuError> {
+        if let Some(v) = self.texel_view.get() {
+            return Ok(*v);
+        }
+        let words = (self.size / 4).min(u64::from(self.owner.limits.max_texel_buffer_elements));
+        let info = vk::BufferViewCreateInfo::default()
+            .buffer(self.buffer)
+            .format(vk::Format::R32_UINT)
+            .offset(0)
+            .range(words.max(1) * 4);
+        // SAFETY: a view of this buffer (created with UNIFORM_TEXEL_BUFFER usage, at least 4
+        // bytes) within its size; destroyed in Drop.
+        let view = unsafe { self.owner.device.create_buffer_view(&info, None) }
+            .map_err(|e| GpuError::Vulkan("vkCreateBufferView", e))?;
+        if let Err(v) = self.texel_view.set(view) {
+            // SAFETY: another thread's view won; this one is unused.
+            unsafe { self.owner.device.destroy_buffer_view(v, None) };
+        }
+        Ok(*self.texel_view.get().expect("just set"))
     }
 }
 
@@ -100,6 +132,9 @@ impl Drop for Buffer {
         // SAFETY: the submitter waits for its fence before buffers can be dropped; freeing
         // mapped memory unmaps it.
         unsafe {
+            if let Some(v) = self.texel_view.get() {
+                self.owner.device.destroy_buffer_view(*v, None);
+            }
             self.owner.device.destroy_buffer(self.buffer, None);
             self.owner.device.free_memory(self.memory, None);
         }
@@ -176,12 +211,16 @@ pub struct Pipeline {
     pub(crate) set_layout: vk::DescriptorSetLayout,
     /// Bit b set: binding b is a uniform buffer, else a storage buffer.
     pub(crate) uniforms: u32,
+    /// Bit b set: binding b is a uniform texel buffer of 32-bit words.
+    pub(crate) texel_buffers: u32,
 }
 
 /// The descriptor type of binding `b` of a layout whose uniform buffers are the bits of
-/// `uniforms`.
-pub fn descriptor_type(uniforms: u32, b: u32) -> vk::DescriptorType {
-    if uniforms >> b & 1 == 1 {
+/// `uniforms` and whose uniform texel buffers are the bits of `texel_buffers`.
+pub fn descriptor_type(uniforms: u32, texel_buffers: u32, b: u32) -> vk::DescriptorType {
+    if texel_buffers >> b & 1 == 1 {
+        vk::DescriptorType::UNIFORM_TEXEL_BUFFER
+    } else if uniforms >> b & 1 == 1 {
         vk::DescriptorType::UNIFORM_BUFFER
     } else {
         vk::DescriptorType::STORAGE_BUFFER
@@ -189,25 +228,25 @@ pub fn descriptor_type(uniforms: u32, b: u32) -> vk::DescriptorType {
 }
 
 impl Pipeline {
-    /// Builds the pipeline of `entry` in `module`, with `bindings` buffers at bindings
-    /// 0..bindings of set 0 (uniform buffers where `uniforms` has the binding's bit, storage
-    /// buffers elsewhere), `push_size` bytes of push constants and the u32 specialization
-    /// constants `spec` (constant id i = `spec[i]`; ids the module lacks are ignored).
+    /// Builds the pipeline of `kernel`'s entry point in `module`, with its bindings at 0.. of
+    /// set 0 (uniform buffers, uniform texel buffers and storage buffers as the module declares
+    /// them: `Kernel::uniforms`, `Kernel::texel_buffers`), its push constants and the u32
+    /// specialization constants `spec` (constant id i = `spec[i]`; ids the module lacks are
+    /// ignored).
     pub fn new(
         owner: &Arc<DeviceOwner>,
         module: vk::ShaderModule,
-        entry: &std::ffi::CStr,
-        bindings: u32,
-        uniforms: u32,
-        push_size: u32,
+        kernel: Kernel,
         spec: &[u32],
     ) -> Result<Self, GpuError> {
         let device = &owner.device;
+        let (entry, bindings) = (kernel.c_name(), kernel.strides().len() as u32);
+        let (uniforms, texel_buffers) = (kernel.uniforms(), kernel.texel_buffers());
         let binding_info: Vec<_> = (0..bindings)
             .map(|b| {
                 vk::DescriptorSetLayoutBinding::default()
                     .binding(b)
-                    .descriptor_type(descriptor_type(uniforms, b))
+                    .descriptor_type(descriptor_type(uniforms, texel_buffers, b))
                     .descriptor_count(1)
                     .stage_flags(vk::ShaderStageFlags::COMPUTE)
             })
@@ -219,7 +258,7 @@ impl Pipeline {
         let ranges = [vk::PushConstantRange::default()
             .stage_flags(vk::ShaderStageFlags::COMPUTE)
             .offset(0)
-            .size(push_size)];
+            .size(kernel.push_size())];
         let set_layouts = [set_layout];
         let layout_info = vk::PipelineLayoutCreateInfo::default()
             .set_layouts(&set_layouts)
@@ -272,6 +311,7 @@ impl Pipeline {
             layout,
             set_layout,
             uniforms,
+            texel_buffers,
         })
     }
 }
@@ -327,6 +367,9 @@ impl Submitter {
                     .descriptor_count(MAX_BINDINGS),
                 vk::DescriptorPoolSize::default()
                     .ty(vk::DescriptorType::UNIFORM_BUFFER)
+                    .descriptor_count(MAX_BINDINGS),
+                vk::DescriptorPoolSize::default()
+                    .ty(vk::DescriptorType::UNIFORM_TEXEL_BUFFER)
                     .descriptor_count(MAX_BINDINGS),
             ];
             let dp_info = vk::DescriptorPoolCreateInfo::default()

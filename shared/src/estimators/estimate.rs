@@ -16,13 +16,14 @@ use crate::params::{Config, Estimator, RenderParams};
 use crate::rng::HashRng;
 use crate::tally::Tally;
 use crate::volume::grid::VolumeView;
+use crate::volume::texels::Texels;
 
 /// Transmittance estimate of the index-space segment [t0, t1] (t0 < t1, inside the grid) by the
 /// estimator of `cfg`, with N = `params.n` samples per optical-depth estimate. Returns
 /// (T, tally, rng).
 #[inline]
 pub fn transmittance(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     cfg: &Config,
     params: &RenderParams,
     ray: &Ray,
@@ -92,7 +93,7 @@ pub fn transmittance(
 /// estimator's code: `restir`'s target, [`crate::integrators::restir::p_hat`]).
 #[inline]
 pub fn pair_transmittance(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     cfg: &Config,
     params: &RenderParams,
     ray: &Ray,
@@ -128,7 +129,7 @@ pub fn pair_transmittance(
 /// ([`transmittance`]'s arm, and alone as [`pair_transmittance`] is).
 #[inline]
 pub fn ratio_transmittance(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     cfg: &Config,
     ray: &Ray,
     t0: f32,

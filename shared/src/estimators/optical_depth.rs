@@ -9,6 +9,7 @@ use crate::rng::{pcg3d, unit_f32, HashRng};
 use crate::tally::Tally;
 use crate::volume::grid::{Brick, Lookup, VolumeView};
 use crate::volume::supervoxels::SuperVoxelDda;
+use crate::volume::texels::Texels;
 
 /// Sampling importance of a brick.
 #[inline]
@@ -40,7 +41,13 @@ pub struct Prep {
 
 /// Alg. 2: one DDA over the super-voxels of [t0, t1], summing (t_{n+1} - t_n) P into F and recording
 /// the entry of the first and the exit of the last super-voxel with P != 0.
-pub fn prepare(vol: &VolumeView, ray: &Ray, t0: f32, t1: f32, mode: Importance) -> Prep {
+pub fn prepare(
+    vol: &VolumeView<impl Texels>,
+    ray: &Ray,
+    t0: f32,
+    t1: f32,
+    mode: Importance,
+) -> Prep {
     let mut f = 0.0;
     let mut t_min = t1;
     let mut t_max = t0;
@@ -86,7 +93,7 @@ impl DepthPairEstimate {
 
 /// Extinction at index-space point p with the chosen lookup; `key` decorrelates the jitter.
 #[inline]
-pub fn mu_at(vol: &VolumeView, p: V3, lookup: Lookup, key: [u32; 3]) -> f32 {
+pub fn mu_at(vol: &VolumeView<impl Texels>, p: V3, lookup: Lookup, key: [u32; 3]) -> f32 {
     match lookup {
         Lookup::Nearest => vol.mu_nearest(p),
         Lookup::Stochastic => {
@@ -118,7 +125,7 @@ struct Placed {
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn estimate_pair(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     ray: &Ray,
     prep: &Prep,
     n: u32,
@@ -136,7 +143,7 @@ pub fn estimate_pair(
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn estimate_single(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     ray: &Ray,
     prep: &Prep,
     n: u32,
@@ -158,7 +165,7 @@ pub const MAX_ADAPTIVE_STRATA: u32 = 1024;
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn estimate_pair_adaptive(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     ray: &Ray,
     prep: &Prep,
     f_delta: f32,
@@ -247,7 +254,7 @@ impl Strata {
 /// The shared loop of Alg. 1: up to two interleaved estimates over one DDA (Sec. 4.3).
 #[allow(clippy::too_many_arguments)]
 pub fn estimate_interleaved(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     ray: &Ray,
     prep: &Prep,
     plan: &Strata,

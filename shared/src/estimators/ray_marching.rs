@@ -9,6 +9,7 @@ use crate::params::{Importance, Jitter};
 use crate::rng::HashRng;
 use crate::tally::Tally;
 use crate::volume::grid::{Lookup, VolumeView};
+use crate::volume::texels::Texels;
 
 /// Highest power-series degree (the author's cap; a tiny truncation bias, stated in the paper).
 pub const MAX_DEGREE: usize = 8;
@@ -117,7 +118,7 @@ fn sample_degree(rng: HashRng) -> (usize, HashRng) {
 /// one uniform jitter offset (Alg. 1 with m = 1). Returns (X in `x0`, rng).
 #[inline]
 fn marching_estimate(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     ray: &Ray,
     prep: &Prep,
     n: u32,
@@ -139,7 +140,7 @@ fn marching_estimate(
 /// Biased ray marching: exp(-X), X from [`tuple_size`] mean-importance samples (the same count
 /// as one estimate of unbiased ray marching, as in the author's code). Returns (T, tally, rng).
 pub fn biased_ray_marching(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     ray: &Ray,
     t0: f32,
     t1: f32,
@@ -160,7 +161,7 @@ pub fn biased_ray_marching(
 /// pivot in turn: exp(-X_p) sum_j e_j / (j! P_j), e_j the elementary symmetric mean of degree j
 /// of the offsets (X_p - X_i), i != p; averaged over the pivots.
 pub fn unbiased_ray_marching(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     ray: &Ray,
     t0: f32,
     t1: f32,

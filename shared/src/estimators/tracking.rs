@@ -14,6 +14,7 @@ use crate::sampling::exponential::{Collision, MajorantSampler};
 use crate::tally::Tally;
 use crate::volume::dda::GridDda;
 use crate::volume::grid::{Lookup, VolumeView};
+use crate::volume::texels::Texels;
 
 pub use crate::params::MAX_TENTATIVE_COLLISIONS;
 
@@ -31,7 +32,12 @@ const JITTER_SALT: u32 = 0x85eb_ca6b;
 /// box) by a voxel DDA (regular tracking): sum of segment length times voxel extinction, over
 /// the voxels outside all-zero cubes of bricks (skipped: they add exactly 0). Returns (tau,
 /// tally: the voxels read, capped if the traversal's budget ended it).
-pub fn regular_tracking_tau(vol: &VolumeView, ray: &Ray, t0: f32, t1: f32) -> (f32, Tally) {
+pub fn regular_tracking_tau(
+    vol: &VolumeView<impl Texels>,
+    ray: &Ray,
+    t0: f32,
+    t1: f32,
+) -> (f32, Tally) {
     let mut tau = 0.0f32;
     let mut visited = 0u32;
     let mut dda = GridDda::voxels(&vol.desc, ray, t0, t1);
@@ -50,7 +56,7 @@ pub fn regular_tracking_tau(vol: &VolumeView, ray: &Ray, t0: f32, t1: f32) -> (f
 /// (T, tally, rng).
 #[inline]
 pub fn track_length(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     ray: &Ray,
     t0: f32,
     t1: f32,
@@ -62,7 +68,7 @@ pub fn track_length(
 
 /// [`track_length`] with a collision cap `cap` (at most [`MAX_TENTATIVE_COLLISIONS`]).
 pub fn track_length_capped(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     ray: &Ray,
     t0: f32,
     t1: f32,
@@ -97,7 +103,7 @@ pub struct FreeFlight {
 #[inline]
 fn next_lookup(
     sampler: &mut MajorantSampler,
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     ray: &Ray,
     lookup: Lookup,
     salt: u32,
@@ -120,7 +126,7 @@ fn next_lookup(
 /// that part, and the ray is counted as capped.
 #[inline]
 pub fn delta_tracking(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     ray: &Ray,
     t0: f32,
     t1: f32,
@@ -143,7 +149,7 @@ pub fn delta_tracking(
 /// [`delta_tracking`] with a collision cap `cap` (at most [`MAX_TENTATIVE_COLLISIONS`]).
 #[allow(clippy::too_many_arguments)]
 pub fn delta_tracking_capped(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     ray: &Ray,
     t0: f32,
     t1: f32,
@@ -202,7 +208,7 @@ pub fn delta_tracking_capped(
 /// roulette below [`RR_THRESHOLD`] when `roulette` is set. Returns (T, tally, rng).
 #[inline]
 pub fn ratio_tracking(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     ray: &Ray,
     t0: f32,
     t1: f32,
@@ -225,7 +231,7 @@ pub fn ratio_tracking(
 /// [`ratio_tracking`] with a collision cap `cap` (at most [`MAX_TENTATIVE_COLLISIONS`]).
 #[allow(clippy::too_many_arguments)]
 pub fn ratio_tracking_capped(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     ray: &Ray,
     t0: f32,
     t1: f32,
@@ -271,7 +277,12 @@ pub fn ratio_tracking_capped(
 /// completed estimate stays unbiased for nearest lookups (approximate for stochastic ones).
 /// Returns (T of the rest, voxels read).
 #[inline]
-pub fn complete_exactly(vol: &VolumeView, ray: &Ray, t_last: f32, t1: f32) -> (f32, u32) {
+pub fn complete_exactly(
+    vol: &VolumeView<impl Texels>,
+    ray: &Ray,
+    t_last: f32,
+    t1: f32,
+) -> (f32, u32) {
     if !(t_last < t1) {
         return (1.0, 0);
     }
@@ -297,7 +308,7 @@ pub struct ExactFlight {
 
 /// Samples [`ExactFlight`] over [t0, t1] with optical depth `target` (regular tracking).
 pub fn exact_free_flight(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     ray: &Ray,
     t0: f32,
     t1: f32,

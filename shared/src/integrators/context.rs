@@ -7,10 +7,13 @@ use crate::rng::HashRng;
 use crate::sampling::equiangular::Equiangular;
 use crate::sampling::lights::PointLight;
 use crate::volume::grid::{Lookup, VolumeView};
+use crate::volume::texels::Texels;
 
 /// Everything about one camera ray that the strategies share.
-pub(super) struct Context<'a> {
-    pub(super) vol: &'a VolumeView<'a>,
+pub(super) struct Context<'a, T: Texels> {
+    /// By value: a kernel's view holds texel buffers, which SPIR-V may not keep behind a
+    /// pointer stored in a struct.
+    pub(super) vol: VolumeView<'a, T>,
     pub(super) params: &'a RenderParams,
     pub(super) cfg: &'a Config,
     /// World-space unit ray.
@@ -28,17 +31,17 @@ pub(super) struct Context<'a> {
 
 /// The box [0, dims] of the grid as a vector.
 #[inline]
-pub(super) fn grid_hi(vol: &VolumeView) -> V3 {
+pub(super) fn grid_hi(vol: &VolumeView<impl Texels>) -> V3 {
     let d = &vol.desc.dims;
     V3::new(d[0] as f32, d[1] as f32, d[2] as f32)
 }
 
 /// Extinction at distance t along the camera ray.
 #[inline]
-pub(super) fn mu_on_ray(ctx: &Context, t: f32, rng: HashRng) -> (f32, HashRng) {
+pub(super) fn mu_on_ray(ctx: &Context<impl Texels>, t: f32, rng: HashRng) -> (f32, HashRng) {
     let (bits, rng) = rng.next_u32();
     (
-        mu_at(ctx.vol, ctx.ray.at(t), ctx.lookup, [bits, 0x1656_67b1, 7]),
+        mu_at(&ctx.vol, ctx.ray.at(t), ctx.lookup, [bits, 0x1656_67b1, 7]),
         rng,
     )
 }

@@ -29,6 +29,7 @@ use crate::shadows::map::{map_transmittance, Shadows};
 use crate::tally::Tally;
 use crate::volume::dda::clip_to_box;
 use crate::volume::grid::VolumeView;
+use crate::volume::texels::Texels;
 use bytemuck::{Pod, Zeroable};
 
 /// Salt of the stochastic-lookup jitter key of the camera ray's free flight.
@@ -101,7 +102,7 @@ impl ShadowQuery {
 /// Radiance along one world-space camera ray (RGB), its tally and the generator: the start and
 /// the three estimates of [`DirectState`] in one call (the CPU backend).
 pub fn direct_radiance(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     cfg: &Config,
     params: &RenderParams,
     scene: &Scene,
@@ -120,7 +121,7 @@ pub fn direct_radiance(
 /// Stage 1 of a camera sample: the free flight, the light and phase samples at its vertex, and
 /// the three queries (the background's weight is the radiance behind the volume).
 pub fn direct_start(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     cfg: &Config,
     params: &RenderParams,
     scene: &Scene,
@@ -132,7 +133,7 @@ pub fn direct_start(
 
 /// [`direct_start`], and whether the free flight collided and where (the scattering vertex).
 pub(super) fn start_at_vertex(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     cfg: &Config,
     params: &RenderParams,
     scene: &Scene,
@@ -192,7 +193,7 @@ pub(super) fn start_at_vertex(
 /// Stage 2 + k of a camera sample: the transmittance of query k (if it carries weight), added
 /// to the radiance.
 pub fn direct_estimate(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     cfg: &Config,
     params: &RenderParams,
     scene: &Scene,
@@ -208,7 +209,7 @@ pub fn direct_estimate(
 /// one place a wavefront's estimate stage calls [`shadow`] (`restir`'s resampled light too: a
 /// kernel inlines each call site of the estimators).
 pub(super) fn add_shadowed(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     cfg: &Config,
     params: &RenderParams,
     scene: &Scene,
@@ -234,14 +235,14 @@ pub(super) fn add_shadowed(
 
 /// The box [0, dims] of the grid as a vector.
 #[inline]
-pub(super) fn grid_hi(vol: &VolumeView) -> V3 {
+pub(super) fn grid_hi(vol: &VolumeView<impl Texels>) -> V3 {
     let d = &vol.desc.dims;
     V3::new(d[0] as f32, d[1] as f32, d[2] as f32)
 }
 
 /// Transmittance along a query's ray through the grid, by the estimator of the render.
 pub(super) fn shadow(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     cfg: &Config,
     params: &RenderParams,
     q: &ShadowQuery,
@@ -258,7 +259,7 @@ pub(super) fn shadow(
 /// says (`restir`'s target T̂): the same numbers as [`shadow`] for those estimators, and a kernel
 /// that inlines it at every target evaluation holds none of the others' code.
 pub(super) fn shadow_pair_or_ratio(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     cfg: &Config,
     params: &RenderParams,
     q: &ShadowQuery,
@@ -278,7 +279,11 @@ pub(super) fn shadow_pair_or_ratio(
 /// A query's shadow ray in index space and its segment [t0, t1] inside the grid (empty if
 /// t0 >= t1).
 #[inline]
-fn shadow_segment(vol: &VolumeView, params: &RenderParams, q: &ShadowQuery) -> (Ray, f32, f32) {
+fn shadow_segment(
+    vol: &VolumeView<impl Texels>,
+    params: &RenderParams,
+    q: &ShadowQuery,
+) -> (Ray, f32, f32) {
     let world = Ray { o: q.o, d: q.w };
     let ray = to_index_space(&world, &params.world_to_index);
     let (t0, t1) = clip_to_box(&ray, grid_hi(vol), 0.0, q.dist);

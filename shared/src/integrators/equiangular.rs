@@ -4,12 +4,16 @@ use super::context::{mu_on_ray, Context};
 use crate::estimators::tracking::FreeFlight;
 use crate::rng::HashRng;
 use crate::tally::Tally;
+use crate::volume::texels::Texels;
 
 /// Strategy 0 of Eq. 9/10: an equiangular sample t0 toward the light and the extinction there,
 /// as a [`FreeFlight`] (`found` when its density p0 and mu(t0) are positive and t0 lies inside
 /// (ta, tb); `null_product` unused). Returns (sample, p0, rng).
 #[inline]
-pub(super) fn equiangular_sample(ctx: &Context, rng: HashRng) -> (FreeFlight, f32, HashRng) {
+pub(super) fn equiangular_sample(
+    ctx: &Context<impl Texels>,
+    rng: HashRng,
+) -> (FreeFlight, f32, HashRng) {
     let (u, rng) = rng.next_f32();
     let (t0, p0) = ctx.eq.sample(u);
     let (mu0, rng) = mu_on_ray(ctx, t0, rng);

@@ -3,12 +3,13 @@
 use super::context::Context;
 use crate::estimators::tracking::{delta_tracking, FreeFlight};
 use crate::rng::HashRng;
+use crate::volume::texels::Texels;
 
 /// Free-flight sample on the camera ray by delta tracking (see [`delta_tracking`]).
 #[inline]
-pub(super) fn free_flight(ctx: &Context, rng: HashRng) -> (FreeFlight, HashRng) {
+pub(super) fn free_flight(ctx: &Context<impl Texels>, rng: HashRng) -> (FreeFlight, HashRng) {
     delta_tracking(
-        ctx.vol,
+        &ctx.vol,
         &ctx.ray,
         ctx.ta,
         ctx.tb,

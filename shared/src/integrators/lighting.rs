@@ -10,9 +10,14 @@ use crate::rng::HashRng;
 use crate::sampling::phase::phase_hg;
 use crate::tally::Tally;
 use crate::volume::dda::clip_to_box;
+use crate::volume::texels::Texels;
 
 /// Jackknife transmittance from world point x to the light (shadow ray, N per estimate).
-pub(super) fn shadow_transmittance(ctx: &Context, x: V3, rng: HashRng) -> (f32, Tally, HashRng) {
+pub(super) fn shadow_transmittance(
+    ctx: &Context<impl Texels>,
+    x: V3,
+    rng: HashRng,
+) -> (f32, Tally, HashRng) {
     let to = ctx.light.position - x;
     let dist = sqrt(to.dot(to));
     if !(dist > 0.0) {
@@ -23,7 +28,7 @@ pub(super) fn shadow_transmittance(ctx: &Context, x: V3, rng: HashRng) -> (f32, 
         d: to * (1.0 / dist),
     };
     let ray = to_index_space(&world, &ctx.params.world_to_index);
-    let (t0, t1) = clip_to_box(&ray, grid_hi(ctx.vol), 0.0, dist);
+    let (t0, t1) = clip_to_box(&ray, grid_hi(&ctx.vol), 0.0, dist);
     if !(t0 < t1) {
         return (1.0, Tally::default(), rng);
     }
@@ -35,12 +40,16 @@ pub(super) fn shadow_transmittance(ctx: &Context, x: V3, rng: HashRng) -> (f32, 
         jitter: Jitter::Stratified,
         ..*ctx.cfg
     };
-    estimate::transmittance(ctx.vol, &shadow, ctx.params, &ray, t0, t1, rng)
+    estimate::transmittance(&ctx.vol, &shadow, ctx.params, &ray, t0, t1, rng)
 }
 
 /// In-scattered radiance from the selected light at distance t, divided by the light's
 /// selection probability: phase * I * T_shadow / d^2 / P(light).
-pub(super) fn inscattered(ctx: &Context, t: f32, rng: HashRng) -> (f32, Tally, HashRng) {
+pub(super) fn inscattered(
+    ctx: &Context<impl Texels>,
+    t: f32,
+    rng: HashRng,
+) -> (f32, Tally, HashRng) {
     let x = ctx.world.at(t);
     let to = ctx.light.position - x;
     let d2 = to.dot(to);

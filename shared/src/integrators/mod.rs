@@ -25,13 +25,14 @@ use crate::sampling::lights::{select_light, PointLight};
 use crate::tally::Tally;
 use crate::volume::dda::clip_to_box;
 use crate::volume::grid::VolumeView;
+use crate::volume::texels::Texels;
 use context::{grid_hi, Context};
 use strategy::strategy;
 
 /// Radiance along one world-space camera ray; returns (L, tally, rng) (decodes `params`; a render
 /// decodes once per pass and calls [`trace_radiance`]).
 pub fn radiance(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     lights: &[PointLight],
     world: &Ray,
@@ -49,7 +50,7 @@ pub fn radiance(
 
 /// [`radiance`] with the enums already decoded.
 pub fn trace_radiance(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     cfg: &Config,
     params: &RenderParams,
     lights: &[PointLight],
@@ -65,7 +66,7 @@ pub fn trace_radiance(
     let (k, p_light) = select_light(lights, params.light_count, world.o, world.d, ta, tb, u);
     let light = lights[k as usize];
     let ctx = Context {
-        vol,
+        vol: *vol,
         params,
         cfg,
         world: *world,

@@ -22,6 +22,7 @@ use crate::sampling::phase::sample_hg;
 use crate::tally::Tally;
 use crate::volume::dda::clip_to_box;
 use crate::volume::grid::VolumeView;
+use crate::volume::texels::Texels;
 use bytemuck::{Pod, Zeroable};
 
 /// Salt of the stochastic-lookup jitter key of the path's free flights.
@@ -95,7 +96,7 @@ pub fn path_start(world: &Ray, rng: HashRng) -> PathState {
 
 /// Advances a live path by one vertex (see the module doc); a finished path is returned as is.
 pub fn path_bounce(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     cfg: &Config,
     params: &RenderParams,
     scene: &Scene,
@@ -207,7 +208,7 @@ fn max3(c: Rgb) -> f32 {
 /// A whole path (the CPU backend; the GPU runs the same `max_depth + 1` bounces, one dispatch
 /// each): its radiance and tally.
 pub fn path_radiance(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     cfg: &Config,
     params: &RenderParams,
     scene: &Scene,

@@ -32,6 +32,7 @@ use crate::sampling::lighting::Scene;
 use crate::sampling::lights::{sample_power, unshadowed};
 use crate::tally::Tally;
 use crate::volume::grid::VolumeView;
+use crate::volume::texels::Texels;
 use bytemuck::{Pod, Zeroable};
 
 /// Salt of the target's per-light random numbers.
@@ -161,7 +162,7 @@ pub fn reuse_pass(params: &RenderParams, stage: u32) -> u32 {
 /// (the CPU backend without reuse; reuse passes need the other pixels and are skipped here).
 #[allow(clippy::too_many_arguments)]
 pub fn restir_radiance(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     cfg: &Config,
     params: &RenderParams,
     scene: &Scene,
@@ -194,7 +195,7 @@ pub fn restir_radiance(
 
 /// Stage 0: `direct`'s start (free flight, map/sun light sample, phase sample) and the vertex.
 pub fn restir_start(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     cfg: &Config,
     params: &RenderParams,
     scene: &Scene,
@@ -217,7 +218,7 @@ pub fn restir_start(
 /// reuse stage (M + 1 ..= M + P) returns `st` (it needs the image: [`is_reuse_stage`]).
 #[allow(clippy::too_many_arguments)]
 pub fn restir_stage(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     cfg: &Config,
     params: &RenderParams,
     scene: &Scene,
@@ -234,7 +235,7 @@ pub fn restir_stage(
 /// kernel specialized to one kind holds only that kind's code.
 #[allow(clippy::too_many_arguments)]
 pub fn restir_stage_of_kind(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     cfg: &Config,
     params: &RenderParams,
     scene: &Scene,
@@ -258,7 +259,7 @@ pub fn restir_stage_of_kind(
 /// A [`KIND_QUERY`] stage `stage`: transmittance query stage - M - P - 2.
 #[inline]
 pub fn query_stage(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     cfg: &Config,
     params: &RenderParams,
     scene: &Scene,
@@ -272,7 +273,7 @@ pub fn query_stage(
 /// A [`KIND_CANDIDATE`] stage: one candidate, a light by power, its target p̂ and resampling
 /// weight p̂ / (M p), streamed into the reservoir.
 pub fn candidate_stage(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     cfg: &Config,
     params: &RenderParams,
     scene: &Scene,
@@ -291,7 +292,7 @@ pub fn candidate_stage(
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn stream_candidates(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     cfg: &Config,
     params: &RenderParams,
     scene: &Scene,
@@ -333,7 +334,7 @@ pub fn stream_candidates(
 /// random numbers depend on (pixel, sample, light) only. Returns (p̂, the tally of T̂).
 #[allow(clippy::too_many_arguments)]
 pub fn p_hat(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     cfg: &Config,
     params: &RenderParams,
     scene: &Scene,
@@ -410,7 +411,7 @@ pub fn resolve_stage(scene: &Scene, params: &RenderParams, st: RestirState) -> R
 /// light's) added to the radiance, through one call of [`add_shadowed`] (one inlined copy of the
 /// estimators in `restir_query_cs`).
 fn estimate_query(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     cfg: &Config,
     params: &RenderParams,
     scene: &Scene,

@@ -23,6 +23,7 @@ use crate::rng::{pcg_hash, HashRng};
 use crate::sampling::lighting::Scene;
 use crate::tally::Tally;
 use crate::volume::grid::VolumeView;
+use crate::volume::texels::Texels;
 
 /// Salt of the neighbour choice's random numbers.
 const NEIGHBOUR_SALT: u32 = 0x3c6e_f372;
@@ -123,7 +124,7 @@ pub fn capped_m(params: &RenderParams, m: u32) -> u32 {
 /// is pixel j's state; all the pixels' states must be there.
 #[allow(clippy::too_many_arguments)]
 pub fn reuse(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     cfg: &Config,
     params: &RenderParams,
     scene: &Scene,

@@ -15,6 +15,7 @@ use crate::mis::Mobius;
 use crate::params::{Integrator, TransmittanceHat};
 use crate::rng::HashRng;
 use crate::tally::Tally;
+use crate::volume::texels::Texels;
 
 /// An estimate on [ta, t] of the strategy's sample t that a weight or T̂(t) needs.
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -79,11 +80,11 @@ struct Estimate {
 
 /// Runs `job` on [ta, t] of the camera ray. Returns (estimate, tally, rng).
 #[inline]
-fn run(ctx: &Context, job: Job, t: f32, rng: HashRng) -> (Estimate, Tally, HashRng) {
+fn run(ctx: &Context<impl Texels>, job: Job, t: f32, rng: HashRng) -> (Estimate, Tally, HashRng) {
     if job == Job::Ratio || job == Job::RatioHat {
         let roulette = job == Job::RatioHat && ctx.cfg.roulette;
         let (ratio, tally, rng) =
-            ratio_tracking(ctx.vol, &ctx.ray, ctx.ta, t, ctx.lookup, roulette, rng);
+            ratio_tracking(&ctx.vol, &ctx.ray, ctx.ta, t, ctx.lookup, roulette, rng);
         let e = Estimate {
             est: DepthPairEstimate::default(),
             ratio,
@@ -92,7 +93,7 @@ fn run(ctx: &Context, job: Job, t: f32, rng: HashRng) -> (Estimate, Tally, HashR
     } else {
         let n = ctx.params.n;
         let n1 = if job == Job::Single { 0 } else { n };
-        let (est, rng) = depth(ctx.vol, &ctx.ray, ctx.ta, t, n, n1, ctx.lookup, rng);
+        let (est, rng) = depth(&ctx.vol, &ctx.ray, ctx.ta, t, n, n1, ctx.lookup, rng);
         let tally = if job == Job::Jackknife {
             jackknife_tally(&est)
         } else {
@@ -106,7 +107,7 @@ fn run(ctx: &Context, job: Job, t: f32, rng: HashRng) -> (Estimate, Tally, HashR
 /// sample t1 by delta tracking), weighted by integrator `which`'s MIS weight (Miller et al.'s
 /// ratio-tracking density included). Returns (contribution, tally, rng).
 pub(super) fn strategy(
-    ctx: &Context,
+    ctx: &Context<impl Texels>,
     which: Integrator,
     s: u32,
     rng: HashRng,
@@ -152,7 +153,7 @@ pub(super) fn strategy(
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn contribution(
-    ctx: &Context,
+    ctx: &Context<impl Texels>,
     which: Integrator,
     s: u32,
     v: &crate::estimators::tracking::FreeFlight,

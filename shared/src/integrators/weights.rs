@@ -10,6 +10,7 @@ use crate::params::{Importance, Jitter};
 use crate::rng::HashRng;
 use crate::tally::Tally;
 use crate::volume::grid::{Lookup, VolumeView};
+use crate::volume::texels::Texels;
 
 /// Optical depth estimates of [t_start, t_end] of an index-space ray with n0 and n1 samples
 /// (Alg. 2 + Alg. 1): a pair (n1 = n0) for a jackknife, or one estimate X in `x0` (n1 = 0), the
@@ -17,7 +18,7 @@ use crate::volume::grid::{Lookup, VolumeView};
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub(super) fn depth(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     ray: &Ray,
     t_start: f32,
     t_end: f32,

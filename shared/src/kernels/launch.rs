@@ -36,7 +36,8 @@ impl Launch {
 /// Threads per workgroup of every 1-D kernel (`#[spirv(compute(threads(64)))]`).
 pub const WORKGROUP_SIZE: u32 = 64;
 
-/// Storage-buffer bindings (descriptor set 0) of every kernel, by name. rust-gpu's
+/// Bindings (descriptor set 0) of every kernel, by name: storage buffers, uniform blocks and
+/// texel buffers. rust-gpu's
 /// `#[spirv(binding = N)]` takes integer literals only, so `kernels/src/lib.rs` spells the
 /// numbers out next to these names; the host checks each named binding's element size against
 /// the compiled module at compile time (`host/src/gpu/kernels.rs`).
@@ -75,8 +76,12 @@ pub mod bindings {
         pub const SUMS: usize = 5;
         /// Pages 1 .. 7 of the voxel pool (`VOXELS` is page 0; see `volume::pages`).
         pub const VOXEL_PAGES: usize = 6;
+        /// The voxel pool's page 0 as a uniform texel buffer of `u32` words (`volume::texels`).
+        pub const POOL_TEXELS: usize = 13;
+        /// The brick table as a uniform texel buffer of `u32` words.
+        pub const BRICK_TEXELS: usize = 14;
         /// Number of bindings.
-        pub const COUNT: usize = 13;
+        pub const COUNT: usize = 15;
     }
 
     /// `direct_cs`: one stage of a `direct` image: the bindings of `transmittance_cs`, the lights', then
@@ -104,8 +109,12 @@ pub mod bindings {
         pub const SHADOW_MAP: usize = 9;
         /// Pages 1 .. 7 of the voxel pool (`VOXELS` is page 0; see `volume::pages`).
         pub const VOXEL_PAGES: usize = 10;
+        /// The voxel pool's page 0 as a uniform texel buffer of `u32` words (`volume::texels`).
+        pub const POOL_TEXELS: usize = 17;
+        /// The brick table as a uniform texel buffer of `u32` words.
+        pub const BRICK_TEXELS: usize = 18;
         /// Number of bindings.
-        pub const COUNT: usize = 17;
+        pub const COUNT: usize = 19;
     }
 
     /// `msm_build_cs`: the raw moments of each texel of the sun's moment shadow map.
@@ -124,8 +133,12 @@ pub mod bindings {
         pub const RAW: usize = 5;
         /// Pages 1 .. 7 of the voxel pool (`VOXELS` is page 0; see `volume::pages`).
         pub const VOXEL_PAGES: usize = 6;
+        /// The voxel pool's page 0 as a uniform texel buffer of `u32` words (`volume::texels`).
+        pub const POOL_TEXELS: usize = 13;
+        /// The brick table as a uniform texel buffer of `u32` words.
+        pub const BRICK_TEXELS: usize = 14;
         /// Number of bindings.
-        pub const COUNT: usize = 13;
+        pub const COUNT: usize = 15;
     }
 
     /// `msm_store_cs`: each texel prefiltered and stored in the map's format.

@@ -26,6 +26,7 @@ use crate::sampling::lights::PointLight;
 use crate::tally::Tally;
 use crate::volume::dda::clip_to_box;
 use crate::volume::grid::VolumeView;
+use crate::volume::texels::Texels;
 use bytemuck::{Pod, Zeroable};
 
 /// Per-pixel result: mean transmittance over spp and the high-resolution lookups taken.
@@ -50,7 +51,7 @@ pub struct PixelOut {
 /// (decodes `params`; a render decodes once per pass and calls [`trace_transmittance`]).
 #[inline]
 pub fn ray_transmittance(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     world: &Ray,
     rng: HashRng,
@@ -61,7 +62,7 @@ pub fn ray_transmittance(
 /// [`ray_transmittance`] with the enums already decoded.
 #[inline]
 pub fn trace_transmittance(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     cfg: &Config,
     params: &RenderParams,
     world: &Ray,
@@ -152,7 +153,7 @@ impl PixelSums {
 /// or single-scattering render, as the GPU's `transmittance_cs` or `scattering_cs` runs it.
 /// Accumulating pass after pass gives exactly the sums of one loop over all samples.
 pub fn render_pixel_pass(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     lights: &[PointLight],
     id: u32,
@@ -189,7 +190,7 @@ macro_rules! sample_loop {
 
 /// [`render_pixel_pass`] of a primary-ray transmittance image (`transmittance_cs`).
 pub fn transmittance_pixel_pass(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     id: u32,
     s_begin: u32,
@@ -204,7 +205,7 @@ pub fn transmittance_pixel_pass(
 
 /// [`render_pixel_pass`] of a single-scattering image (`scattering_cs`).
 pub fn scattering_pixel_pass(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     lights: &[PointLight],
     id: u32,
@@ -221,7 +222,7 @@ pub fn scattering_pixel_pass(
 /// [`render_pixel_pass`] of the `direct` integrator on the CPU (the GPU runs the same stages as
 /// dispatches, [`direct_step`]): RGB radiance, its luminance's moments.
 pub fn direct_pixel_pass(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     scene: &Scene,
     id: u32,
@@ -288,7 +289,7 @@ pub struct PathPass {
 /// radiance to the pixel's sums. Returns the new state and sums.
 #[allow(clippy::too_many_arguments)]
 pub fn path_step(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     scene: &Scene,
     id: u32,
@@ -318,7 +319,7 @@ pub fn path_step(
 /// stage 3 the radiance is added to the pixel's sums. Returns the new state and sums.
 #[allow(clippy::too_many_arguments)]
 pub fn direct_step(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     scene: &Scene,
     id: u32,
@@ -350,7 +351,7 @@ pub fn wave_kind(_params: &RenderParams, stage: u32) -> u32 {
 /// [`direct_step`] with the stage's [`wave_kind`] given (`direct_cs`).
 #[allow(clippy::too_many_arguments)]
 pub fn direct_wave_step(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     scene: &Scene,
     id: u32,
@@ -379,7 +380,7 @@ pub fn direct_wave_step(
 /// [`render_pixel_pass`] of the `restir` integrator on the CPU (the GPU runs the same stages as
 /// dispatches, [`restir_step`]).
 pub fn restir_pixel_pass(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     scene: &Scene,
     id: u32,
@@ -399,7 +400,7 @@ pub fn restir_pixel_pass(
 /// pixel's sums.
 #[allow(clippy::too_many_arguments)]
 pub fn restir_step(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     scene: &Scene,
     id: u32,
@@ -418,7 +419,7 @@ pub fn restir_step(
 /// module holds one kind's code (one module of every kind took lavapipe 110-240 s per pipeline).
 #[allow(clippy::too_many_arguments)]
 pub fn restir_wave_step(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     scene: &Scene,
     id: u32,
@@ -456,7 +457,7 @@ fn restir_finish(
 /// `sample`'s camera ray, scattering vertex and `direct`'s light and phase samples.
 #[allow(clippy::too_many_arguments)]
 pub fn restir_start_step(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     scene: &Scene,
     id: u32,
@@ -477,7 +478,7 @@ pub fn restir_start_step(
 /// A `restir` candidate stage (`restir_candidate_cs`).
 #[allow(clippy::too_many_arguments)]
 pub fn restir_candidate_step(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     scene: &Scene,
     id: u32,
@@ -495,7 +496,7 @@ pub fn restir_candidate_step(
 /// A `restir` resolve stage (`restir_resolve_cs`).
 #[allow(clippy::too_many_arguments)]
 pub fn restir_resolve_step(
-    _vol: &VolumeView,
+    _vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     scene: &Scene,
     _id: u32,
@@ -512,7 +513,7 @@ pub fn restir_resolve_step(
 /// A `restir` transmittance-query stage (`restir_query_cs`).
 #[allow(clippy::too_many_arguments)]
 pub fn restir_query_step(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     scene: &Scene,
     _id: u32,
@@ -532,7 +533,7 @@ pub fn restir_query_step(
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn restir_unchanged_step(
-    _vol: &VolumeView,
+    _vol: &VolumeView<impl Texels>,
     _params: &RenderParams,
     _scene: &Scene,
     _id: u32,
@@ -550,7 +551,7 @@ pub fn restir_unchanged_step(
 /// [`store_reuse`] writes what changed.
 #[allow(clippy::too_many_arguments)]
 pub fn restir_reuse_step(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     scene: &Scene,
     id: u32,
@@ -581,7 +582,7 @@ pub fn restir_store_reuse(
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn path_wave_step(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     scene: &Scene,
     id: u32,
@@ -598,7 +599,7 @@ pub fn path_wave_step(
 /// [`render_pixel_pass`] of the `path` integrator on the CPU: each sample's whole path, the same
 /// bounces as the GPU's steps.
 pub fn path_pixel_pass(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     scene: &Scene,
     id: u32,
@@ -666,7 +667,7 @@ pub fn finish_pixel(sums: PixelSums, spp: u32) -> PixelOut {
 
 /// Mean transmittance of pixel `id` over all `spp` samples in one pass (tests, small renders).
 pub fn render_pixel(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     lights: &[PointLight],
     id: u32,

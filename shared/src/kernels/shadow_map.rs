@@ -7,6 +7,7 @@ use crate::shadows::map::{
     build_raw_texel, filter_texel, store_texel, MsmFilter, Shadows, RAW_PER_TEXEL,
 };
 use crate::volume::grid::VolumeView;
+use crate::volume::texels::Texels;
 use bytemuck::{Pod, Zeroable};
 
 /// Push constants of `msm_build_cs` and `msm_store_cs`: the launch header and the prefilter.
@@ -24,7 +25,7 @@ pub struct MsmPass {
 /// Pass 1 for texel `k`: b_1 .. b_6 of its light ray, written to `raw[6 k ..]`.
 #[inline]
 pub fn msm_raw_texel(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     lighting: &Lighting,
     k: u32,

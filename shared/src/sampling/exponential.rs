@@ -7,6 +7,7 @@ use crate::math;
 use crate::rng::HashRng;
 use crate::volume::grid::VolumeView;
 use crate::volume::supervoxels::SuperVoxelDda;
+use crate::volume::texels::Texels;
 
 /// A piece [t0, t1] of the ray with a constant majorant (pbrt-v4's `RayMajorantSegment`).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -26,7 +27,7 @@ pub struct MajorantIter {
 impl MajorantIter {
     /// Iterator over the bricks of [t0, t1] (pbrt-v4 `DDAMajorantIterator`).
     #[inline]
-    pub fn new(vol: &VolumeView, ray: &Ray, t0: f32, t1: f32) -> Self {
+    pub fn new(vol: &VolumeView<impl Texels>, ray: &Ray, t0: f32, t1: f32) -> Self {
         let dda = SuperVoxelDda::new(&vol.desc, ray, t0, t1);
         MajorantIter {
             dda,
@@ -36,7 +37,7 @@ impl MajorantIter {
 
     /// Next brick segment and its majorant mu_max (pbrt-v4 `Next`); call only while `!done`.
     #[inline]
-    pub fn next_segment(&mut self, vol: &VolumeView) -> MajorantSegment {
+    pub fn next_segment(&mut self, vol: &VolumeView<impl Texels>) -> MajorantSegment {
         let (seg, b) = self.dda.step(vol);
         self.done = self.dda.done;
         MajorantSegment {
@@ -77,7 +78,7 @@ pub struct MajorantSampler {
 impl MajorantSampler {
     /// Sampler over [t0, t1]; starts on an empty segment so the first call enters the first brick.
     #[inline]
-    pub fn new(vol: &VolumeView, ray: &Ray, t0: f32, t1: f32) -> Self {
+    pub fn new(vol: &VolumeView<impl Texels>, ray: &Ray, t0: f32, t1: f32) -> Self {
         let iter = MajorantIter::new(vol, ray, t0, t1);
         MajorantSampler {
             iter,
@@ -109,7 +110,11 @@ impl MajorantSampler {
     /// Next tentative collision (pbrt-v4 `SampleT_maj`): t += -ln(1 - u) / sigma_maj within the
     /// current segment; past its end, restart at the next segment; segments with zero majorant
     /// take no sample. Sets `done` (and returns `found == false`) once past the end of the ray.
-    pub fn next_collision(&mut self, vol: &VolumeView, rng: HashRng) -> (Collision, HashRng) {
+    pub fn next_collision(
+        &mut self,
+        vol: &VolumeView<impl Texels>,
+        rng: HashRng,
+    ) -> (Collision, HashRng) {
         let mut rng = rng;
         let mut out = Collision::default();
         let mut steps = 0u32;

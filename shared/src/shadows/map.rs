@@ -15,6 +15,7 @@ use crate::geometry::{to_index_space, Affine3x4, Ray, V3};
 use crate::math::{exp, floor};
 use crate::volume::dda::{clip_to_box, GridDda};
 use crate::volume::grid::VolumeView;
+use crate::volume::texels::Texels;
 use bytemuck::{Pod, Zeroable};
 
 /// The light-space frame of a map: texel (i, j) covers origin + [i, i+1)/width axis_u +
@@ -70,7 +71,7 @@ fn depth(desc: &MsmDesc, s: f32) -> f32 {
 
 /// Moments b_0 .. b_4 of texel (i, j) (b_0 = 1): the first five of [`build_texel6`].
 pub fn build_texel(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     world_to_index: &Affine3x4,
     desc: &MsmDesc,
     i: u32,
@@ -84,7 +85,7 @@ pub fn build_texel(
 /// voxel the ray crosses is visited: the loop bound, the sum of the grid's sides, is never
 /// reached).
 pub fn build_texel6(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     world_to_index: &Affine3x4,
     desc: &MsmDesc,
     i: u32,
@@ -120,7 +121,7 @@ pub fn build_texel6(
 /// Moments b_1 .. b_6 of texel `k` (row-major) of the map of `desc` into `raw[6 k .. 6 k + 6]`
 /// (the first pass of a map build, one texel per invocation).
 pub fn build_raw_texel(
-    vol: &VolumeView,
+    vol: &VolumeView<impl Texels>,
     world_to_index: &Affine3x4,
     desc: &MsmDesc,
     k: u32,

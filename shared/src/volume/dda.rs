@@ -7,6 +7,7 @@
 use crate::geometry::{Ray, V3};
 use crate::math;
 use crate::volume::grid::{traversal_budget, Brick, GridDesc, VolumeView, BRICK_DIVIDES, NO_SKIP};
+use crate::volume::texels::Texels;
 
 /// Clips [t_lo, t_hi] to the box [0, hi] (slab test). Returns (t_enter, t_exit); the ray misses
 /// when `!(t_enter < t_exit)`. Axis-parallel rays are handled without 0 * inf. Degenerate input
@@ -387,7 +388,7 @@ impl GridDda {
     /// one skip or one step, so a traversal takes at most as many iterations as stepping (GPU
     /// loop budgets count iterations).
     #[inline]
-    pub fn step_brick(&mut self, vol: &VolumeView) -> (Segment, Brick) {
+    pub fn step_brick(&mut self, vol: &VolumeView<impl Texels>) -> (Segment, Brick) {
         let cell = self.cell();
         let b = vol.brick(cell);
         let level = b.skip_level();
@@ -413,7 +414,7 @@ impl GridDda {
     /// skip or one step per call, no loop; a pipeline that steps through all-zero bricks
     /// (`GridDesc::brick_stepping`) never skips. Call only while `!done`.
     #[inline]
-    pub fn step_voxel(&mut self, vol: &VolumeView) -> (Segment, bool) {
+    pub fn step_voxel(&mut self, vol: &VolumeView<impl Texels>) -> (Segment, bool) {
         let cell = self.cell();
         let d = &vol.desc;
         let level = vol

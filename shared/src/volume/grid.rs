@@ -7,6 +7,7 @@ use crate::geometry::V3;
 use crate::half::f16_to_f32;
 use crate::spec::or_keep;
 use crate::volume::pages::Pages;
+use crate::volume::texels::{NoTexels, Texels};
 use bytemuck::{Pod, Zeroable};
 
 /// How the high-resolution volume is read at a point.
@@ -250,6 +251,10 @@ pub struct Brick {
     pub cells: u32,
 }
 
+/// 32-bit words of a [`Brick`] record, in field order.
+pub const BRICK_WORDS: u32 = 6;
+const _: () = assert!(core::mem::size_of::<Brick>() == 4 * BRICK_WORDS as usize);
+
 /// [`Brick::slot`] of a brick whose voxels are all 0 but whose statistics are not (nonzero
 /// voxels within one voxel of it, which filtered lookups reach).
 pub const EMPTY_BRICK: u32 = u32::MAX;
@@ -344,7 +349,7 @@ impl Brick {
 
 /// The high-resolution volume and its bricks, borrowed from kernel buffers or host vectors.
 #[derive(Clone, Copy)]
-pub struct VolumeView<'a> {
+pub struct VolumeView<'a, T: Texels = NoTexels> {
     /// The grid's description, by value (kernels copy it out of its buffer once).
     pub desc: GridDesc,
     /// The pool: f16 voxels of the non-empty bricks, two per u32; each brick's voxels x fastest
@@ -352,6 +357,9 @@ pub struct VolumeView<'a> {
     pub voxels: Pages<'a>,
     /// Bricks, x fastest, then the cell records of the subdivided bricks ([`Brick::cells`]).
     pub bricks: &'a [Brick],
+    /// The same two tables as texel buffers, read instead of `voxels` (page 0 only: a pool in
+    /// one page) and `bricks` where [`Texels::bound`].
+    pub texels: T,
 }
 
 /// `clamp(floor(v), 0, n - 1)` without a float floor: truncation equals floor for v >= 1, and
@@ -367,17 +375,57 @@ fn floor_index(v: f32, n: u32) -> u32 {
     }
 }
 
-impl VolumeView<'_> {
+impl<'a> VolumeView<'a> {
+    /// A view of `voxels` and `bricks` without texel buffers.
+    pub fn new(desc: GridDesc, voxels: Pages<'a>, bricks: &'a [Brick]) -> Self {
+        VolumeView {
+            desc,
+            voxels,
+            bricks,
+            texels: NoTexels,
+        }
+    }
+}
+
+impl<T: Texels> VolumeView<'_, T> {
     /// Extinction of voxel (i, j, k), density scale applied: 0 in an empty brick, else its
     /// f16 value in the pool.
     #[inline]
     pub fn voxel(&self, i: u32, j: u32, k: u32) -> f32 {
         match self.pool_index(i, j, k) {
             Some(index) => {
-                let h = self.voxels.half(self.desc.page_log2, index as u32);
+                let h = self.half(index as u32);
                 self.desc.density_scale * f16_to_f32(h)
             }
             None => 0.0,
+        }
+    }
+
+    /// The f16 bits at pool index `index`, from the texel buffer or the pages.
+    #[inline]
+    fn half(&self, index: u32) -> u32 {
+        if self.texels.bound() {
+            (self.texels.pool_word(index >> 1) >> ((index & 1) * 16)) & 0xffff
+        } else {
+            self.voxels.half(self.desc.page_log2, index)
+        }
+    }
+
+    /// Record `i` of the brick table, from the texel buffer or the slice.
+    #[inline]
+    fn record(&self, i: usize) -> Brick {
+        if self.texels.bound() {
+            let w = |k: u32| self.texels.brick_word(BRICK_WORDS * i as u32 + k);
+            Brick {
+                mu_min: f32::from_bits(w(0)),
+                mu_max: f32::from_bits(w(1)),
+                mean: f32::from_bits(w(2)),
+                p: f32::from_bits(w(3)),
+                slot: w(4),
+                cells: w(5),
+            }
+        } else {
+            self.bricks[i]
         }
     }
 
@@ -437,7 +485,7 @@ impl VolumeView<'_> {
     #[inline]
     pub fn brick(&self, b: [u32; 3]) -> Brick {
         let d = &self.desc.brick_dims;
-        self.bricks[b[0] as usize + d[0] as usize * (b[1] as usize + d[1] as usize * b[2] as usize)]
+        self.record(b[0] as usize + d[0] as usize * (b[1] as usize + d[1] as usize * b[2] as usize))
     }
 
     /// Cell `local` (coordinates within its brick, each below s) of the subdivided brick whose
@@ -446,14 +494,14 @@ impl VolumeView<'_> {
     pub fn cell(&self, first: u32, local: [u32; 3]) -> Brick {
         let s = self.desc.cells_per_brick() as usize;
         let l = local[0] as usize + s * (local[1] as usize + s * local[2] as usize);
-        self.bricks[first as usize + 1 + l]
+        self.record(first as usize + 1 + l)
     }
 
     /// The box [lo, hi) of the cells with statistics of the subdivided brick whose cell box
     /// record is at `first` ([`Brick::cell_box_record`]).
     #[inline]
     pub fn cell_box(&self, first: u32) -> ([u32; 3], [u32; 3]) {
-        self.bricks[first as usize].cell_box()
+        self.record(first as usize).cell_box()
     }
 }
 

@@ -4,3 +4,4 @@ pub mod dda;
 pub mod grid;
 pub mod pages;
 pub mod supervoxels;
+pub mod texels;

@@ -12,6 +12,7 @@
 use crate::geometry::Ray;
 use crate::volume::dda::{GridDda, Segment};
 use crate::volume::grid::{Brick, GridDesc, VolumeView};
+use crate::volume::texels::Texels;
 use core::num::NonZeroU32;
 
 /// The super-voxels of one ray segment: a skipping traversal of the bricks that, at a
@@ -66,7 +67,7 @@ impl SuperVoxelDda {
     /// ones). A subdivided brick whose segment is empty (the ray grazes an edge) gives that
     /// empty segment with the brick's own statistics: length 0 adds nothing to any sum.
     #[inline]
-    pub fn step(&mut self, vol: &VolumeView) -> (Segment, Brick) {
+    pub fn step(&mut self, vol: &VolumeView<impl Texels>) -> (Segment, Brick) {
         if !self.in_cells {
             let (seg, b) = self.bricks.step_brick(vol);
             let s = vol.desc.cells_per_brick();
