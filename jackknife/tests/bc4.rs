@@ -7,7 +7,7 @@
 
 mod common;
 
-use common::assert_unbiased_on_ray;
+use common::{assert_unbiased_on_ray, RATIO_Z_MAX_TAU};
 use jackknife::{GridBuilder, Lookup, Ray, SupervoxelFormat, V3};
 use shared::estimators::tracking::regular_tracking_tau;
 use shared::rng::{pcg_hash, unit_f32};
@@ -56,7 +56,7 @@ fn bc4_statistics_keep_optical_depth_and_ratio_tracking_unbiased() {
     );
     let vol = grid.view();
     let trials = 4000u32;
-    let mut rays = 0;
+    let (mut rays, mut ratio_rays) = (0, 0);
     for r in 0..200u32 {
         let u = |k: u32| unit_f32(pcg_hash(r * 16 + k + 0xbc4));
         let o = V3::new(u(0) * 80.0 - 16.0, u(1) * 80.0 - 16.0, -20.0);
@@ -73,11 +73,17 @@ fn bc4_statistics_keep_optical_depth_and_ratio_tracking_unbiased() {
         if !(tau > 0.05) {
             continue;
         }
-        assert_unbiased_on_ray(&vol, &ray, t0, t1, tau, trials, r, 11, &format!("ray {r}"));
+        if assert_unbiased_on_ray(&vol, &ray, t0, t1, tau, trials, r, 11, &format!("ray {r}")) {
+            ratio_rays += 1;
+        }
         rays += 1;
         if rays == 24 {
             break;
         }
     }
     assert_eq!(rays, 24);
+    println!(
+        "ratio tracking's mean tested on {ratio_rays} of {rays} rays (tau <= {RATIO_Z_MAX_TAU})"
+    );
+    assert!(ratio_rays >= 12, "{ratio_rays} rays test ratio tracking");
 }

@@ -12,10 +12,19 @@ pub fn mean_se(xs: &[f64]) -> (f64, f64) {
     (m, (v / n).sqrt())
 }
 
+/// Deepest optical depth at which ratio tracking's mean is z-tested. Its relative variance is
+/// exp(integral of mu^2 / mu_max) - 1 <= exp(tau) - 1 (mu <= mu_max): at tau = 6 at most 402, so
+/// the mean of a few thousand estimates is near normal; deeper the estimates are so heavy-tailed
+/// that the sample's standard error is no longer a standard error (tau 13.5, 4000 trials: z of
+/// -7.7 for one seed, while 400,000 trials give |z| < 1.2 for each of four seeds).
+pub const RATIO_Z_MAX_TAU: f32 = 6.0;
+
 /// Asserts that on `ray` over [t0, t1], whose exact optical depth is `tau`, the mean of `trials`
 /// optical-depth estimates (Alg. 2 + Alg. 1, N = 10, the pair's mean per trial: x0 and x1 share
-/// the ray's traversal) matches tau and ratio tracking's mean matches exp(-tau), both at
-/// |z| < 4.5; no estimate may be capped. Sample k uses `HashRng::for_sample(ray_id, k, seed)`.
+/// the ray's traversal) matches tau and, where tau <= [`RATIO_Z_MAX_TAU`], ratio tracking's mean
+/// matches exp(-tau), both at |z| < 4.5; no estimate may be capped (ratio tracking runs on every
+/// ray). Sample k uses `HashRng::for_sample(ray_id, k, seed)`. Returns whether ratio tracking's
+/// mean was tested.
 #[allow(clippy::too_many_arguments)]
 pub fn assert_unbiased_on_ray(
     vol: &VolumeView,
@@ -27,7 +36,7 @@ pub fn assert_unbiased_on_ray(
     ray_id: u32,
     seed: u32,
     what: &str,
-) {
+) -> bool {
     let prep = prepare(vol, ray, t0, t1, Importance::VarianceAware);
     let (mut xs, mut ts) = (Vec::new(), Vec::new());
     for k in 0..trials {
@@ -51,8 +60,12 @@ pub fn assert_unbiased_on_ray(
     let (m, se) = mean_se(&xs);
     let z = (m - tau as f64) / se.max(1e-9 * tau as f64);
     assert!(z.abs() < 4.5, "{what}: mean X {m} vs tau {tau} (z {z})");
+    if tau > RATIO_Z_MAX_TAU {
+        return false;
+    }
     let (m, se) = mean_se(&ts);
     let exact = (-(tau as f64)).exp();
     let z = (m - exact) / se.max(1e-9);
     assert!(z.abs() < 4.5, "{what}: mean T {m} vs {exact} (z {z})");
+    true
 }

@@ -1,6 +1,7 @@
 //! Exponential free-flight distances against a piecewise-constant majorant (pbrt-v4's
-//! `DDAMajorantIterator` and `SampleT_maj`, as a pull iterator so every loop is flat, bounded and
-//! free of closures on the GPU): the distance sampler of delta and ratio tracking.
+//! `DDAMajorantIterator`, and one optical-depth target per flight as in the paper author's
+//! `delta_tracking`, as a pull iterator so every loop is flat, bounded and free of closures on
+//! the GPU): the distance sampler of delta and ratio tracking.
 
 use crate::geometry::Ray;
 use crate::math;
@@ -107,31 +108,45 @@ impl MajorantSampler {
         self.iter.exhausted()
     }
 
-    /// Next tentative collision (pbrt-v4 `SampleT_maj`): t += -ln(1 - u) / sigma_maj within the
-    /// current segment; past its end, restart at the next segment; segments with zero majorant
-    /// take no sample. Sets `done` (and returns `found == false`) once past the end of the ray.
+    /// Next tentative collision: one exponential optical depth tau = -ln(1 - u) against the
+    /// majorant, walked segment by segment until the majorant's optical depth from the current
+    /// t reaches it (the author's `delta_tracking`; pbrt-v4's `SampleT_maj` draws one distance
+    /// per segment instead, the same distribution at a logarithm and a draw per segment).
+    /// Segments with zero majorant add nothing; a flight that met no majorant optical depth
+    /// returns `rng` unchanged (its draw decided nothing), so zero majorants take no random
+    /// number, as they take no sample. Sets `done` (and returns `found == false`) once past the
+    /// end of the ray.
     pub fn next_collision(
         &mut self,
         vol: &VolumeView<impl Texels>,
         rng: HashRng,
     ) -> (Collision, HashRng) {
-        let mut rng = rng;
+        let before = rng;
+        let (u, rng) = rng.next_f32();
+        let target = -math::ln(1.0 - u);
+        // Majorant optical depth from the flight's start to self.t (at most `target`).
+        let mut depth = 0.0f32;
         let mut out = Collision::default();
         let mut steps = 0u32;
         while !out.found && !self.done && steps < self.guard {
             steps += 1;
-            if self.seg.sigma_maj > 0.0 {
-                let (u, r) = rng.next_f32();
-                rng = r;
-                let t = self.t - math::ln(1.0 - u) / self.seg.sigma_maj;
+            let sigma = self.seg.sigma_maj;
+            let rest = sigma * (self.seg.t1 - self.t);
+            if depth + rest > target {
+                let t = self.t + (target - depth) / sigma;
                 if t < self.seg.t1 {
                     self.t = t;
                     out = Collision {
                         t,
-                        sigma_maj: self.seg.sigma_maj,
+                        sigma_maj: sigma,
                         found: true,
                     };
+                } else {
+                    // Rounded onto the segment's end: the collision is the next one's start.
+                    depth = target;
                 }
+            } else {
+                depth += rest;
             }
             if !out.found {
                 if self.iter.done {
@@ -145,6 +160,7 @@ impl MajorantSampler {
         if !out.found {
             self.done = true;
         }
-        (out, rng)
+        let drew = out.found || depth > 0.0;
+        (out, if drew { rng } else { before })
     }
 }
