@@ -10,7 +10,7 @@
 use super::device::{DeviceOwner, MAX_BINDINGS};
 use super::error::GpuError;
 use super::kernels::Kernel;
-use super::resources::Pipeline;
+use super::resources::{KernelLayout, Pipeline};
 use ash::vk;
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -206,7 +206,14 @@ fn build(owner: &Arc<DeviceOwner>, kernel: Kernel, spec: &[u32]) -> Result<Pipel
     let module = unsafe { owner.device.create_shader_module(&info, None) }
         .map_err(|e| GpuError::Vulkan("vkCreateShaderModule", e))?;
     let start = std::time::Instant::now();
-    let p = Pipeline::new(owner, module, kernel, spec);
+    let layout = KernelLayout {
+        entry: kernel.c_name(),
+        bindings,
+        uniforms: kernel.uniforms(),
+        texel_buffers: kernel.texel_buffers(),
+        push_size: kernel.push_size(),
+    };
+    let p = Pipeline::new(owner, module, &layout, spec);
     // SAFETY: no pipeline creation with this module is in flight; the pipeline does not need it.
     unsafe { owner.device.destroy_shader_module(module, None) };
     tracing::debug!(

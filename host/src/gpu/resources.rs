@@ -2,7 +2,6 @@
 
 use super::device::{DeviceOwner, MemoryRole, MAX_BINDINGS};
 use super::error::GpuError;
-use super::kernels::Kernel;
 use ash::vk;
 use std::sync::{Arc, OnceLock};
 
@@ -215,6 +214,20 @@ pub struct Pipeline {
     pub(crate) texel_buffers: u32,
 }
 
+/// What a pipeline's layout takes from its kernel (`Kernel`'s generated metadata).
+pub struct KernelLayout<'a> {
+    /// The entry-point name.
+    pub entry: &'a std::ffi::CStr,
+    /// Number of bindings of set 0.
+    pub bindings: u32,
+    /// Bit b set: binding b is a uniform buffer.
+    pub uniforms: u32,
+    /// Bit b set: binding b is a uniform texel buffer of 32-bit words.
+    pub texel_buffers: u32,
+    /// Size in bytes of the push constants.
+    pub push_size: u32,
+}
+
 /// The descriptor type of binding `b` of a layout whose uniform buffers are the bits of
 /// `uniforms` and whose uniform texel buffers are the bits of `texel_buffers`.
 pub fn descriptor_type(uniforms: u32, texel_buffers: u32, b: u32) -> vk::DescriptorType {
@@ -228,20 +241,19 @@ pub fn descriptor_type(uniforms: u32, texel_buffers: u32, b: u32) -> vk::Descrip
 }
 
 impl Pipeline {
-    /// Builds the pipeline of `kernel`'s entry point in `module`, with its bindings at 0.. of
-    /// set 0 (uniform buffers, uniform texel buffers and storage buffers as the module declares
-    /// them: `Kernel::uniforms`, `Kernel::texel_buffers`), its push constants and the u32
-    /// specialization constants `spec` (constant id i = `spec[i]`; ids the module lacks are
-    /// ignored).
+    /// Builds the pipeline of `layout.entry` in `module`, with `layout.bindings` bindings at
+    /// 0.. of set 0 (uniform buffers, uniform texel buffers and storage buffers as `layout`
+    /// says), its push constants and the u32 specialization constants `spec` (constant id i =
+    /// `spec[i]`; ids the module lacks are ignored).
     pub fn new(
         owner: &Arc<DeviceOwner>,
         module: vk::ShaderModule,
-        kernel: Kernel,
+        layout: &KernelLayout,
         spec: &[u32],
     ) -> Result<Self, GpuError> {
         let device = &owner.device;
-        let (entry, bindings) = (kernel.c_name(), kernel.strides().len() as u32);
-        let (uniforms, texel_buffers) = (kernel.uniforms(), kernel.texel_buffers());
+        let (entry, bindings) = (layout.entry, layout.bindings);
+        let (uniforms, texel_buffers) = (layout.uniforms, layout.texel_buffers);
         let binding_info: Vec<_> = (0..bindings)
             .map(|b| {
                 vk::DescriptorSetLayoutBinding::default()
@@ -258,7 +270,7 @@ impl Pipeline {
         let ranges = [vk::PushConstantRange::default()
             .stage_flags(vk::ShaderStageFlags::COMPUTE)
             .offset(0)
-            .size(kernel.push_size())];
+            .size(layout.push_size)];
         let set_layouts = [set_layout];
         let layout_info = vk::PipelineLayoutCreateInfo::default()
             .set_layouts(&set_layouts)
