@@ -233,7 +233,7 @@ impl GridSpec {
     /// under masks) the traversals step through all-zero bricks wherever that is exact
     /// (`GridDesc::can_step`): the straight-line skip costs more in every iteration
     /// than the iterations it saves (anchor jackknife 793 -> 421 ns/ray, docs/results/speed.md).
-    /// Hardware GPUs skip, as the CPU does, until measured there.
+    /// Hardware GPUs skip until measured there (the CPU steps too: `cpu::CpuVolume`).
     ///
     /// A software device also reads a one-page pool and the brick table as uniform texel
     /// buffers (`texels`; [`GpuVolume::upload`] clears it where they exceed
