@@ -406,47 +406,46 @@ fn entry_info(m: &Module, name: String, interface: &[u32]) -> Result<EntryInfo, 
             Some((32, ops)) => ops[1],
             _ => return Err(format!("{name}: variable {id} is not a pointer").into()),
         };
-        if class == STORAGE_PUSH_CONSTANT {
-            push_size = m.size_of(pointee)?;
-        } else if class == STORAGE_UNIFORM_CONSTANT {
-            // A sampled buffer image of 32-bit integers: a uniform texel buffer of words.
-            let word_buffer = match m.types.get(&pointee) {
-                Some((OP_TYPE_IMAGE, ops)) => {
-                    ops.len() >= 7
-                        && ops[1] == DIM_BUFFER
-                        && ops[5] == 1
-                        && matches!(m.types.get(&ops[0]), Some((21, t)) if t[0] == 32)
+        let stride = match class {
+            STORAGE_PUSH_CONSTANT => {
+                push_size = m.size_of(pointee)?;
+                continue;
+            }
+            STORAGE_UNIFORM_CONSTANT => {
+                // A sampled buffer image of 32-bit integers: a uniform texel buffer of words.
+                let word_buffer = match m.types.get(&pointee) {
+                    Some((OP_TYPE_IMAGE, ops)) => {
+                        ops.len() >= 7
+                            && ops[1] == DIM_BUFFER
+                            && ops[5] == 1
+                            && matches!(m.types.get(&ops[0]), Some((21, t)) if t[0] == 32)
+                    }
+                    _ => false,
+                };
+                if !word_buffer {
+                    return Err(
+                        format!("{name}: binding {id} is not a texel buffer of words").into(),
+                    );
                 }
-                _ => false,
-            };
-            if !word_buffer {
-                return Err(format!("{name}: binding {id} is not a texel buffer of words").into());
+                4
             }
-            let binding = *m
-                .decorations
-                .get(&(*id, DECORATION_BINDING))
-                .ok_or_else(|| format!("{name}: texel buffer {id} has no binding"))?
-                as usize;
-            if binding >= strides.len() {
-                strides.resize(binding + 1, 0);
-            }
-            strides[binding] = 4;
-            texel_buffers |= 1 << binding;
-        } else if class == STORAGE_STORAGE_BUFFER || class == STORAGE_UNIFORM {
-            let binding = *m
-                .decorations
-                .get(&(*id, DECORATION_BINDING))
-                .ok_or_else(|| format!("{name}: buffer {id} has no binding"))?
-                as usize;
-            if binding >= strides.len() {
-                strides.resize(binding + 1, 0);
-            }
-            strides[binding] = if class == STORAGE_UNIFORM {
-                uniforms |= 1 << binding;
-                m.size_of(pointee)?
-            } else {
-                m.runtime_stride(pointee)
-            };
+            STORAGE_UNIFORM => m.size_of(pointee)?,
+            STORAGE_STORAGE_BUFFER => m.runtime_stride(pointee),
+            _ => continue,
+        };
+        let binding = *m
+            .decorations
+            .get(&(*id, DECORATION_BINDING))
+            .ok_or_else(|| format!("{name}: resource {id} has no binding"))?
+            as usize;
+        if binding >= strides.len() {
+            strides.resize(binding + 1, 0);
+        }
+        strides[binding] = stride;
+        match class {
+            STORAGE_UNIFORM => uniforms |= 1 << binding,
+            STORAGE_UNIFORM_CONSTANT => texel_buffers |= 1 << binding,
+            _ => {}
         }
     }
     Ok(EntryInfo {

@@ -4,6 +4,8 @@
 //! and bad light flags; `--integrator restir`, `--lights random:N` and `host eval --equal-time`
 //! end to end.
 
+mod common;
+
 use host::lighting::env::{EnvMap, MAX_SIDE};
 use host::lighting::{build, EnvSource, LightingOptions, SceneLights, SunSpec};
 use shared::sampling::lights::PointLight;
@@ -371,10 +373,7 @@ fn huge_headers_are_refused_under_a_memory_limit() {
     write_hdr(&hdr, 100_000, 50_000, &[rgbe([128, 128, 128], 129); 16]);
     files.push(hdr);
     for f in files {
-        let out = Command::new("sh")
-            .arg("-c")
-            .arg("ulimit -v 1000000 && exec \"$0\" \"$@\"")
-            .arg(env!("CARGO_BIN_EXE_host"))
+        let out = common::host_under_ulimit(1000000)
             .args([
                 "render",
                 "--integrator",
@@ -409,10 +408,7 @@ fn a_valid_probe_larger_than_the_memory_limit_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("big.hdr");
     write_rle_hdr(&path, MAX_SIDE, MAX_SIDE / 2, [128, 64, 32, 129]);
-    let out = Command::new("sh")
-        .arg("-c")
-        .arg("ulimit -v 1500000 && exec \"$0\" \"$@\"")
-        .arg(env!("CARGO_BIN_EXE_host"))
+    let out = common::host_under_ulimit(1500000)
         .args(["render", "--integrator", "direct", "--env", s(&path)])
         .args([
             "--width",

@@ -2,6 +2,8 @@
 //! any work, integrator renders are labelled and recorded as radiance, flags that would be ignored
 //! are errors, and the volume actually rendered (grid, f16 range) is named and checked.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -380,10 +382,7 @@ fn walk(d: &Path) -> Vec<PathBuf> {
 #[test]
 fn images_larger_than_memory_are_refused() {
     let dir = tempfile::tempdir().unwrap();
-    let out = Command::new("sh")
-        .arg("-c")
-        .arg("ulimit -v 2000000 && exec \"$0\" \"$@\"")
-        .arg(env!("CARGO_BIN_EXE_host"))
+    let out = common::host_under_ulimit(2000000)
         .args([
             "render",
             "--backend",

@@ -3,6 +3,8 @@
 //! tiled, volumes larger than one are refused or fall back, and a seed fixes the image bytes
 //! across runs, thread counts and backends.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -211,10 +213,7 @@ fn same_seed_gives_identical_exr_across_runs_threads_and_backends() {
 fn loads_beyond_the_address_space_limit_are_refused_not_aborted() {
     let dir = tempfile::tempdir().unwrap();
     let huge = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/fixtures/huge.vdb");
-    let out = Command::new("sh")
-        .arg("-c")
-        .arg("ulimit -v 1000000 && exec \"$0\" \"$@\"")
-        .arg(env!("CARGO_BIN_EXE_host"))
+    let out = common::host_under_ulimit(1000000)
         .args(["render", "--volume"])
         .arg(&huge)
         .args([
@@ -358,10 +357,7 @@ fn brick_tables_a_gpu_cannot_hold_are_refused_before_loading() {
 fn boxes_no_load_takes_are_refused_before_the_brick_advice() {
     let dir = tempfile::tempdir().unwrap();
     let wide = malformed_dir().join("unsupported_wide.vdb");
-    let out = std::process::Command::new("sh")
-        .arg("-c")
-        .arg("ulimit -v 2000000 && exec \"$0\" \"$@\"")
-        .arg(env!("CARGO_BIN_EXE_host"))
+    let out = common::host_under_ulimit(2000000)
         .args([
             "render",
             "--backend",

@@ -2,6 +2,8 @@
 //! and clamping counts, and packed grids (f16 pool, brick table, statistics) identical to the
 //! byte for every brick size and lookup mode.
 
+mod common;
+
 use host::bricks::{pack, PackedVolume};
 use host::io::{load_volume_with, LoadOptions, LoadedVolume};
 use host::volume::{Volume, VolumeData};
@@ -246,10 +248,7 @@ fn two_voxels_at_the_corners_of_a_huge_box_load_with_the_brick_size_advised() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/fixtures/two_corners.vdb");
     let dir = tempfile::tempdir().unwrap();
     let limited = |extra: &[&str]| {
-        std::process::Command::new("sh")
-            .arg("-c")
-            .arg("ulimit -v 1000000 && exec \"$0\" \"$@\"")
-            .arg(env!("CARGO_BIN_EXE_host"))
+        common::host_under_ulimit(1000000)
             .args([
                 "render",
                 "--backend",
