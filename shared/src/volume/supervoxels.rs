@@ -68,6 +68,14 @@ impl SuperVoxelDda {
     /// empty segment with the brick's own statistics: length 0 adds nothing to any sum.
     #[inline]
     pub fn step(&mut self, vol: &VolumeView<impl Texels>) -> (Segment, Brick) {
+        if vol.desc.cells_per_brick() == 1 {
+            // The fixed grid: no brick is subdivided, so the cell traversal below is never
+            // entered. Said first, so a pipeline specialized to the fixed grid (constant 5)
+            // folds it away: SIMD devices run every arm under masks, reachable or not.
+            let (seg, b) = self.bricks.step_brick(vol);
+            self.done = self.bricks.done;
+            return (seg, b);
+        }
         if !self.in_cells {
             let (seg, b) = self.bricks.step_brick(vol);
             let s = vol.desc.cells_per_brick();
