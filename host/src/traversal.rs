@@ -36,7 +36,7 @@ pub fn reads_per_ray(packed: &PackedVolume, params: &RenderParams) -> ReadsPerRa
             }
             let mut sv = SuperVoxelDda::new(&packed.desc, &ray, t0, t1);
             let mut n = 0u64;
-            while !sv.done {
+            while !sv.done() {
                 sv.step(&vol);
                 n += 1;
             }

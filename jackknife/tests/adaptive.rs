@@ -131,7 +131,7 @@ fn segments(grid: &Grid, ray: &Ray, t0: f32, t1: f32) -> Vec<(Segment, Brick)> {
     let mut dda = SuperVoxelDda::new(&grid.desc, ray, t0, t1);
     let mut out = Vec::new();
     let mut last = t0;
-    while !dda.done {
+    while !dda.done() {
         let (seg, b) = dda.step(&vol);
         assert!(seg.t0 >= last, "segments are in order");
         assert!(seg.t1 >= seg.t0);

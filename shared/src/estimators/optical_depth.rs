@@ -52,7 +52,7 @@ pub fn prepare(
     let mut t_min = t1;
     let mut t_max = t0;
     let mut dda = SuperVoxelDda::new(&vol.desc, ray, t0, t1);
-    while !dda.done {
+    while !dda.done() {
         let (seg, b) = dda.step(vol);
         let p = importance(&b, mode);
         f += (seg.t1 - seg.t0) * p;
@@ -303,7 +303,7 @@ pub fn estimate_interleaved(
             continue;
         }
         // Advance over bricks until the CDF passes the target.
-        while target >= f && !dda.done {
+        while target >= f && !dda.done() {
             let (seg, b) = dda.step(vol);
             let len = seg.t1 - seg.t0;
             let p = importance(&b, mode);
@@ -362,7 +362,7 @@ pub fn estimate_interleaved(
         }
     }
     // The control variate needs the rest of the segment.
-    while !dda.done {
+    while !dda.done() {
         let (seg, b) = dda.step(vol);
         tau_c += (seg.t1 - seg.t0) * mu_min(&b, mode);
     }

@@ -22,25 +22,27 @@ pub struct MajorantSegment {
 #[derive(Clone, Copy, Debug)]
 pub struct MajorantIter {
     dda: SuperVoxelDda,
-    pub done: bool,
 }
 
 impl MajorantIter {
     /// Iterator over the bricks of [t0, t1] (pbrt-v4 `DDAMajorantIterator`).
     #[inline]
     pub fn new(vol: &VolumeView<impl Texels>, ray: &Ray, t0: f32, t1: f32) -> Self {
-        let dda = SuperVoxelDda::new(&vol.desc, ray, t0, t1);
         MajorantIter {
-            dda,
-            done: dda.done,
+            dda: SuperVoxelDda::new(&vol.desc, ray, t0, t1),
         }
+    }
+
+    /// Whether the traversal has ended ([`SuperVoxelDda::done`]).
+    #[inline]
+    pub fn done(&self) -> bool {
+        self.dda.done()
     }
 
     /// Next brick segment and its majorant mu_max (pbrt-v4 `Next`); call only while `!done`.
     #[inline]
     pub fn next_segment(&mut self, vol: &VolumeView<impl Texels>) -> MajorantSegment {
         let (seg, b) = self.dda.step(vol);
-        self.done = self.dda.done;
         MajorantSegment {
             t0: seg.t0,
             t1: seg.t1,
@@ -97,7 +99,7 @@ impl MajorantSampler {
                     g + 8
                 }
             },
-            done: iter.done,
+            done: iter.done(),
         }
     }
 
@@ -149,7 +151,7 @@ impl MajorantSampler {
                 depth += rest;
             }
             if !out.found {
-                if self.iter.done {
+                if self.iter.done() {
                     self.done = true;
                 } else {
                     self.seg = self.iter.next_segment(vol);

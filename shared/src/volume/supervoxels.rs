@@ -33,7 +33,6 @@ pub struct SuperVoxelDda {
     cell_budget: u32,
     /// Whether the cell budget ended the traversal.
     cells_exhausted: bool,
-    pub done: bool,
 }
 
 impl SuperVoxelDda {
@@ -50,8 +49,15 @@ impl SuperVoxelDda {
             in_cells: false,
             cell_budget: desc.cell_budget(),
             cells_exhausted: false,
-            done: bricks.done,
         }
+    }
+
+    /// Whether the traversal has ended: a cell budget ran out, or the bricks are done and no
+    /// cell traversal is under way. A method, not a field that copies the bricks' flag: one
+    /// value fewer for every loop that carries the traversal.
+    #[inline]
+    pub fn done(&self) -> bool {
+        self.cells_exhausted | (!self.in_cells & self.bricks.done)
     }
 
     /// Whether a budget (bricks or cells) ended the traversal before it reached its end: the
@@ -72,15 +78,12 @@ impl SuperVoxelDda {
             // The fixed grid: no brick is subdivided, so the cell traversal below is never
             // entered. Said first, so a pipeline specialized to the fixed grid (constant 5)
             // folds it away: SIMD devices run every arm under masks, reachable or not.
-            let (seg, b) = self.bricks.step_brick(vol);
-            self.done = self.bricks.done;
-            return (seg, b);
+            return self.bricks.step_brick(vol);
         }
         if !self.in_cells {
             let (seg, b) = self.bricks.step_brick(vol);
             let s = vol.desc.cells_per_brick();
             if b.cells == 0 || s == 1 {
-                self.done = self.bricks.done;
                 return (seg, b);
             }
             let size = match NonZeroU32::new(s) {
@@ -91,7 +94,6 @@ impl SuperVoxelDda {
             let hi = [lo[0] + s, lo[1] + s, lo[2] + s];
             if !(seg.t0 < seg.t1) {
                 // A graze: an empty segment with the brick's statistics adds nothing.
-                self.done = self.bricks.done;
                 return (seg, b);
             }
             // Only the box of the cells with statistics is traversed ([`Brick::cell_box`]):
@@ -108,7 +110,6 @@ impl SuperVoxelDda {
                 .within(size, box_lo, box_hi, self.cell_budget, ta, tb);
             if cells.done {
                 // The ray misses the box: the brick's segment holds zero statistics only.
-                self.done = self.bricks.done;
                 return (seg, Brick::ZERO);
             }
             self.cells = cells;
@@ -126,12 +127,7 @@ impl SuperVoxelDda {
         let b = vol.cell(self.first_cell, local);
         if self.cells.done {
             self.in_cells = false;
-            if self.cells.exhausted() {
-                self.cells_exhausted = true;
-                self.done = true;
-            } else {
-                self.done = self.bricks.done;
-            }
+            self.cells_exhausted = self.cells.exhausted();
         }
         (seg, b)
     }
