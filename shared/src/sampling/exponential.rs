@@ -42,7 +42,18 @@ impl MajorantIter {
     /// Next brick segment and its majorant mu_max (pbrt-v4 `Next`); call only while `!done`.
     #[inline]
     pub fn next_segment(&mut self, vol: &VolumeView<impl Texels>) -> MajorantSegment {
-        let (seg, b) = self.dda.step(vol);
+        self.next_segment_after(vol, false)
+    }
+
+    /// [`MajorantIter::next_segment`], callable after the end too when `after_end` (then a
+    /// meaningless segment of majorant 0 that reads nothing; [`SuperVoxelDda::step_after`]).
+    #[inline]
+    fn next_segment_after(
+        &mut self,
+        vol: &VolumeView<impl Texels>,
+        after_end: bool,
+    ) -> MajorantSegment {
+        let (seg, b) = self.dda.step_after(vol, after_end);
         MajorantSegment {
             t0: seg.t0,
             t1: seg.t1,
@@ -128,40 +139,51 @@ impl MajorantSampler {
         let target = -math::ln(1.0 - u);
         // Majorant optical depth from the flight's start to self.t (at most `target`).
         let mut depth = 0.0f32;
-        let mut out = Collision::default();
+        let mut found = false;
         let mut steps = 0u32;
-        while !out.found && !self.done && steps < self.guard {
+        // The loop body has no branch around the traversal step: a SIMD device runs every arm
+        // of a branch under masks and merges every value the arm writes, so the next segment is
+        // read in every iteration (after the end too, reading nothing) and kept by selects.
+        while !found & !self.done & (steps < self.guard) {
             steps += 1;
             let sigma = self.seg.sigma_maj;
             let rest = sigma * (self.seg.t1 - self.t);
-            if depth + rest > target {
-                let t = self.t + (target - depth) / sigma;
-                if t < self.seg.t1 {
-                    self.t = t;
-                    out = Collision {
-                        t,
-                        sigma_maj: sigma,
-                        found: true,
-                    };
-                } else {
-                    // Rounded onto the segment's end: the collision is the next one's start.
-                    depth = target;
-                }
+            let over = depth + rest > target;
+            // The collision, if this segment holds it (sigma > 0 wherever `over` holds, since
+            // depth <= target).
+            let t_hit = self.t + (target - depth) / sigma;
+            found = over & (t_hit < self.seg.t1);
+            // Rounded onto the segment's end: the collision is the next one's start.
+            depth = if over { target } else { depth + rest };
+            let ended = self.iter.done();
+            let mut next = self.iter;
+            let seg = next.next_segment_after(vol, true);
+            let advance = !found & !ended;
+            if advance {
+                self.iter = next;
+                self.seg = seg;
+            }
+            self.t = if found {
+                t_hit
+            } else if advance {
+                seg.t0
             } else {
-                depth += rest;
-            }
-            if !out.found {
-                if self.iter.done() {
-                    self.done = true;
-                } else {
-                    self.seg = self.iter.next_segment(vol);
-                    self.t = self.seg.t0;
-                }
-            }
+                self.t
+            };
+            self.done |= !found & ended;
         }
-        if !out.found {
+        if !found {
             self.done = true;
         }
+        let out = if found {
+            Collision {
+                t: self.t,
+                sigma_maj: self.seg.sigma_maj,
+                found: true,
+            }
+        } else {
+            Collision::default()
+        };
         let drew = out.found || depth > 0.0;
         (out, if drew { rng } else { before })
     }

@@ -392,8 +392,27 @@ impl GridDda {
     /// loop budgets count iterations).
     #[inline]
     pub fn step_brick(&mut self, vol: &VolumeView<impl Texels>) -> (Segment, Brick) {
+        self.step_brick_after(vol, false)
+    }
+
+    /// [`GridDda::step_brick`], callable after the end too when `after_end` (the result is then
+    /// meaningless and reads nothing: its cell may lie outside the grid, its brick is
+    /// [`Brick::ZERO`]), for a caller that steps unconditionally and keeps the result only while
+    /// it was not done. On a SIMD device a step under a branch merges every value it writes at
+    /// the branch's end; a step taken always and kept by a select does not. With `after_end`
+    /// false (a literal at every call site) the guard folds away.
+    #[inline]
+    pub fn step_brick_after(
+        &mut self,
+        vol: &VolumeView<impl Texels>,
+        after_end: bool,
+    ) -> (Segment, Brick) {
         let cell = self.cell();
-        let b = vol.brick(cell);
+        let b = if after_end & self.done {
+            Brick::ZERO
+        } else {
+            vol.brick(cell)
+        };
         let level = b.skip_level();
         // A cube of one brick (level 0) is left by one step, which is cheaper than the skip
         // and lands in the same cell at the same t. Only where the ray ends inside the brick do
