@@ -235,7 +235,7 @@ fn majorant_segments_tile_the_ray_and_bound_every_voxel_they_cross() {
         }
         let mut it = MajorantIter::new(&view, &r, t0, t1);
         let mut t = t0;
-        while !it.done {
+        while !it.done() {
             let s = it.next_segment(&view);
             assert_eq!(s.t0, t, "segments must be contiguous");
             // Every voxel along the segment is below its majorant (sampled densely).
