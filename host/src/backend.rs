@@ -22,8 +22,10 @@ pub enum BackendChoice {
 
 /// Whether a render asked for with `choice` runs on the CPU rather than on a Vulkan device that
 /// is (`software`) or is not a software implementation: `auto` skips software devices (lavapipe
-/// runs the kernels on the same cores as the CPU backend and was slower than it for every
-/// integrator measured, docs/results/speed.md); `gpu` always uses the device.
+/// runs the kernels on the same cores as the CPU backend; its pipeline builds take seconds, so
+/// the CPU finishes the default render about 3x sooner, and the wavefront integrators `path`
+/// and `restir` are slower there per sample too; docs/results/speed.md, "`--backend auto` on a
+/// software device"); `gpu` always uses the device.
 pub fn prefers_cpu(choice: BackendChoice, software: bool) -> bool {
     choice == BackendChoice::Auto && software
 }
@@ -77,9 +79,10 @@ impl Backend {
         if let Backend::Gpu(g) = &self {
             if prefers_cpu(choice, g.is_software()) {
                 tracing::warn!(
-                    "{} is a software Vulkan device on the same cores as the CPU backend, which \
-                     renders every integrator faster there (docs/results/speed.md); falling back \
-                     to the CPU backend (--backend gpu renders on it)",
+                    "{} is a software Vulkan device on the same cores as the CPU backend, and \
+                     its pipeline builds take seconds; rendering on the CPU backend (--backend \
+                     gpu renders on it, faster per sample for long transmittance, free-flight, \
+                     mis-jackknife and direct renders: docs/results/speed.md)",
                     g.description()
                 );
                 return Ok(Backend::Cpu);

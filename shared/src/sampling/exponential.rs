@@ -6,6 +6,7 @@
 use crate::geometry::Ray;
 use crate::math;
 use crate::rng::HashRng;
+use crate::volume::dda::Cursor;
 use crate::volume::grid::VolumeView;
 use crate::volume::supervoxels::SuperVoxelDda;
 use crate::volume::texels::Texels;
@@ -59,6 +60,18 @@ impl MajorantIter {
             t1: seg.t1,
             sigma_maj: b.mu_max,
         }
+    }
+
+    /// [`SuperVoxelDda::brick_cursor`] (the fixed grid only).
+    #[inline]
+    fn cursor(&self) -> Cursor {
+        self.dda.brick_cursor()
+    }
+
+    /// [`SuperVoxelDda::restore_bricks`] (the fixed grid only).
+    #[inline]
+    fn restore(&mut self, c: Cursor) {
+        self.dda.restore_bricks(c);
     }
 
     /// Whether the traversal's iteration budgets ended it early ([`SuperVoxelDda::exhausted`]).
@@ -141,9 +154,13 @@ impl MajorantSampler {
         let mut depth = 0.0f32;
         let mut found = false;
         let mut steps = 0u32;
-        // The loop body has no branch around the traversal step: a SIMD device runs every arm
-        // of a branch under masks and merges every value the arm writes, so the next segment is
-        // read in every iteration (after the end too, reading nothing) and kept by selects.
+        // On the fixed grid the loop body has no branch around the traversal step: a SIMD
+        // device (lavapipe) runs every arm of a branch under masks and merges every value the
+        // arm writes through memory, so the next segment is read in every iteration (after the
+        // end too, reading nothing) and the step is put back where it is not taken (a select).
+        // On subdivided grids a step changes more than the bricks' cursor: it runs under the
+        // branch.
+        let fixed = vol.desc.cells_per_brick() == 1;
         while !found & !self.done & (steps < self.guard) {
             steps += 1;
             let sigma = self.seg.sigma_maj;
@@ -156,11 +173,20 @@ impl MajorantSampler {
             // Rounded onto the segment's end: the collision is the next one's start.
             depth = if over { target } else { depth + rest };
             let ended = self.iter.done();
-            let mut next = self.iter;
-            let seg = next.next_segment_after(vol, true);
             let advance = !found & !ended;
+            let seg = if fixed {
+                let saved = self.iter.cursor();
+                let seg = self.iter.next_segment_after(vol, true);
+                if !advance {
+                    self.iter.restore(saved);
+                }
+                seg
+            } else if advance {
+                self.iter.next_segment(vol)
+            } else {
+                self.seg
+            };
             if advance {
-                self.iter = next;
                 self.seg = seg;
             }
             self.t = if found {

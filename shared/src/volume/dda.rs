@@ -78,6 +78,16 @@ pub struct Segment {
     pub cell: [u32; 3],
 }
 
+/// The part of a [`GridDda`] that its steps change ([`GridDda::cursor`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Cursor {
+    cell: [i32; 3],
+    t: f32,
+    budget: u32,
+    exhausted: bool,
+    done: bool,
+}
+
 /// Amanatides-Woo DDA over a grid of cubic cells of `size` voxels (bricks, or voxels with size 1
 /// for regular tracking). Boundary parameters are computed from the plane each time
 /// ((plane - o) / d), never accumulated, so two traversals of one ray agree on every t.
@@ -368,14 +378,11 @@ impl GridDda {
     /// Parameter where the ray leaves the current cell along one axis (+inf if it never does).
     #[inline]
     fn exit(&self, c: i32, s: i32, o: f32, inv: f32) -> f32 {
-        let plane = c.wrapping_add(if s > 0 { 1 } else { 0 }) as f32 * self.size;
-        let e = (plane - o) * inv;
-        // A select, not an early return (see `step`); inv is 0 there, so e is finite.
         if s == 0 {
-            f32::INFINITY
-        } else {
-            e
+            return f32::INFINITY;
         }
+        let plane = c.wrapping_add(if s > 0 { 1 } else { 0 }) as f32 * self.size;
+        (plane - o) * inv
     }
 
     /// The current cell (the next segment's, while `!done`).
@@ -428,6 +435,29 @@ impl GridDda {
             }
         }
         (self.step(), b)
+    }
+
+    /// What a step changes (cell, t, budget, flags), to put a step back ([`GridDda::restore`]).
+    #[inline]
+    pub fn cursor(&self) -> Cursor {
+        Cursor {
+            cell: [self.cx, self.cy, self.cz],
+            t: self.t,
+            budget: self.budget,
+            exhausted: self.exhausted,
+            done: self.done,
+        }
+    }
+
+    /// Puts back the state of `c` (taken by [`GridDda::cursor`] of this traversal): undoes the
+    /// steps and skips since.
+    #[inline]
+    pub fn restore(&mut self, c: Cursor) {
+        [self.cx, self.cy, self.cz] = c.cell;
+        self.t = c.t;
+        self.budget = c.budget;
+        self.exhausted = c.exhausted;
+        self.done = c.done;
     }
 
     /// The next voxel segment of a voxel traversal ([`GridDda::voxels`]), or, in an all-zero
@@ -685,56 +715,54 @@ impl GridDda {
     }
 
     /// The current brick's segment; advances to the next brick. Call only while `!done`.
-    ///
-    /// Written as selects, not nested branches: a SIMD device runs every arm of a branch under
-    /// masks and blends each value it writes at every merge, so the step's few values are
-    /// merged once each. The arithmetic is the plain form's (exits from the planes, the lower
-    /// axis on ties, the budget spent last).
-    #[allow(clippy::manual_range_contains)] // plain compares, the same on every backend
     pub fn step(&mut self) -> Segment {
         let tx = self.exit(self.cx, self.sx, self.o.x, self.inv.x);
         let ty = self.exit(self.cy, self.sy, self.o.y, self.inv.y);
         let tz = self.exit(self.cz, self.sz, self.o.z, self.inv.z);
         let cell = [self.cx as u32, self.cy as u32, self.cz as u32];
         let t0 = self.t;
-        // The smallest exit, the lower axis on ties.
-        let y_first = ty < tx;
-        let t_xy = if y_first { ty } else { tx };
-        let z_first = tz < t_xy;
-        let t_min = if z_first { tz } else { t_xy };
-        // A plane behind the start (start exactly on a boundary): zero-length segment.
-        let t1 = if t_min < t0 { t0 } else { t_min };
-        let end = t1 >= self.t_end;
-        let t1 = if end { self.t_end } else { t1 };
-        // Past the end the cell stays; else the crossing's axis moves on.
-        let moves = !end;
-        let cx = self.cx
-            + if moves & !y_first & !z_first {
-                self.sx
+        let mut t1 = tx;
+        let mut axis = 0;
+        if ty < t1 {
+            t1 = ty;
+            axis = 1;
+        }
+        if tz < t1 {
+            t1 = tz;
+            axis = 2;
+        }
+        if t1 < t0 {
+            // A plane behind the start (start exactly on a boundary): zero-length segment.
+            t1 = t0;
+        }
+        if t1 >= self.t_end {
+            t1 = self.t_end;
+            self.done = true;
+        } else {
+            if axis == 0 {
+                self.cx += self.sx;
+            } else if axis == 1 {
+                self.cy += self.sy;
             } else {
-                0
-            };
-        let cy = self.cy
-            + if moves & y_first & !z_first {
-                self.sy
-            } else {
-                0
-            };
-        let cz = self.cz + if moves & z_first { self.sz } else { 0 };
-        let outside = (cx < self.lo[0])
-            | (cy < self.lo[1])
-            | (cz < self.lo[2])
-            | (cx >= self.dims[0])
-            | (cy >= self.dims[1])
-            | (cz >= self.dims[2]);
-        let done = self.done | end | outside;
-        (self.cx, self.cy, self.cz) = (cx, cy, cz);
+                self.cz += self.sz;
+            }
+            if self.cx < self.lo[0]
+                || self.cy < self.lo[1]
+                || self.cz < self.lo[2]
+                || self.cx >= self.dims[0]
+                || self.cy >= self.dims[1]
+                || self.cz >= self.dims[2]
+            {
+                self.done = true;
+            }
+        }
         self.t = t1;
-        // One iteration of the budget; at 0 the traversal ends, exhausted unless it was done.
-        let spent = self.budget == 0;
-        self.exhausted = if spent { !done } else { self.exhausted };
-        self.done = done | spent;
-        self.budget = if spent { 0 } else { self.budget - 1 };
+        if self.budget == 0 {
+            self.exhausted = !self.done;
+            self.done = true;
+        } else {
+            self.budget -= 1;
+        }
         Segment { t0, t1, cell }
     }
 }

@@ -10,7 +10,7 @@
 //! leaving them out changes no estimate, only the number of steps.
 
 use crate::geometry::Ray;
-use crate::volume::dda::{GridDda, Segment};
+use crate::volume::dda::{Cursor, GridDda, Segment};
 use crate::volume::grid::{Brick, GridDesc, VolumeView};
 use crate::volume::texels::Texels;
 use core::num::NonZeroU32;
@@ -58,6 +58,19 @@ impl SuperVoxelDda {
     #[inline]
     pub fn done(&self) -> bool {
         self.cells_exhausted | (!self.in_cells & self.bricks.done)
+    }
+
+    /// What a step of the fixed grid changes ([`GridDda::cursor`] of the bricks): on a grid
+    /// without subdivided bricks ([`GridDesc::cells_per_brick`] 1) a step changes nothing else.
+    #[inline]
+    pub fn brick_cursor(&self) -> Cursor {
+        self.bricks.cursor()
+    }
+
+    /// Puts back the bricks' state of `c` ([`SuperVoxelDda::brick_cursor`]; the fixed grid only).
+    #[inline]
+    pub fn restore_bricks(&mut self, c: Cursor) {
+        self.bricks.restore(c);
     }
 
     /// Whether a budget (bricks or cells) ended the traversal before it reached its end: the
