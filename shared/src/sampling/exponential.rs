@@ -6,8 +6,8 @@
 use crate::geometry::Ray;
 use crate::math;
 use crate::rng::HashRng;
-use crate::volume::dda::Cursor;
-use crate::volume::grid::VolumeView;
+use crate::volume::dda::{Cursor, Segment};
+use crate::volume::grid::{Brick, VolumeView};
 use crate::volume::supervoxels::SuperVoxelDda;
 use crate::volume::texels::Texels;
 
@@ -17,6 +17,18 @@ pub struct MajorantSegment {
     pub t0: f32,
     pub t1: f32,
     pub sigma_maj: f32,
+}
+
+impl MajorantSegment {
+    /// A traversal segment with its brick's maximum as the majorant.
+    #[inline]
+    fn of((seg, b): (Segment, Brick)) -> Self {
+        MajorantSegment {
+            t0: seg.t0,
+            t1: seg.t1,
+            sigma_maj: b.mu_max,
+        }
+    }
 }
 
 /// pbrt-v4's `DDAMajorantIterator` over the super-voxels: segments with majorant mu_max.
@@ -43,23 +55,15 @@ impl MajorantIter {
     /// Next brick segment and its majorant mu_max (pbrt-v4 `Next`); call only while `!done`.
     #[inline]
     pub fn next_segment(&mut self, vol: &VolumeView<impl Texels>) -> MajorantSegment {
-        self.next_segment_after(vol, false)
+        MajorantSegment::of(self.dda.step(vol))
     }
 
-    /// [`MajorantIter::next_segment`], callable after the end too when `after_end` (then a
-    /// meaningless segment of majorant 0 that reads nothing; [`SuperVoxelDda::step_after`]).
+    /// [`MajorantIter::next_segment`] of the fixed grid, callable after the end too (then a
+    /// meaningless segment of majorant 0 that reads nothing;
+    /// [`SuperVoxelDda::step_bricks_after_end`]).
     #[inline]
-    fn next_segment_after(
-        &mut self,
-        vol: &VolumeView<impl Texels>,
-        after_end: bool,
-    ) -> MajorantSegment {
-        let (seg, b) = self.dda.step_after(vol, after_end);
-        MajorantSegment {
-            t0: seg.t0,
-            t1: seg.t1,
-            sigma_maj: b.mu_max,
-        }
+    fn next_brick_segment_after_end(&mut self, vol: &VolumeView<impl Texels>) -> MajorantSegment {
+        MajorantSegment::of(self.dda.step_bricks_after_end(vol))
     }
 
     /// [`SuperVoxelDda::brick_cursor`] (the fixed grid only).
@@ -176,7 +180,7 @@ impl MajorantSampler {
             let advance = !found & !ended;
             let seg = if fixed {
                 let saved = self.iter.cursor();
-                let seg = self.iter.next_segment_after(vol, true);
+                let seg = self.iter.next_brick_segment_after_end(vol);
                 if !advance {
                     self.iter.restore(saved);
                 }

@@ -73,6 +73,15 @@ impl SuperVoxelDda {
         self.bricks.restore(c);
     }
 
+    /// The fixed grid's step ([`GridDesc::cells_per_brick`] 1: the bricks'
+    /// [`GridDda::step_brick_after`]), callable after the end too (a meaningless segment that
+    /// reads nothing), for a caller that steps unconditionally and puts an untaken step back
+    /// ([`SuperVoxelDda::restore_bricks`]).
+    #[inline]
+    pub fn step_bricks_after_end(&mut self, vol: &VolumeView<impl Texels>) -> (Segment, Brick) {
+        self.bricks.step_brick_after(vol, true)
+    }
+
     /// Whether a budget (bricks or cells) ended the traversal before it reached its end: the
     /// caller counts the ray as capped.
     #[inline]
@@ -87,27 +96,14 @@ impl SuperVoxelDda {
     /// empty segment with the brick's own statistics: length 0 adds nothing to any sum.
     #[inline]
     pub fn step(&mut self, vol: &VolumeView<impl Texels>) -> (Segment, Brick) {
-        self.step_after(vol, false)
-    }
-
-    /// [`SuperVoxelDda::step`], callable after the end too when `after_end`
-    /// ([`GridDda::step_brick_after`]: a meaningless segment that reads nothing, for a caller
-    /// that steps unconditionally and keeps the result by a select).
-    #[inline]
-    pub fn step_after(
-        &mut self,
-        vol: &VolumeView<impl Texels>,
-        after_end: bool,
-    ) -> (Segment, Brick) {
         if vol.desc.cells_per_brick() == 1 {
             // The fixed grid: no brick is subdivided, so the cell traversal below is never
             // entered. Said first, so a pipeline specialized to the fixed grid (constant 5)
             // folds it away: SIMD devices run every arm under masks, reachable or not.
-            return self.bricks.step_brick_after(vol, after_end);
+            return self.bricks.step_brick(vol);
         }
         if !self.in_cells {
-            // After the end the brick is `Brick::ZERO` (no cells), so no cell traversal starts.
-            let (seg, b) = self.bricks.step_brick_after(vol, after_end);
+            let (seg, b) = self.bricks.step_brick(vol);
             let s = vol.desc.cells_per_brick();
             if b.cells == 0 || s == 1 {
                 return (seg, b);
