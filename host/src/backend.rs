@@ -80,9 +80,9 @@ impl Backend {
             if prefers_cpu(choice, g.is_software()) {
                 tracing::warn!(
                     "{} is a software Vulkan device on the same cores as the CPU backend, and \
-                     its pipeline builds take seconds; rendering on the CPU backend (--backend \
-                     gpu renders on it, faster per sample for long transmittance, free-flight, \
-                     mis-jackknife and direct renders: docs/results/speed.md)",
+                     its pipeline builds take seconds; falling back to the CPU backend \
+                     (--backend gpu renders on it, faster per sample for long transmittance, \
+                     free-flight, mis-jackknife and direct renders: docs/results/speed.md)",
                     g.description()
                 );
                 return Ok(Backend::Cpu);
