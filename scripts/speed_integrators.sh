@@ -4,13 +4,16 @@
 # (docs/results/speed.md). Each case renders twice, with S and 2S samples per pixel, and the
 # marginal time per sample is (t(2S) - t(S)) / (S x pixels): pipeline builds and a driver's
 # compile on first dispatch (lavapipe) are fixed costs and drop out.
-# Usage: scripts/speed_integrators.sh [HOST] [OUT_DIR]
+# Run it twice and keep the second run: lavapipe caches its compile of a pipeline on disk, and
+# the first run's S render pays for it.
+# Usage: scripts/speed_integrators.sh [HOST] [OUT_DIR] [SIZE (image width and height, 96)]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 host="${1:-target/release/host}"
 out="${2:-docs/results/speed/integrators}"
 mkdir -p "$out"
-common=(--width 96 --height 96 --quiet)
+size="${3:-96}"
+common=(--width "$size" --height "$size" --quiet)
 cases=(
   "transmittance:8:"
   "free-flight:8:--integrator free-flight"
@@ -33,6 +36,6 @@ for c in "${cases[@]}"; do
     a=$(ms "$out/${name}_${b}_1.json"); z=$(ms "$out/${name}_${b}_2.json")
     python3 -c "
 a, z, s = $a, $z, $spp
-print(f'| $name | $b | {a:.0f} | {z:.0f} | {(z - a) * 1e6 / (s * 96 * 96):.0f} |')"
+print(f'| $name | $b | {a:.0f} | {z:.0f} | {(z - a) * 1e6 / (s * $size * $size):.0f} |')"
   done
 done

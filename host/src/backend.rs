@@ -2,6 +2,7 @@
 
 use crate::cpu;
 use crate::gpu::{self, Gpu, GpuError, KernelDef, MapBuffers, Step, Work};
+use crate::job::{Estimate, Job};
 use anyhow::{Context, Result};
 use bytemuck::{Pod, Zeroable};
 use shared::kernels::launch::Launch;
@@ -12,7 +13,8 @@ use std::sync::Arc;
 /// Which backend the user asked for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BackendChoice {
-    /// The Vulkan GPU if a driver is present, else the CPU (with a warning).
+    /// The Vulkan GPU if a driver is present, else the CPU (with a warning); on a software
+    /// device (lavapipe) the backend a cost model of the job says finishes sooner.
     Auto,
     /// The Vulkan GPU; fail if there is none.
     Gpu,
@@ -21,13 +23,13 @@ pub enum BackendChoice {
 }
 
 /// Whether a render asked for with `choice` runs on the CPU rather than on a Vulkan device that
-/// is (`software`) or is not a software implementation: `auto` skips software devices (lavapipe
-/// runs the kernels on the same cores as the CPU backend; its pipeline builds take seconds, so
-/// the CPU finishes the default render about 3x sooner, and the wavefront integrators `path`
-/// and `restir` are slower there per sample too; docs/results/speed.md, "`--backend auto` on a
-/// software device"); `gpu` always uses the device.
-pub fn prefers_cpu(choice: BackendChoice, software: bool) -> bool {
-    choice == BackendChoice::Auto && software
+/// is (`software`) or is not a software implementation: `auto` skips a software device (lavapipe
+/// runs the kernels on the same cores as the CPU backend) where the cost model says the CPU
+/// finishes the job no later ([`crate::job::Estimate`]: the device's pipeline builds take
+/// seconds, and the wavefront integrators are slower there per sample; docs/results/speed.md,
+/// "`--backend auto` on a software device"); `gpu` always uses the device.
+pub fn prefers_cpu(choice: BackendChoice, software: bool, estimate: &Estimate) -> bool {
+    choice == BackendChoice::Auto && software && estimate.cpu_is_faster()
 }
 
 /// A backend ready to run kernels.
@@ -73,19 +75,38 @@ impl Backend {
     /// device-local memory) makes `auto` fall back to the CPU with a warning and a forced
     /// `--backend gpu` fail with advice.
     ///
-    /// `auto` also renders on the CPU where the device is a software implementation on the host's
-    /// cores ([`prefers_cpu`]), with a warning that says so.
-    pub fn fit(self, choice: BackendChoice, volume: &crate::bricks::PackedVolume) -> Result<Self> {
+    /// On a software device (on the host's cores) `auto` renders `job` where the cost model
+    /// says it finishes sooner ([`prefers_cpu`]), and says which and why.
+    pub fn fit(
+        self,
+        choice: BackendChoice,
+        volume: &crate::bricks::PackedVolume,
+        job: &Job,
+    ) -> Result<Self> {
         if let Backend::Gpu(g) = &self {
-            if prefers_cpu(choice, g.is_software()) {
-                tracing::warn!(
-                    "{} is a software Vulkan device on the same cores as the CPU backend, and \
-                     its pipeline builds take seconds; falling back to the CPU backend \
-                     (--backend gpu renders on it, faster per sample for long transmittance, \
-                     free-flight, mis-jackknife and direct renders: docs/results/speed.md)",
-                    g.description()
+            if choice == BackendChoice::Auto && g.is_software() {
+                let e = job.estimate(rayon::current_num_threads());
+                let (kind, samples) = (job.kind.name(), job.samples);
+                if prefers_cpu(choice, true, &e) {
+                    tracing::warn!(
+                        "{} is a software Vulkan device on the same cores as the CPU backend; \
+                         for {samples} samples of {kind} the cost model estimates {:.1} s \
+                         on the CPU and {:.1} s there (pipeline builds included): falling back \
+                         to the CPU backend (--backend gpu renders on it; docs/results/speed.md)",
+                        g.description(),
+                        e.cpu_s,
+                        e.software_s
+                    );
+                    return Ok(Backend::Cpu);
+                }
+                tracing::info!(
+                    "{} is a software Vulkan device; for {samples} samples of {kind} the cost \
+                     model estimates {:.1} s there (pipeline builds included) and {:.1} s on the \
+                     CPU backend: rendering on the device (--backend cpu renders on the CPU)",
+                    g.description(),
+                    e.software_s,
+                    e.cpu_s
                 );
-                return Ok(Backend::Cpu);
             }
         }
         let Some(why) = self.cannot_hold(volume) else {
@@ -582,13 +603,22 @@ mod tests {
 mod auto_tests {
     use super::*;
 
-    /// `auto` renders on the CPU instead of a software Vulkan device, never instead of a real
-    /// GPU; `gpu` and `cpu` are obeyed.
+    /// `auto` renders on the CPU instead of a software Vulkan device where the cost model says
+    /// the CPU is faster, never instead of a real GPU; `gpu` is obeyed.
     #[test]
-    fn auto_prefers_the_cpu_to_a_software_device_only() {
-        assert!(prefers_cpu(BackendChoice::Auto, true));
-        assert!(!prefers_cpu(BackendChoice::Auto, false));
-        assert!(!prefers_cpu(BackendChoice::Gpu, true));
-        assert!(!prefers_cpu(BackendChoice::Gpu, false));
+    fn auto_prefers_the_cpu_to_a_software_device_only_where_it_is_faster() {
+        let short = Estimate {
+            cpu_s: 1.0,
+            software_s: 5.0,
+        };
+        let long = Estimate {
+            cpu_s: 100.0,
+            software_s: 60.0,
+        };
+        assert!(prefers_cpu(BackendChoice::Auto, true, &short));
+        assert!(!prefers_cpu(BackendChoice::Auto, true, &long));
+        assert!(!prefers_cpu(BackendChoice::Auto, false, &short));
+        assert!(!prefers_cpu(BackendChoice::Gpu, true, &short));
+        assert!(!prefers_cpu(BackendChoice::Gpu, false, &short));
     }
 }

@@ -1,6 +1,7 @@
 //! The subcommands: each parses nothing, validates its flags, runs, and reports.
 
 use crate::backend::{Backend, BackendChoice};
+use crate::job::{Job, WorkKind};
 use crate::output::{write_exr, write_json, write_png, OutputPlan};
 use crate::render::{make_camera, occupied_world_bounds, world_to_index, CameraSpec};
 use crate::volume::{Volume, VolumeData};
@@ -957,7 +958,8 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
     )?;
     let (vol, packed, density_scale) = (&scene.volume, &scene.packed, scene.density_scale);
     let load_ms = t_load.elapsed().as_secs_f64() * 1e3;
-    let backend = backend.fit(args.backend, packed)?;
+    let job = Job::render(args.integrator, args.width, args.height, args.spp);
+    let backend = backend.fit(args.backend, packed, &job)?;
     let volume_label = match &scene.grid {
         Some(grid) => format!("{} (grid '{grid}')", vol.name()),
         None => vol.name().to_owned(),
@@ -1449,7 +1451,22 @@ pub fn run_eval(args: &EvalOptions) -> Result<()> {
         check,
     )?;
     let (vol, packed) = (&scene.volume, &scene.packed);
-    let backend = backend.fit(args.backend, packed)?;
+    let job = match &integrators {
+        // Each integrator: every estimator at --spp and a jackknife reference at 16 x --spp.
+        Some(list) => eval_job(
+            list.iter().map(|(_, i)| *i),
+            args,
+            estimators.len(),
+            args.reference_spp.unwrap_or(16 * args.spp),
+        ),
+        None => eval_job(
+            [Integrator::Transmittance],
+            args,
+            estimators.len(),
+            args.reference_spp.unwrap_or(4 * args.spp),
+        ),
+    };
+    let backend = backend.fit(args.backend, packed, &job)?;
     if !args.quiet {
         tracing::info!("backend: {} ({})", backend.kind(), backend.device());
     }
@@ -1570,6 +1587,26 @@ fn run_eval_integrators(
     Ok(())
 }
 
+/// The work of an evaluation for `--backend auto`'s cost model: for each of `integrators`,
+/// `renders` images at `--spp` and a reference at `reference_spp`; the costliest integrator's
+/// kind stands for all.
+fn eval_job(
+    integrators: impl IntoIterator<Item = Integrator>,
+    args: &EvalOptions,
+    renders: usize,
+    reference_spp: u32,
+) -> Job {
+    let kinds: Vec<WorkKind> = integrators
+        .into_iter()
+        .map(|i| WorkKind::of(Some(i)))
+        .collect();
+    let spp = u64::from(args.spp) * renders as u64 + u64::from(reference_spp);
+    Job {
+        kind: WorkKind::costliest(&kinds),
+        samples: Job::render(None, args.width, args.height, 1).samples * spp * kinds.len() as u64,
+    }
+}
+
 /// `host eval --integrators direct`: each shadow-ray estimator of `--estimators` in the `direct`
 /// integrator against ratio-tracking shadow rays at `--reference-spp` (default 16 x `--spp`).
 fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()> {
@@ -1595,7 +1632,14 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
         check,
     )?;
     let (vol, packed) = (&scene.volume, &scene.packed);
-    let backend = backend.fit(args.backend, packed)?;
+    let reference_spp = args.reference_spp.unwrap_or(16 * args.spp);
+    let job = eval_job(
+        integrators.iter().copied(),
+        args,
+        entries.len(),
+        reference_spp,
+    );
+    let backend = backend.fit(args.backend, packed, &job)?;
     if !args.quiet {
         tracing::info!("backend: {} ({})", backend.kind(), backend.device());
     }

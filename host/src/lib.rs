@@ -10,6 +10,7 @@ pub mod diagnostics;
 pub mod estimators;
 pub mod gpu;
 pub mod integrators;
+pub mod job;
 pub mod lighting;
 pub mod procedural;
 

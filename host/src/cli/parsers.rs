@@ -34,7 +34,8 @@ macro_rules! value_enum {
 value_enum! {
     /// Which backend the user asked for.
     BackendArg => BackendChoice {
-        /// The Vulkan GPU if a driver is present, else the CPU (with a warning).
+        /// The Vulkan GPU if a driver is present, else the CPU (with a warning); on a software
+        /// device (lavapipe) the backend a cost model of the job says finishes sooner.
         Auto,
         /// The Vulkan GPU; fail if there is none.
         Gpu,

@@ -223,7 +223,8 @@ pub struct RenderArgs {
     /// Seed, 0 to 2^32 - 1; the same seed gives the same image on every backend.
     #[arg(long, default_value_t = 0, allow_hyphen_values = true)]
     pub seed: u32,
-    /// Where kernels run: auto (GPU if a Vulkan driver exists, else CPU), gpu, or cpu.
+    /// Where kernels run: auto (a hardware Vulkan GPU if there is one, else the CPU; on a
+    /// software device such as lavapipe, the one that finishes sooner for this job), gpu, or cpu.
     #[arg(long, value_enum, default_value_t = BackendArg::Auto)]
     pub backend: BackendArg,
     /// Output EXR (linear transmittance or radiance; must end in .exr); a PNG preview is written

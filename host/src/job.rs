@@ -1,0 +1,172 @@
+//! The size of a command's work, and `--backend auto`'s cost model for a software Vulkan device
+//! (lavapipe), which runs the kernels on the same cores as the CPU backend: it is faster per
+//! sample for some integrators, but its pipeline builds cost seconds before the first sample.
+
+use shared::params::Integrator;
+
+/// The kernels' families as the cost model tells them apart.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WorkKind {
+    /// Primary-ray transmittance (no integrator).
+    Transmittance,
+    /// Free-flight distance sampling.
+    FreeFlight,
+    /// The single-scattering integrators with a shadow ray (equiangular, the MIS families,
+    /// Miller et al.).
+    SingleScattering,
+    /// `direct`.
+    Direct,
+    /// `path` (a wavefront of several kernels per vertex).
+    Path,
+    /// `restir` (eight kernels per sample).
+    Restir,
+}
+
+impl WorkKind {
+    /// The family of `integrator` (`None`: transmittance).
+    pub fn of(integrator: Option<Integrator>) -> Self {
+        match integrator {
+            None | Some(Integrator::Transmittance) => Self::Transmittance,
+            Some(Integrator::FreeFlight) => Self::FreeFlight,
+            Some(Integrator::Direct) => Self::Direct,
+            Some(Integrator::Path) => Self::Path,
+            Some(Integrator::Restir) => Self::Restir,
+            Some(_) => Self::SingleScattering,
+        }
+    }
+
+    /// The kind among `kinds` that a software device runs worst (the largest time ratio), which
+    /// stands for a job of several; transmittance if there is none.
+    pub fn costliest(kinds: &[WorkKind]) -> Self {
+        kinds
+            .iter()
+            .copied()
+            .max_by(|a, b| a.costs().1.total_cmp(&b.costs().1))
+            .unwrap_or(Self::Transmittance)
+    }
+
+    /// The name the messages use.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Transmittance => "transmittance",
+            Self::FreeFlight => "free-flight",
+            Self::SingleScattering => "single scattering",
+            Self::Direct => "direct",
+            Self::Path => "path",
+            Self::Restir => "restir",
+        }
+    }
+
+    /// CPU core-nanoseconds per sample on the embedded cloud at its defaults, and a software
+    /// device's time per sample over the CPU backend's on the same cores: measured with
+    /// `scripts/speed_integrators.sh target/release/host OUT 256` on 2 cores (lavapipe,
+    /// docs/results/speed.md, "`--backend auto` on a software device").
+    pub fn costs(self) -> (f64, f64) {
+        match self {
+            Self::Transmittance => (2.0 * 352.0, 0.55),
+            Self::FreeFlight => (2.0 * 641.0, 0.94),
+            Self::SingleScattering => (2.0 * 1212.0, 1.01),
+            Self::Direct => (2.0 * 1390.0, 1.04),
+            Self::Path => (2.0 * 1394.0, 18.3),
+            Self::Restir => (2.0 * 5000.0, 2.19),
+        }
+    }
+}
+
+/// Seconds a software device spends before its first sample that the CPU backend does not:
+/// device creation, pipeline builds (LLVM compiles of the specialized kernels; about 4 s for one
+/// to four pipelines on this project's 2-core machine, `pipeline_build_ms` in the render JSON)
+/// and the driver's work on the first dispatch.
+pub const SOFTWARE_FIXED_S: f64 = 4.0;
+
+/// What a command renders: `samples` camera samples (pixels x spp, summed over its renders) of
+/// one kind of kernel.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Job {
+    pub kind: WorkKind,
+    pub samples: u64,
+}
+
+/// The cost model's estimate for a job on each backend, in seconds of wall time.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Estimate {
+    pub cpu_s: f64,
+    pub software_s: f64,
+}
+
+impl Job {
+    /// A render of `width` x `height` pixels at `spp` samples each.
+    pub fn render(integrator: Option<Integrator>, width: u32, height: u32, spp: u32) -> Self {
+        Self {
+            kind: WorkKind::of(integrator),
+            samples: u64::from(width) * u64::from(height) * u64::from(spp),
+        }
+    }
+
+    /// Estimated wall time on the CPU backend and on a software device sharing its `threads`
+    /// cores: both divide the same per-sample work among the cores; the device adds
+    /// [`SOFTWARE_FIXED_S`].
+    pub fn estimate(&self, threads: usize) -> Estimate {
+        let (core_ns, ratio) = self.kind.costs();
+        let cpu_s = self.samples as f64 * core_ns * 1e-9 / threads.max(1) as f64;
+        Estimate {
+            cpu_s,
+            software_s: SOFTWARE_FIXED_S + cpu_s * ratio,
+        }
+    }
+}
+
+impl Estimate {
+    /// Whether the CPU backend finishes the job no later than the software device.
+    pub fn cpu_is_faster(&self) -> bool {
+        self.cpu_s <= self.software_s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The README's default render (512x512, 4 spp of transmittance) is short: the CPU wins
+    /// (measured: 1.5 s against 5.0 s wall on lavapipe); one at 1024 spp is the device's.
+    #[test]
+    fn the_default_render_stays_on_the_cpu_and_a_long_one_moves() {
+        let small = Job::render(None, 512, 512, 4).estimate(2);
+        assert!(small.cpu_is_faster(), "{small:?}");
+        let long = Job::render(None, 512, 512, 1024).estimate(2);
+        assert!(!long.cpu_is_faster(), "{long:?}");
+    }
+
+    /// `direct`, `path` and `restir` are no faster per sample on a software device, so no size
+    /// moves them there; free flights move only when very long.
+    #[test]
+    fn integrators_no_faster_per_sample_never_move() {
+        for integrator in [Integrator::Direct, Integrator::Path, Integrator::Restir] {
+            for spp in [1, 64, 1 << 16] {
+                let e = Job::render(Some(integrator), 1920, 1080, spp).estimate(2);
+                assert!(e.cpu_is_faster(), "{integrator:?} {spp}: {e:?}");
+            }
+        }
+        let short = Job::render(Some(Integrator::FreeFlight), 512, 512, 64).estimate(2);
+        assert!(short.cpu_is_faster(), "{short:?}");
+        let long = Job::render(Some(Integrator::FreeFlight), 1920, 1080, 1024).estimate(2);
+        assert!(!long.cpu_is_faster(), "{long:?}");
+    }
+
+    /// An evaluation's kinds are represented by the one a software device runs worst.
+    #[test]
+    fn the_costliest_kind_stands_for_a_mix() {
+        let mix = [WorkKind::Transmittance, WorkKind::Path, WorkKind::Direct];
+        assert_eq!(WorkKind::costliest(&mix), WorkKind::Path);
+        assert_eq!(WorkKind::costliest(&[]), WorkKind::Transmittance);
+    }
+
+    /// More cores shorten both backends' sample work but not the fixed cost, so a job that
+    /// moves on 2 cores may stay on 64.
+    #[test]
+    fn more_cores_keep_more_jobs_on_the_cpu() {
+        let job = Job::render(None, 512, 512, 1024);
+        assert!(!job.estimate(2).cpu_is_faster());
+        assert!(job.estimate(64).cpu_is_faster());
+    }
+}
