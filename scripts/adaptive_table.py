@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Prints the README's adaptive super-voxel table rows (issue 17) from the JSONs that
+"""Prints the adaptive super-voxel table rows of docs/results/adaptive.md (issue 17) from the JSONs that
 scripts/eval_adaptive.sh writes to docs/results/adaptive/<volume>_<lookup>_<format>_<structure>.json,
 in the order volume, lookup, format, structure (fixed16, fixed12, fixed8, adaptive).
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The lookup-mode comparison of the README (issue 17, `--lookup trilinear`): the jackknife and
+# The lookup-mode comparison of docs/results/adaptive.md (issue 17, `--lookup trilinear`): the jackknife and
 # ratio tracking with stochastic and trilinear lookups on the cloud and the explosion, each
 # against a ratio-tracking reference of the same lookup. Writes
 # docs/results/eval_lookup_<lookup>_<volume>.json. Usage: scripts/eval_lookups.sh [host binary]

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The moment-shadow-map comparison of the README (issue 18): on each embedded volume under a
+# The moment-shadow-map comparison of docs/results/shadows.md (issue 18): on each embedded volume under a
 # delta sun, jackknife / ratio / track-length shadow rays against four- and six-moment shadow
 # maps at 128 and 512 texels per side, in the `direct` integrator, with a 1024-spp ratio-tracking
 # reference and the paired exact-shadow image. Writes docs/results/eval_msm_<volume>.json and

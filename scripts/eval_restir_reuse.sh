@@ -10,7 +10,7 @@
 # Usage: scripts/eval_restir_reuse.sh [host binary] [backend]
 # Environment: WIDTH (square image, default 128), SPP (default 64), REF (reference spp, default
 # 1024), CONFIGS ("target M passes mis" entries separated by ';', default the table below), DIR
-# (where the JSON go, default docs/results). The H200 table of the README:
+# (where the JSON go, default docs/results). The H200 table of docs/results/restir.md:
 #   WIDTH=512 DIR=docs/results/h200 CONFIGS="unshadowed 8 1 pairwise;unshadowed 8 2 pairwise;..."
 #   scripts/eval_restir_reuse.sh target/release/host gpu
 set -euo pipefail

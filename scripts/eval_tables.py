@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Prints the README's `host eval` tables (markdown) from eval JSON files written by `host eval`.
+"""Prints the `host eval` tables (markdown) of docs/results/transmittance.md (transmittance evals)
+and docs/results/scattering.md (integrator evals) from eval JSON files written by `host eval`.
 
 Usage: scripts/eval_tables.py docs/results/eval_cloud.json [more.json ...]
 Transmittance evals (key `estimators`) and integrator evals (key `integrators`) are both accepted.

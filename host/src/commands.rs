@@ -484,7 +484,7 @@ fn lights_or_default(
     ])
 }
 
-/// JSON summary of one render (field names are part of the CLI's interface; see README).
+/// JSON summary of one render (field names are part of the CLI's interface; docs/reference/json.md).
 #[derive(serde::Serialize)]
 pub struct RenderSummary {
     pub backend: String,

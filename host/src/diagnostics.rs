@@ -67,8 +67,8 @@ impl RayFlags {
                 "{} of {} rays ({:.2}%) have jackknife-adaptive estimates outside the regime of \
                  Eq. 4's normal model: S > {}, or an estimate that took no sample (the ray's \
                  importance integral F is at most --f-delta, so its one stratum is sampled with \
-                 probability F / F_delta): expect bias there; lower --f-delta (README: regime of \
-                 the jackknife)",
+                 probability F / F_delta): expect bias there; lower --f-delta \
+                 (docs/guide/regime.md)",
                 self.jackknife_outside_rays,
                 self.rays,
                 100.0 * outside,
@@ -79,7 +79,7 @@ impl RayFlags {
                 "{} of {} rays ({:.2}%) have jackknife estimates with S > {} (optical-depth \
                  estimates too far apart for Eq. 4's normal model, paper Sec. 6.3): expect bias \
                  there; raise --n, lower --density-scale or use a smaller --brick-size \
-                 (README: regime of the jackknife)",
+                 (docs/guide/regime.md)",
                 self.jackknife_outside_rays,
                 self.rays,
                 100.0 * outside,
@@ -127,8 +127,8 @@ impl RayFlags {
 pub fn capped_advice(params: &RenderParams) -> String {
     format!(
         "{}; or a traversal of the grid used up its iteration budget (the bound from the \
-         occupied bricks that empty-space skipping keeps to, README: empty space) and the rest \
-         of that ray segment was taken as empty; that is a bug: please report the volume",
+         occupied bricks that empty-space skipping keeps to: docs/guide/volumes.md, Empty \
+         space) and the rest of that ray segment was taken as empty; that is a bug: please report the volume",
         estimator_advice(params)
     )
 }

@@ -127,7 +127,7 @@ impl Estimate {
 mod tests {
     use super::*;
 
-    /// The README's default render (512x512, 4 spp of transmittance) is short: the CPU wins
+    /// The README's quick-start render (512x512, 4 spp of transmittance) is short: the CPU wins
     /// (measured: 1.5 s against 5.0 s wall on lavapipe); one at 1024 spp is the device's.
     #[test]
     fn the_default_render_stays_on_the_cpu_and_a_long_one_moves() {

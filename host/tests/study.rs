@@ -286,7 +286,7 @@ fn jittered_and_iid_estimates_are_unbiased() {
 /// 20 s.e. of the paired difference above m = 2 and more than 5 times |bias(m = 2)|; m = 2 has a
 /// smaller |bias| than m = 8 by more than 3 s.e. (99.9% one-sided). Not decisive at an affordable
 /// count and so not asserted: m = 2 against m = 3, 4 and 6, whose differences are 1-2 s.e. at
-/// 10^6 trials (README, `host study table1`).
+/// 10^6 trials (docs/results/studies.md, `host study table1`).
 #[test]
 fn table1_on_smooth_profile_m2_beats_m8_and_naive() {
     let rows = table1::configs(24, 3);

@@ -365,7 +365,7 @@ wave_kernel!(
 
 // A `restir` image (direct illumination with resampled point lights, wavefront) runs one kernel
 // per stage kind, so that each module holds one kind's code: lavapipe built each pipeline of a
-// module of every kind in 110-240 s (README, Testing).
+// module of every kind in 110-240 s (docs/design/kernel-build.md).
 
 wave_kernel!(
     /// `restir` stage 0: start each pixel's sample at the camera.

@@ -173,7 +173,8 @@ fn equiangular_sampling_is_bit_identical() {
 }
 
 /// Henyey-Greenstein sampling and evaluation over g in (-1, 1) (including the g values of
-/// every test and the README: 0.2, 0.3, 0.6, 0.85, -0.5), uniform numbers and directions.
+/// every test and docs/guide/integrators.md: 0.2, 0.3, 0.6, 0.85, -0.5), uniform numbers and
+/// directions.
 #[test]
 fn phase_sampling_is_bit_identical() {
     let gpu = Backend::Gpu(gpu());

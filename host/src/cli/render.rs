@@ -123,7 +123,7 @@ pub struct RenderArgs {
     pub lookup: LookupArg,
     /// Transmittance estimator: jackknife, naive, naive-m1, jackknife-adaptive, jackknife-mean,
     /// jackknife-uniform, biased-rm, biased-rm2, unbiased-rm, unbiased-rm2, track-length, ratio,
-    /// regular (see README).
+    /// regular (docs/reference/estimators.md).
     #[arg(long, default_value = "jackknife", value_parser = crate::estimators::parse)]
     pub estimator: &'static crate::estimators::EstimatorSpec,
     /// Samples per optical depth estimate (N; two estimates per ray), 1 to 4096.
@@ -142,7 +142,7 @@ pub struct RenderArgs {
     /// `path` (RGB multiple scattering, the same lights and shadow rays), `restir` (`direct` with
     /// the point lights resampled from --restir-candidates draws by power), or
     /// single scattering from point lights: free-flight, equiangular, mis-jackknife, mis-naive,
-    /// combined-jackknife, combined-naive, miller, mis-power (see README).
+    /// combined-jackknife, combined-naive, miller, mis-power (docs/guide/integrators.md).
     #[arg(long, value_parser = crate::integrators::parse_integrator)]
     pub integrator: Option<shared::params::Integrator>,
     /// A point light "x,y,z,intensity" in world units (repeat for more; default: two lights

@@ -3,7 +3,7 @@
 //! [`PARALLEL_BUILDS`] at once.
 //!
 //! A driver compiles one pipeline on one core, and lavapipe takes up to minutes and gigabytes
-//! for one of our wavefront stages (README, Testing): a submission that needs several new
+//! for one of our wavefront stages (docs/design/kernel-build.md): a submission that needs several new
 //! pipelines (one per `restir` stage kind) builds them side by side, and a thread that needs a
 //! built pipeline never waits for another's build.
 
@@ -18,7 +18,7 @@ use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant};
 
 /// Most pipelines one device builds at once: lavapipe needs up to 3.4 GB for one `restir` stage
-/// (measured, README), so more would risk a small machine's memory for little gain on few cores.
+/// (measured, docs/design/kernel-build.md), so more would risk a small machine's memory for little gain on few cores.
 pub const PARALLEL_BUILDS: usize = 2;
 
 /// What building (or finding) one pipeline gave.

@@ -179,7 +179,7 @@ impl RenderBackend for GpuVolume<'_> {
 /// (`kernels/src/lib.rs`): 0 the integrator and 1 the estimator of `params` (none: the kernel
 /// has neither), 2 the wavefront stage's kind, 3 whether the voxel pool spans several pages. Each
 /// pipeline holds one variant's code (the whole render kernel took lavapipe 261 s to compile;
-/// see README, Testing); ids a module lacks are ignored.
+/// see docs/design/kernel-build.md); ids a module lacks are ignored.
 fn specialization(params: Option<&RenderParams>, stage_kind: u32, grid: GridSpec) -> Vec<u32> {
     let (integrator, estimator, importance) = params
         .map_or((UNSPECIALIZED, UNSPECIALIZED, UNSPECIALIZED), |p| {

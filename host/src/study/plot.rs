@@ -103,7 +103,7 @@ pub fn save(path: &Path, figure: &impl Figure) -> Result<()> {
     }
 }
 
-/// Encodes RGB8 pixels as a PNG with the strongest compression (the README embeds these).
+/// Encodes RGB8 pixels as a PNG with the strongest compression (the docs embed these).
 fn write_png(path: &Path, rgb: &[u8], w: u32, h: u32) -> Result<()> {
     use image::codecs::png::{CompressionType, FilterType, PngEncoder};
     use image::ImageEncoder;
