@@ -5,6 +5,7 @@ pub mod bench;
 pub mod eval;
 pub mod parsers;
 pub mod probe;
+pub mod reference;
 pub mod render;
 pub mod report;
 pub mod restir;
