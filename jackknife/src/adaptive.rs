@@ -4,7 +4,7 @@
 //! cell (min, max, mean, P of Eq. 5 over the cell widened by one voxel, rounded conservatively),
 //! so Alg. 1 places its N samples where the extinction is instead of on the brick's zeros.
 
-use crate::builder::box_stats;
+use crate::stats::box_stats;
 use shared::volume::grid::{Brick, VolumeView, EMPTY_BRICK};
 
 /// How the importance structure is built.

@@ -10,6 +10,7 @@ use shared::volume::grid::{
 use shared::volume::pages::{Pages, GPU_PAGE_LOG2, MAX_PAGES, ONE_PAGE_LOG2};
 
 use crate::adaptive::Supervoxels;
+use crate::stats::box_stats;
 
 /// Default brick (super-voxel) size B in voxels per axis, as in the paper.
 pub const DEFAULT_BRICK_SIZE: u32 = 16;
@@ -814,16 +815,6 @@ fn unflatten(i: usize, dims: [u32; 3]) -> [u32; 3] {
     ]
 }
 
-/// Smallest f32 >= v (v rounded up from f64).
-fn round_up(v: f64) -> f32 {
-    let f = v as f32;
-    if (f as f64) < v {
-        f.next_up()
-    } else {
-        f
-    }
-}
-
 /// Whether a traversal may skip brick `b`: no voxels stored and all statistics 0 (adds nothing
 /// to any estimator's sums, takes no sample and no free flight stops in it).
 fn is_zero(b: &Brick) -> bool {
@@ -932,44 +923,4 @@ fn cell_steps(subdivided: u64, brick_steps: u32, s: u32) -> u32 {
 /// max, mean and P of Eq. 5 (RMS of mu - mu_min) rounded up, P >= 0.01 mu_min.
 fn brick_stats(view: &VolumeView, b: [u32; 3], size: u32) -> Brick {
     box_stats(view, b.map(|c| c * size), b.map(|c| (c + 1) * size))
-}
-
-/// Statistics of the voxel box [lo, hi) as [`brick_stats`] computes a brick's: over the box
-/// widened by one voxel per side and clamped to the grid (all 0 for a box outside the grid).
-pub(crate) fn box_stats(view: &VolumeView, lo: [u32; 3], hi: [u32; 3]) -> Brick {
-    let d = view.desc.dims;
-    if (0..3).any(|a| lo[a] >= d[a]) {
-        return Brick::ZERO;
-    }
-    let lo = [0, 1, 2].map(|a| lo[a].saturating_sub(1));
-    let hi = [0, 1, 2].map(|a| (hi[a] + 1).min(d[a]));
-    let (mut mn, mut mx) = (f32::INFINITY, 0.0f32);
-    let (mut sum, mut sum2, mut n) = (0.0f64, 0.0f64, 0u64);
-    for z in lo[2]..hi[2] {
-        for y in lo[1]..hi[1] {
-            for x in lo[0]..hi[0] {
-                let mu = view.voxel(x, y, z);
-                mn = mn.min(mu);
-                mx = mx.max(mu);
-                sum += mu as f64;
-                sum2 += mu as f64 * mu as f64;
-                n += 1;
-            }
-        }
-    }
-    let mean = sum / n as f64;
-    let m2 = sum2 / n as f64;
-    let min = mn as f64;
-    let p = (m2 + min * (min - 2.0 * mean))
-        .max(0.0)
-        .sqrt()
-        .max(0.01 * min);
-    Brick {
-        mu_min: mn,
-        mu_max: mx,
-        mean: round_up(mean),
-        p: round_up(p),
-        slot: EMPTY_BRICK,
-        cells: 0,
-    }
 }

@@ -19,6 +19,7 @@ mod adaptive;
 pub mod bc4;
 mod builder;
 mod segment;
+mod stats;
 
 pub use adaptive::{
     occupancy, Supervoxels, DEFAULT_CELL_SIZE, DEFAULT_SPLIT_OCCUPANCY, DEFAULT_SPLIT_RATIO,
