@@ -22,11 +22,13 @@ pub use volume_io::volume;
 pub mod bricks;
 pub mod eval;
 pub mod eval_direct;
-pub mod output;
+/// Output planning and writing, re-exported from the `output` crate.
+pub use output;
 pub mod render;
 pub mod report;
 pub mod restir;
 pub mod schedule;
 pub mod shadow_map;
-pub mod study;
+/// `host study`, re-exported from the `studies` crate.
+pub use studies as study;
 pub mod traversal;

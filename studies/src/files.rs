@@ -21,7 +21,7 @@ impl Output {
     /// Checks before the study runs that `--json` and the plot (or, by default, `out/`) are
     /// distinct, writable, and not the file `profile` (a `--profile` CSV, by any name).
     pub fn check(&self, profile: Option<&Path>) -> Result<()> {
-        let mut plan = crate::output::OutputPlan::new();
+        let mut plan = output::OutputPlan::new();
         if let Some(profile) = profile {
             plan.input("--profile", profile);
         }
@@ -51,8 +51,8 @@ impl Output {
         super::plot::save(plot, figure)?;
         println!("wrote {}", plot.display());
         if let Some(path) = &self.json {
-            crate::output::ensure_parent(path)?;
-            crate::output::write_json(path, report)?;
+            output::ensure_parent(path)?;
+            output::write_json(path, report)?;
             println!("wrote {}", path.display());
         }
         Ok(())

@@ -75,7 +75,7 @@ fn extension(path: &Path) -> String {
 pub fn save(path: &Path, figure: &impl Figure) -> Result<()> {
     check_format(path)?;
     register_font()?;
-    crate::output::ensure_parent(path)?;
+    output::ensure_parent(path)?;
     let (w, h) = figure.size();
     let ext = extension(path);
     match ext.as_str() {
@@ -97,7 +97,7 @@ pub fn save(path: &Path, figure: &impl Figure) -> Result<()> {
                 figure.draw(&root)?;
                 root.present().drawn()?;
             }
-            crate::output::write_text(path, &text)
+            output::write_text(path, &text)
         }
         _ => bail!("{}: plots are .png or .svg", path.display()),
     }
@@ -107,7 +107,7 @@ pub fn save(path: &Path, figure: &impl Figure) -> Result<()> {
 fn write_png(path: &Path, rgb: &[u8], w: u32, h: u32) -> Result<()> {
     use image::codecs::png::{CompressionType, FilterType, PngEncoder};
     use image::ImageEncoder;
-    crate::output::write_atomically(path, |tmp| {
+    output::write_atomically(path, |tmp| {
         let file =
             std::fs::File::create(tmp).with_context(|| format!("creating {}", path.display()))?;
         PngEncoder::new_with_quality(

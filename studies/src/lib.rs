@@ -1,4 +1,5 @@
-//! `host study`: the paper's statistical experiments (Table 1, Fig. 2-7, App. A) on the CPU.
+//! The paper's statistical experiments (Table 1, Fig. 2-7, App. A) on the CPU, run by
+//! `host study`.
 //!
 //! Every study splits its trials into chunks with their own seeded generator and merges the chunk
 //! results in chunk order, so `--seed` fixes the numbers whatever `--threads` is. Studies of the

@@ -181,7 +181,7 @@ where
     total
 }
 
-pub use crate::output::progress;
+pub use output::progress;
 
 /// Least-squares slope of log y over log x: the convergence order of a log-log plot.
 pub fn log_log_slope(points: &[(f64, f64)]) -> f64 {
