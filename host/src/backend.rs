@@ -65,7 +65,7 @@ impl Backend {
     pub fn page_log2(&self) -> u32 {
         match self {
             Backend::Cpu => shared::volume::pages::GPU_PAGE_LOG2,
-            Backend::Gpu(g) => g.page_log2(),
+            Backend::Gpu(g) => crate::bricks::page_log2_for(g.max_buffer_bytes()),
         }
     }
 
@@ -424,7 +424,8 @@ impl GpuRoom {
     fn of(gpu: &Gpu) -> Self {
         GpuRoom {
             max_buffer: gpu.max_buffer_bytes(),
-            max_pool: shared::volume::pages::MAX_PAGES as u64 * (4u64 << gpu.page_log2()),
+            max_pool: shared::volume::pages::MAX_PAGES as u64
+                * (4u64 << crate::bricks::page_log2_for(gpu.max_buffer_bytes())),
             memory: gpu.device_local_bytes(),
             description: gpu.description().to_string(),
         }

@@ -40,7 +40,7 @@ pub const WORKGROUP_SIZE: u32 = 64;
 /// texel buffers. rust-gpu's
 /// `#[spirv(binding = N)]` takes integer literals only, so `kernels/src/lib.rs` spells the
 /// numbers out next to these names; the host checks each named binding's element size against
-/// the compiled module at compile time (`host/src/gpu/kernels.rs`).
+/// the compiled module at compile time (`vulkan-backend/src/kernels.rs`).
 pub mod bindings {
     /// `transmittance_pair_cs`, `math_values_cs` and `equiangular_cs`: output i from input i.
     pub mod map {
