@@ -1600,10 +1600,11 @@ fn eval_job(
         .into_iter()
         .map(|i| WorkKind::of(Some(i)))
         .collect();
+    let pixels = u64::from(args.width) * u64::from(args.height);
     let spp = u64::from(args.spp) * renders as u64 + u64::from(reference_spp);
     Job {
         kind: WorkKind::costliest(&kinds),
-        samples: Job::render(None, args.width, args.height, 1).samples * spp * kinds.len() as u64,
+        samples: pixels * spp * kinds.len() as u64,
     }
 }
 
