@@ -28,8 +28,8 @@ fi
 rustup toolchain install
 
 # No crate's modules import each other in a cycle.
-for src in shared/src host/src jackknife/src volume-io/src kernels/src output/src studies/src \
-  vulkan-backend/src; do
+for src in shared/src host/src engine/src lab/src jackknife/src volume-io/src kernels/src output/src \
+  studies/src vulkan-backend/src; do
   python3 scripts/module_cycles.py "$src"
 done
 

@@ -6,8 +6,8 @@
 
 mod common;
 
-use host::lighting::env::{EnvMap, MAX_SIDE};
-use host::lighting::{build, EnvSource, LightingOptions, SceneLights, SunSpec};
+use engine::lighting::env::{EnvMap, MAX_SIDE};
+use engine::lighting::{build, EnvSource, LightingOptions, SceneLights, SunSpec};
 use shared::sampling::lights::PointLight;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

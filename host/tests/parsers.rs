@@ -3,11 +3,11 @@
 //! property, half arbitrary unicode and half near-valid text built from numbers (huge, NaN, inf,
 //! negative), separators and noise, drawn from a fixed ChaCha seed.
 
+use engine::integrators::{parse_integrator, parse_light};
 use host::cli::{parse_positive, parse_vec3};
-use host::integrators::{parse_integrator, parse_light};
-use host::study::profile::Profile;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
+use studies::profile::Profile;
 
 /// Strings of numbers (some huge, NaN, inf, negative), separators and noise.
 fn near_valid() -> impl Strategy<Value = String> {
@@ -56,7 +56,7 @@ fn flag_parsers_never_panic_and_accept_only_valid_values() {
             prop_assert!(v.is_finite() && v > 0.0, "{s:?} -> {v}");
         }
         let _ = parse_integrator(&s);
-        let _ = host::estimators::parse(&s);
+        let _ = engine::estimators::parse(&s);
         Ok(())
     });
 }

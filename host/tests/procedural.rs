@@ -1,9 +1,9 @@
 //! The embedded procedural volumes: determinism, value ranges, sparsity and placement.
 
-use host::procedural::{
+use engine::procedural::{
     self, by_name, cloud, constant_box, constant_interior, explosion, sphere, NAMES,
 };
-use host::volume::{Affine, DenseVolume};
+use engine::volume::{Affine, DenseVolume};
 
 /// Brick edge length in voxels, as in the renderer's brick grid.
 const BRICK: u32 = 16;
@@ -267,7 +267,7 @@ fn default_size_cloud_generates() {
 /// sizes that are and are not multiples of the cell size.
 #[test]
 fn sparse_generation_gives_the_dense_voxels() {
-    use host::volume::{Volume, VolumeData};
+    use engine::volume::{Volume, VolumeData};
     for n in [61, 64] {
         for (name, dense) in [
             ("cloud", cloud(n)),
@@ -315,8 +315,8 @@ fn bits_of(v: &[f32]) -> Vec<u32> {
 }
 
 /// Every voxel's bits of a volume, x fastest.
-fn volume_bits(v: &host::volume::Volume) -> Vec<u32> {
-    use host::volume::VolumeData;
+fn volume_bits(v: &engine::volume::Volume) -> Vec<u32> {
+    use engine::volume::VolumeData;
     let mut all = Vec::new();
     assert!(v.fill([0; 3], v.dims(), &mut all), "empty");
     bits_of(&all)

@@ -4,9 +4,9 @@
 
 mod common;
 
-use host::bricks::{pack, PackedVolume};
-use host::io::{load_volume_with, LoadOptions, LoadedVolume};
-use host::volume::{Volume, VolumeData};
+use engine::bricks::{pack, PackedVolume};
+use engine::io::{load_volume_with, LoadOptions, LoadedVolume};
+use engine::volume::{Volume, VolumeData};
 use shared::volume::grid::Lookup;
 use std::path::{Path, PathBuf};
 

@@ -2,9 +2,9 @@
 //! building test volumes and their cameras.
 
 use bytemuck::Pod;
-use host::gpu::Gpu;
-use host::render::{make_camera, world_bounds, world_to_index, CameraSpec};
-use host::volume::{Affine, DenseVolume};
+use engine::gpu::Gpu;
+use engine::render::{make_camera, world_bounds, world_to_index, CameraSpec};
+use engine::volume::{Affine, DenseVolume};
 use shared::params::RenderParams;
 use std::fmt::Debug;
 use std::sync::{Arc, OnceLock};

@@ -3,9 +3,9 @@
 //! statistics with stochastic lookups; the images differ from the fixed grid's (the cells change
 //! the sampling).
 
-use host::bricks::pack_paged;
-use host::volume::{Affine, DenseVolume};
-use host::Backend;
+use engine::bricks::pack_paged;
+use engine::volume::{Affine, DenseVolume};
+use engine::Backend;
 use integration_tests::{assert_bytes_equal, camera_params, gpu, volume};
 use jackknife::{SupervoxelFormat, Supervoxels};
 use shared::params::{Estimator, Integrator, RenderParams};
@@ -88,14 +88,14 @@ fn adaptive_supervoxels_render_identically_on_gpu_and_cpu() {
             for (e, integrator) in runs {
                 let label = format!("{format:?} {lookup:?} {e:?} {integrator:?}");
                 let p = params(&vol, e, integrator);
-                let c = host::render::render(&Backend::Cpu, &grid, &p, false).unwrap();
-                let g = host::render::render(&gpu, &grid, &p, false).unwrap();
+                let c = engine::render::render(&Backend::Cpu, &grid, &p, false).unwrap();
+                let g = engine::render::render(&gpu, &grid, &p, false).unwrap();
                 let ids: Vec<u32> = (0..c.len() as u32).collect();
                 assert_bytes_equal(&label, &ids, &g, &c);
                 assert!(c.iter().all(|px| px.capped == 0), "{label}: capped rays");
                 // (The MIS image has no lights here: its radiance is 0 either way.)
                 if e != Estimator::RegularTracking && integrator == Integrator::Transmittance {
-                    let f = host::render::render(&Backend::Cpu, &fixed, &p, false).unwrap();
+                    let f = engine::render::render(&Backend::Cpu, &fixed, &p, false).unwrap();
                     assert!(
                         c.iter().zip(&f).any(|(a, b)| a.t_mean != b.t_mean),
                         "{label}: adaptive rendered exactly as fixed"

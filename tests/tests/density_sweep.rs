@@ -2,11 +2,11 @@
 //! byte-identical images on the GPU (lavapipe) and the CPU at every density scale from 0 to 1e30,
 //! never NaN, and every loop bound that is reached is counted (`PixelOut::capped`).
 
-use host::bricks::{pack, PackedVolume};
-use host::diagnostics::RayFlags;
-use host::render::render_scene;
-use host::volume::DenseVolume;
-use host::Backend;
+use engine::bricks::{pack, PackedVolume};
+use engine::diagnostics::RayFlags;
+use engine::render::render_scene;
+use engine::volume::DenseVolume;
+use engine::Backend;
 use integration_tests::{assert_bytes_equal, camera_params, gpu, lumpy_cells, test_lights};
 use shared::kernels::render::PixelOut;
 use shared::params::Estimator;
@@ -114,7 +114,7 @@ fn every_integrator_is_bit_identical_and_finite_at_every_density() {
     for lookup in Lookup::ALL {
         for scale in SCALES {
             let packed = pack(&vol, scale, 8, lookup).unwrap();
-            for (_, integrator) in host::integrators::INTEGRATORS {
+            for (_, integrator) in engine::integrators::INTEGRATORS {
                 // The CPU image with the jackknife's T̂, for the integrators that ignore T̂.
                 let mut jk: Option<Vec<PixelOut>> = None;
                 for t_hat in [TransmittanceHat::Jackknife, TransmittanceHat::Ratio] {

@@ -2,12 +2,12 @@
 //! lights): GPU == CPU bytes for every light type and shadow-ray estimator, and unbiasedness
 //! against a quadrature of the exact single-scattering integral.
 
-use host::bricks::{pack, PackedVolume};
-use host::lighting::env::EnvMap;
-use host::lighting::{build, EnvSource, LightingOptions, SceneLights, SunSpec};
-use host::render::{make_camera, render_lit, world_bounds, world_to_index, CameraSpec};
-use host::volume::{Affine, DenseVolume};
-use host::Backend;
+use engine::bricks::{pack, PackedVolume};
+use engine::lighting::env::EnvMap;
+use engine::lighting::{build, EnvSource, LightingOptions, SceneLights, SunSpec};
+use engine::render::{make_camera, render_lit, world_bounds, world_to_index, CameraSpec};
+use engine::volume::{Affine, DenseVolume};
+use engine::Backend;
 use integration_tests::{assert_bytes_equal, camera_params, gpu, lumpy_blobs};
 use shared::params::{Estimator, Integrator, RenderParams};
 use shared::sampling::lights::PointLight;
@@ -166,7 +166,7 @@ fn direct_is_bit_identical_on_gpu_and_cpu_for_every_light_and_estimator() {
     for (name, lights, estimator) in cases {
         let mut p = params(&vol, 12, 10, 3, estimator);
         p.light_count = lights.points.len() as u32;
-        let p = host::render::fit_collision_cap(&p, &packed.desc);
+        let p = engine::render::fit_collision_cap(&p, &packed.desc);
         let c = render_lit(&Backend::Cpu, &packed, &p, &lights, false).unwrap();
         let g = render_lit(&gpu, &packed, &p, &lights, false).unwrap();
         let ids: Vec<u32> = (0..c.len() as u32).collect();
@@ -187,11 +187,11 @@ fn direct_fits_every_estimator_without_lowering_the_collision_cap() {
     for e in Estimator::ALL {
         let p = params(&vol, 4, 4, 1, e);
         assert!(
-            host::render::loop_iterations_per_ray(&p, &packed.desc) <= 60_000,
+            engine::render::loop_iterations_per_ray(&p, &packed.desc) <= 60_000,
             "{e:?}"
         );
-        let fitted = host::render::fit_collision_cap(&p, &packed.desc);
-        assert_eq!(host::render::collision_cap(&fitted), 10_000, "{e:?}");
+        let fitted = engine::render::fit_collision_cap(&p, &packed.desc);
+        assert_eq!(engine::render::collision_cap(&fitted), 10_000, "{e:?}");
     }
 }
 

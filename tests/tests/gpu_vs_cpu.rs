@@ -3,7 +3,7 @@
 //! Exact comparison, no epsilon: every output buffer over >= 2^20 inputs, random bit patterns and
 //! hand-picked edge cases (zeros, subnormals, huge values, infinities, NaN, X0 = X1).
 
-use host::Backend;
+use engine::Backend;
 use integration_tests::{assert_bytes_equal, gpu};
 use shared::kernels::probe::{self, DepthPair};
 use shared::rng::{pcg_hash, Pcg32};

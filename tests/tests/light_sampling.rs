@@ -6,7 +6,7 @@
 //! Every random number comes from `shared::rng::Pcg32` with the seed stated in the test, so each
 //! run draws the same numbers; the chi-square tests reject at p < 1e-4.
 
-use host::lighting::env::EnvMap;
+use engine::lighting::env::EnvMap;
 use shared::geometry::{cross, frame_from_z, V3};
 use shared::math::atan2;
 use shared::rgb::Rgb;

@@ -3,8 +3,8 @@
 //! (ratio tracking's transmittance and the jackknife's against a fine quadrature of the same
 //! field).
 
-use host::bricks::pack;
-use host::volume::Affine;
+use engine::bricks::pack;
+use engine::volume::Affine;
 use integration_tests::volume;
 use shared::geometry::{Ray, V3};
 use shared::kernels::render::ray_transmittance;
@@ -13,7 +13,7 @@ use shared::rng::{pcg_hash, unit_f32, HashRng};
 use shared::volume::grid::Lookup;
 
 /// mu = 1 + x + 2 y + 3 z at voxel (x, y, z) of an 8^3 grid (exact in f16), world = index space.
-fn linear() -> host::volume::DenseVolume {
+fn linear() -> engine::volume::DenseVolume {
     volume(
         "linear",
         [8; 3],
@@ -85,7 +85,7 @@ fn estimators_are_unbiased_for_the_trilinear_field() {
                 estimator: estimator as u32,
                 rm_scale: 1.0,
                 f_delta: 0.6,
-                world_to_index: host::render::world_to_index(&vol.index_to_world).unwrap(),
+                world_to_index: engine::render::world_to_index(&vol.index_to_world).unwrap(),
                 ..Default::default()
             };
             let n = 40_000u32;

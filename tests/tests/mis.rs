@@ -1,9 +1,9 @@
 //! MIS weight estimation and the single-scattering integrators (Sec. 5, App. D, Fig. 7).
 
-use host::bricks::pack;
-use host::render::render_scene;
-use host::volume::DenseVolume;
-use host::Backend;
+use engine::bricks::pack;
+use engine::render::render_scene;
+use engine::volume::DenseVolume;
+use engine::Backend;
 use integration_tests::{
     assert_bytes_equal, camera_params, gpu, mean_se as mean_se_of, test_lights, unit_cube, volume,
 };
@@ -294,7 +294,7 @@ fn gpu_and_cpu_render_identical_images_for_every_integrator() {
         let packed = pack(&vol, 2.0, 8, lookup).unwrap();
         // The integrators lit by point lights (direct, path, restir: tests/tests/direct.rs,
         // path.rs, restir.rs).
-        let point_lit = host::integrators::INTEGRATORS
+        let point_lit = engine::integrators::INTEGRATORS
             .iter()
             .filter(|(_, i)| !i.is_lit());
         for (_, integrator) in point_lit {

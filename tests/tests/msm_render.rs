@@ -2,12 +2,12 @@
 //! build (every storage and prefilter) and for `direct` and `path` under every shadow mode, and
 //! the map's transmittance against an exact reference on a homogeneous slab.
 
-use host::bricks::{pack, PackedVolume};
-use host::lighting::{build, EnvSource, LightingOptions, SceneLights, SunSpec};
-use host::render::{occupied_world_bounds, render_resident_lit, Resident};
-use host::shadow_map::{build_into, MsmStorage, ShadowKind, ShadowOptions};
-use host::volume::DenseVolume;
-use host::Backend;
+use engine::bricks::{pack, PackedVolume};
+use engine::lighting::{build, EnvSource, LightingOptions, SceneLights, SunSpec};
+use engine::render::{occupied_world_bounds, render_resident_lit, Resident};
+use engine::shadow_map::{build_into, MsmStorage, ShadowKind, ShadowOptions};
+use engine::volume::DenseVolume;
+use engine::Backend;
 use integration_tests::{assert_bytes_equal, camera_params, gpu, lumpy_blobs};
 use shared::params::{Estimator, Integrator, RenderParams};
 use shared::shadows::map::MsmFilter;
@@ -117,7 +117,7 @@ fn map_build_is_bit_identical_on_gpu_and_cpu() {
 /// product rounded on its own), and so is the f32 map it quantizes.
 #[test]
 fn u16_maps_of_the_cloud_are_bit_identical_on_gpu_and_cpu() {
-    let vol = host::procedural::cloud(64);
+    let vol = engine::procedural::cloud(64);
     let packed = pack(&vol, 8.0, 16, Lookup::Stochastic).unwrap();
     let gpu = Backend::Gpu(gpu());
     let (rc, rg) = (
@@ -178,7 +178,7 @@ fn direct_and_path_with_shadow_maps_are_bit_identical_on_gpu_and_cpu() {
                     // A delta sun and a sun disk (the disk's light samples also use the map).
                     let radius = if k % 2 == 0 { 0.0 } else { 2.0 };
                     let p = params(vol, integrator, estimator);
-                    let p = host::render::fit_collision_cap(&p, &packed.desc);
+                    let p = engine::render::fit_collision_cap(&p, &packed.desc);
                     let mut lights = sun_lights(radius);
                     build_into(rc, &p, &mut lights, bounds, &o).unwrap();
                     let c = render_resident_lit(rc, &p, &lights, false).unwrap();

@@ -1,12 +1,12 @@
 //! The `path` integrator (multiple scattering, wavefront on the GPU): GPU == CPU bytes for its
 //! light types and every shadow-ray estimator, and the white furnace.
 
-use host::bricks::pack;
-use host::lighting::env::EnvMap;
-use host::lighting::{build, EnvSource, LightingOptions, SceneLights, SunSpec};
-use host::render::{fit_collision_cap, render_lit};
-use host::volume::DenseVolume;
-use host::Backend;
+use engine::bricks::pack;
+use engine::lighting::env::EnvMap;
+use engine::lighting::{build, EnvSource, LightingOptions, SceneLights, SunSpec};
+use engine::render::{fit_collision_cap, render_lit};
+use engine::volume::DenseVolume;
+use engine::Backend;
 use integration_tests::{assert_bytes_equal, camera_params, gpu, lumpy_blobs};
 use shared::params::{Estimator, Integrator, RenderParams};
 use shared::sampling::env::EnvDesc;

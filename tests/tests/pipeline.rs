@@ -1,9 +1,9 @@
 //! The jackknife pipeline (Alg. 2 + Alg. 1 + Eq. 4) on volumes built in the test.
 
-use host::bricks::{pack, PackedVolume};
-use host::render::render;
-use host::volume::{Affine, DenseVolume};
-use host::Backend;
+use engine::bricks::{pack, PackedVolume};
+use engine::render::render;
+use engine::volume::{Affine, DenseVolume};
+use engine::Backend;
 use integration_tests::{assert_bytes_equal, camera_params, gpu, unit_cube, volume};
 use shared::estimators::optical_depth::{estimate_pair, prepare};
 use shared::geometry::Ray;
@@ -366,7 +366,7 @@ fn gpu_and_cpu_agree_for_every_estimator_and_many_samples_per_pixel() {
     let vol = lumpy(48);
     for lookup in Lookup::ALL {
         let packed = pack(&vol, 0.3, 16, lookup).unwrap();
-        for spec in host::estimators::ESTIMATORS {
+        for spec in engine::estimators::ESTIMATORS {
             let mut p = params(
                 &vol,
                 6,
@@ -400,7 +400,7 @@ fn gpu_and_cpu_agree_for_every_estimator_and_many_samples_per_pixel() {
 #[test]
 fn dense_media_with_long_loops_still_agree_between_gpu_and_cpu() {
     // Dense volume (optical depths in the hundreds): long tracking and ray-marching loops, passes
-    // sized by host::render::spp_per_pass to stay within lavapipe's 65535-iteration limit.
+    // sized by engine::render::spp_per_pass to stay within lavapipe's 65535-iteration limit.
     let gpu = Backend::Gpu(gpu());
     let vol = lumpy(48);
     let packed = pack(&vol, 40.0, 8, Lookup::Nearest).unwrap();
@@ -411,10 +411,10 @@ fn dense_media_with_long_loops_still_agree_between_gpu_and_cpu() {
         "biased-rm2",
         "regular",
     ] {
-        let spec = host::estimators::by_name(name).unwrap();
+        let spec = engine::estimators::by_name(name).unwrap();
         let mut p = params(&vol, 4, 4, 48, Estimator::Jackknife);
         spec.apply(&mut p);
-        assert!(host::render::spp_per_pass(&p, &packed.desc).unwrap() >= 1);
+        assert!(engine::render::spp_per_pass(&p, &packed.desc).unwrap() >= 1);
         let g = render(&gpu, &packed, &p, false).unwrap();
         let c = render(&Backend::Cpu, &packed, &p, false).unwrap();
         let ids: Vec<u32> = (0..g.len() as u32).collect();

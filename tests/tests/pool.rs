@@ -2,9 +2,9 @@
 //! extent clipped to the grid), every voxel reads back as the dense grid's f16 value, and sparse
 //! volumes render bit-identically on the GPU and the CPU.
 
-use host::bricks::pack;
-use host::volume::{Affine, DenseVolume};
-use host::Backend;
+use engine::bricks::pack;
+use engine::volume::{Affine, DenseVolume};
+use engine::Backend;
 use integration_tests::{assert_bytes_equal, camera_params, gpu, volume};
 use shared::camera::Camera;
 use shared::geometry::V3;
@@ -50,8 +50,8 @@ fn jackknife_params(
 }
 
 /// A delta sun straight overhead (radiance 1) and albedo 0.8: the lights of `direct` and `path`.
-fn overhead_sun() -> host::lighting::SceneLights {
-    host::lighting::SceneLights {
+fn overhead_sun() -> engine::lighting::SceneLights {
+    engine::lighting::SceneLights {
         lighting: shared::sampling::lighting::Lighting {
             sun: shared::sampling::sun::Sun {
                 dir: shared::geometry::V3::new(0.0, 1.0, 0.0),
@@ -63,7 +63,7 @@ fn overhead_sun() -> host::lighting::SceneLights {
             p_sun: 1.0,
             ..Default::default()
         },
-        ..host::lighting::SceneLights::points_only(&[])
+        ..engine::lighting::SceneLights::points_only(&[])
     }
 }
 
@@ -146,8 +146,8 @@ fn a_sparse_volume_renders_identically_on_gpu_and_cpu() {
             ..jackknife_params(&vol, 96, 12, integrator)
         };
         let lights = overhead_sun();
-        let c = host::render::render_lit(&Backend::Cpu, &p, &params, &lights, false).unwrap();
-        let g = host::render::render_lit(&gpu, &p, &params, &lights, false).unwrap();
+        let c = engine::render::render_lit(&Backend::Cpu, &p, &params, &lights, false).unwrap();
+        let g = engine::render::render_lit(&gpu, &p, &params, &lights, false).unwrap();
         let ids: Vec<u32> = (0..c.len() as u32).collect();
         assert_bytes_equal(&format!("{integrator:?}"), &ids, &g, &c);
         assert!(
@@ -210,7 +210,7 @@ fn long_mostly_empty_grids_render_on_the_gpu_within_the_budget_of_their_occupied
             estimator: e as u32,
             ..base
         };
-        use host::render::{loop_iterations_per_ray, LOOP_BUDGET};
+        use engine::render::{loop_iterations_per_ray, LOOP_BUDGET};
         assert!(
             loop_iterations_per_ray(&params, &stepping) > LOOP_BUDGET,
             "{e:?}"
@@ -219,8 +219,8 @@ fn long_mostly_empty_grids_render_on_the_gpu_within_the_budget_of_their_occupied
             loop_iterations_per_ray(&params, &p.desc) <= LOOP_BUDGET,
             "{e:?}"
         );
-        let c = host::render::render(&Backend::Cpu, &p, &params, false).unwrap();
-        let g = host::render::render(&gpu, &p, &params, false).unwrap();
+        let c = engine::render::render(&Backend::Cpu, &p, &params, false).unwrap();
+        let g = engine::render::render(&gpu, &p, &params, false).unwrap();
         let ids: Vec<u32> = (0..c.len() as u32).collect();
         assert_bytes_equal(&format!("{e:?}"), &ids, &g, &c);
         assert!(c.iter().all(|px| px.capped == 0), "{e:?}: capped rays");
@@ -248,11 +248,13 @@ fn long_occupied_grids_beyond_the_gpu_loop_budget_render_on_the_cpu() {
         seed: 1,
         ..jackknife_params(&vol, 8, 4, None)
     };
-    assert!(host::render::loop_iterations_per_ray(&params, &p.desc) > host::render::LOOP_BUDGET);
-    let c = host::render::render(&Backend::Cpu, &p, &params, false).unwrap();
+    assert!(
+        engine::render::loop_iterations_per_ray(&params, &p.desc) > engine::render::LOOP_BUDGET
+    );
+    let c = engine::render::render(&Backend::Cpu, &p, &params, false).unwrap();
     assert!(c.iter().all(|px| px.t_mean.is_finite() && px.t_mean <= 1.0));
     let gpu = Backend::Gpu(gpu());
-    let e = host::render::render(&gpu, &p, &params, false)
+    let e = engine::render::render(&gpu, &p, &params, false)
         .unwrap_err()
         .to_string();
     assert!(
@@ -268,7 +270,7 @@ fn long_occupied_grids_beyond_the_gpu_loop_budget_render_on_the_cpu() {
 fn bc4_statistics_render_identically_on_gpu_and_cpu() {
     let vol = patchy();
     let pack_as = |format| {
-        host::bricks::pack_paged(
+        engine::bricks::pack_paged(
             &vol,
             1.5,
             4,
@@ -295,11 +297,11 @@ fn bc4_statistics_render_identically_on_gpu_and_cpu() {
             seed: 5,
             ..jackknife_params(&vol, 24, 16, None)
         };
-        let c = host::render::render(&Backend::Cpu, &bc4, &params, false).unwrap();
-        let g = host::render::render(&gpu, &bc4, &params, false).unwrap();
+        let c = engine::render::render(&Backend::Cpu, &bc4, &params, false).unwrap();
+        let g = engine::render::render(&gpu, &bc4, &params, false).unwrap();
         let ids: Vec<u32> = (0..c.len() as u32).collect();
         assert_bytes_equal(&format!("{e:?}"), &ids, &g, &c);
-        let f = host::render::render(&Backend::Cpu, &f32s, &params, false).unwrap();
+        let f = engine::render::render(&Backend::Cpu, &f32s, &params, false).unwrap();
         assert!(
             c.iter().zip(&f).any(|(a, b)| a.t_mean != b.t_mean),
             "{e:?}: bc4 rendered exactly as f32"
@@ -308,8 +310,8 @@ fn bc4_statistics_render_identically_on_gpu_and_cpu() {
 }
 
 /// `patchy()` packed with pages of 2^`page_log2` words (brick size 4, stochastic lookups).
-fn patchy_paged(vol: &DenseVolume, page_log2: u32) -> host::bricks::PackedVolume {
-    use host::volume::VolumeData;
+fn patchy_paged(vol: &DenseVolume, page_log2: u32) -> engine::bricks::PackedVolume {
+    use engine::volume::VolumeData;
     jackknife::GridBuilder::from_boxes(vol.dims, |lo, hi, out| vol.fill(lo, hi, out))
         .density_scale(1.5)
         .brick_size(4)
@@ -371,8 +373,8 @@ fn paged_pools_render_identically_on_gpu_and_cpu() {
             ..jackknife_params(&vol, 24, 16, integrator)
         };
         let lights = overhead_sun();
-        let render = |backend: &Backend, p: &host::bricks::PackedVolume| {
-            host::render::render_lit(backend, p, &params, &lights, false).unwrap()
+        let render = |backend: &Backend, p: &engine::bricks::PackedVolume| {
+            engine::render::render_lit(backend, p, &params, &lights, false).unwrap()
         };
         let c = render(&Backend::Cpu, &one);
         let ids: Vec<u32> = (0..c.len() as u32).collect();
@@ -405,10 +407,10 @@ fn pools_beyond_the_bound_pages_are_refused_on_the_gpu() {
         seed: 4,
         ..jackknife_params(&vol, 8, 8, None)
     };
-    let c = host::render::render(&Backend::Cpu, &paged, &params, false).unwrap();
+    let c = engine::render::render(&Backend::Cpu, &paged, &params, false).unwrap();
     assert!(c.iter().all(|px| px.t_mean.is_finite()));
     let gpu = Backend::Gpu(gpu());
-    let e = host::render::render(&gpu, &paged, &params, false)
+    let e = engine::render::render(&gpu, &paged, &params, false)
         .unwrap_err()
         .to_string();
     assert!(e.contains("pages") && e.contains("--backend cpu"), "{e}");

@@ -2,10 +2,10 @@
 //! infinite t_max, zero/NaN/infinite directions, axis-parallel rays on a face, and a camera
 //! inside the volume (the last two also GPU = CPU byte for byte).
 
-use host::bricks::{pack, PackedVolume};
-use host::render::{make_camera, render, world_bounds, world_to_index, CameraSpec};
-use host::volume::{Affine, DenseVolume};
-use host::Backend;
+use engine::bricks::{pack, PackedVolume};
+use engine::render::{make_camera, render, world_bounds, world_to_index, CameraSpec};
+use engine::volume::{Affine, DenseVolume};
+use engine::Backend;
 use integration_tests::gpu;
 use shared::estimators::optical_depth::{estimate_pair, prepare};
 use shared::estimators::ray_marching::{biased_ray_marching, unbiased_ray_marching};

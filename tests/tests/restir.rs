@@ -8,12 +8,12 @@
 //! neighbours stay in their window; a neighbour's target re-evaluated from another pixel is the
 //! value its own reservoir holds (the shift's p̂_←j).
 
-use host::bricks::{pack, PackedVolume};
-use host::lighting::random::{random_lights, RandomLights};
-use host::lighting::{build, EnvSource, LightingOptions, SceneLights, SunSpec};
-use host::render::render_lit;
-use host::volume::DenseVolume;
-use host::Backend;
+use engine::bricks::{pack, PackedVolume};
+use engine::lighting::random::{random_lights, RandomLights};
+use engine::lighting::{build, EnvSource, LightingOptions, SceneLights, SunSpec};
+use engine::render::render_lit;
+use engine::volume::DenseVolume;
+use engine::Backend;
 use integration_tests::{assert_bytes_equal, camera_params, gpu, lumpy_blobs};
 use shared::integrators::restir::{p_hat, stage_count, Reservoir, RestirState};
 use shared::integrators::restir_reuse::{neighbour, NO_NEIGHBOUR};
@@ -103,7 +103,7 @@ fn render(
 ) -> Vec<shared::kernels::render::PixelOut> {
     let mut p = *p;
     p.light_count = l.points.len() as u32;
-    let p = host::render::fit_collision_cap(&p, &packed.desc);
+    let p = engine::render::fit_collision_cap(&p, &packed.desc);
     render_lit(backend, packed, &p, l, false).unwrap()
 }
 
@@ -318,7 +318,7 @@ fn reservoir_keeps_each_candidate_in_proportion_to_its_weight() {
 /// and it is the same number each time it is evaluated (keyed by pixel, sample, light).
 #[test]
 fn target_is_positive_bounded_and_a_fixed_function() {
-    let vol = host::volume::DenseVolume::new(
+    let vol = engine::volume::DenseVolume::new(
         "dense",
         [16; 3],
         (0..16u32.pow(3))

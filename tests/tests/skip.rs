@@ -2,16 +2,16 @@
 //! builder marks exactly the maximal all-zero aligned cubes, and every estimator and integrator
 //! renders the same bytes with the skip marks as without them, on the CPU and on lavapipe.
 
-use host::bricks::{pack, PackedVolume};
-use host::render::{render_scene, world_to_index};
-use host::Backend;
+use engine::bricks::{pack, PackedVolume};
+use engine::render::{render_scene, world_to_index};
+use engine::Backend;
 use integration_tests::{assert_bytes_equal, camera_params, gpu, test_lights, unit_cube, volume};
 use shared::params::{Estimator, Integrator};
 use shared::rng::{pcg_hash, unit_f32};
 use shared::volume::grid::{Brick, Lookup, EMPTY_BRICK, NO_SKIP};
 
 /// A 64^3 volume with dense blobs in a mostly empty box (one in nine 8^3 blocks occupied).
-fn sparse_blobs() -> host::volume::DenseVolume {
+fn sparse_blobs() -> engine::volume::DenseVolume {
     let n = 64;
     volume("sparse blobs", [n; 3], unit_cube(n), |x, y, z| {
         let c = pcg_hash(x / 8 + 101 * (y / 8) + 10007 * (z / 8));

@@ -4,8 +4,8 @@
 //! z-test at 4 standard errors (per-check confidence 99.994% for a normal statistic, so with the
 //! ~40 checks below a correct implementation would fail with probability < 0.3% over seeds).
 
-use host::bricks::{pack, PackedVolume};
-use host::volume::{Affine, DenseVolume};
+use engine::bricks::{pack, PackedVolume};
+use engine::volume::{Affine, DenseVolume};
 use shared::estimators::tracking::{
     ratio_tracking, regular_tracking_tau, track_length, MAX_TENTATIVE_COLLISIONS,
 };

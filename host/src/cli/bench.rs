@@ -2,8 +2,8 @@
 
 use super::parsers::{BenchBackendArg, LookupArg};
 use super::render::SceneArgs;
-use crate::bench::BenchOptions;
 use clap::Args;
+use lab::bench::BenchOptions;
 use std::path::PathBuf;
 
 /// Flags of `host bench`.
@@ -73,12 +73,13 @@ pub struct BenchArgs {
 }
 
 impl BenchArgs {
-    /// The library's bench options.
-    pub fn options(&self) -> BenchOptions {
-        BenchOptions {
+    /// The library's bench options: the comma-separated lists parsed.
+    pub fn options(&self) -> anyhow::Result<BenchOptions> {
+        use lab::bench::{parse_estimators, parse_numbers};
+        Ok(BenchOptions {
             scene: self.scene.options(),
             lookup: self.lookup.into(),
-            estimators: self.estimators.clone(),
+            estimators: parse_estimators(&self.estimators, "--estimators")?,
             backend: self.backend.into(),
             width: self.width,
             height: self.height,
@@ -88,13 +89,17 @@ impl BenchArgs {
             reps: self.reps,
             warmup: self.warmup,
             sweep: self.sweep,
-            sweep_resolutions: self.sweep_resolutions.clone(),
-            sweep_sizes: self.sweep_sizes.clone(),
-            sweep_estimators: self.sweep_estimators.clone(),
+            sweep_resolutions: parse_numbers(
+                &self.sweep_resolutions,
+                "--sweep-resolutions",
+                8..=1024,
+            )?,
+            sweep_sizes: parse_numbers(&self.sweep_sizes, "--sweep-sizes", 1..=16384)?,
+            sweep_estimators: parse_estimators(&self.sweep_estimators, "--sweep-estimators")?,
             sweep_files: self.sweep_files.clone(),
             plot: self.plot.clone(),
             json: self.json.clone(),
             quiet: self.quiet,
-        }
+        })
     }
 }

@@ -4,8 +4,11 @@ use super::parsers::{
     f32_in, f32_open, parse_f_delta, parse_positive, BackendArg, LookupArg, THatArg,
 };
 use super::render::SceneArgs;
-use crate::commands::{defaults, EvalOptions};
+use anyhow::Result;
 use clap::Args;
+use engine::defaults;
+use lab::defaults as eval_defaults;
+use lab::evaluate::EvalOptions;
 use std::path::PathBuf;
 
 /// Flags of `host eval`.
@@ -32,13 +35,13 @@ pub struct EvalArgs {
     #[arg(long, value_enum, default_value_t = THatArg::Jackknife)]
     pub t_hat: THatArg,
     /// A point light "x,y,z,intensity" (repeatable; default: two lights inside the volume).
-    #[arg(long = "light", value_parser = crate::integrators::parse_light, allow_hyphen_values = true)]
+    #[arg(long = "light", value_parser = engine::integrators::parse_light, allow_hyphen_values = true)]
     pub lights: Vec<shared::sampling::lights::PointLight>,
     /// `--integrators direct|path`: `random:N[,seed]` adds N point lights scattered in and around the
     /// volume, of random colour and intensities over three orders of magnitude (seed default 1;
     /// selected by power).
-    #[arg(long = "lights", value_parser = crate::lighting::random::parse_random_lights)]
-    pub random_lights: Option<crate::lighting::random::RandomLights>,
+    #[arg(long = "lights", value_parser = engine::lighting::random::parse_random_lights)]
+    pub random_lights: Option<engine::lighting::random::RandomLights>,
     #[command(flatten)]
     pub restir: super::restir::RestirArgs,
     /// `--integrators direct|path|restir`: give every entry the render time of the first one
@@ -52,7 +55,7 @@ pub struct EvalArgs {
     /// `--integrators direct`: environment light (`sky`, `none` or a .exr / .hdr probe) [default:
     /// sky, unless --sun or --light is given].
     #[arg(long, value_parser = super::parsers::parse_env)]
-    pub env: Option<crate::lighting::EnvSource>,
+    pub env: Option<engine::lighting::EnvSource>,
     /// `--integrators direct`: multiplier of the environment map, finite and >= 0.
     #[arg(long, default_value_t = 1.0, allow_hyphen_values = true, value_parser = f32_in(0.0, 3.0e38))]
     pub env_scale: f32,
@@ -61,7 +64,7 @@ pub struct EvalArgs {
     pub env_rotate: f32,
     /// `--integrators direct`: sun "x,y,z[,intensity[,angular_radius_deg]]" (see host render).
     #[arg(long, value_parser = super::parsers::parse_sun, allow_hyphen_values = true)]
-    pub sun: Option<crate::lighting::SunSpec>,
+    pub sun: Option<engine::lighting::SunSpec>,
     /// `--integrators path`: vertices before Russian roulette, 0 to 1024.
     #[arg(long, default_value_t = defaults::RR_DEPTH, allow_hyphen_values = true, value_parser = clap::value_parser!(u32).range(0..=1024))]
     pub rr_depth: u32,
@@ -85,13 +88,13 @@ pub struct EvalArgs {
     #[arg(long)]
     pub ratio_roulette: bool,
     /// Image width, 1 to 16384.
-    #[arg(long, allow_hyphen_values = true, default_value_t = defaults::EVAL_SIZE, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    #[arg(long, allow_hyphen_values = true, default_value_t = eval_defaults::EVAL_SIZE, value_parser = clap::value_parser!(u32).range(1..=16384))]
     pub width: u32,
     /// Image height, 1 to 16384.
-    #[arg(long, allow_hyphen_values = true, default_value_t = defaults::EVAL_SIZE, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    #[arg(long, allow_hyphen_values = true, default_value_t = eval_defaults::EVAL_SIZE, value_parser = clap::value_parser!(u32).range(1..=16384))]
     pub height: u32,
     /// Estimates per pixel (all along the pixel center's ray), 2 to 2^20.
-    #[arg(long, allow_hyphen_values = true, default_value_t = defaults::EVAL_SPP, value_parser = clap::value_parser!(u32).range(2..=1 << 20))]
+    #[arg(long, allow_hyphen_values = true, default_value_t = eval_defaults::EVAL_SPP, value_parser = clap::value_parser!(u32).range(2..=1 << 20))]
     pub spp: u32,
     /// Estimates per pixel of the reference when it is stochastic, 1 to 2^24 (default 4 x --spp;
     /// 16 x --spp with --integrators).
@@ -104,16 +107,16 @@ pub struct EvalArgs {
     #[arg(long, value_enum, default_value_t = BackendArg::Auto)]
     pub backend: BackendArg,
     /// Directory for the bias/std/mean EXRs and false-colour PNGs.
-    #[arg(long, default_value = defaults::EVAL_OUT_DIR)]
+    #[arg(long, default_value = eval_defaults::EVAL_OUT_DIR)]
     pub out_dir: PathBuf,
     /// JSON report path (default: <out-dir>/eval.json).
     #[arg(long)]
     pub json: Option<PathBuf>,
     /// |bias| mapped to full colour in the bias PNGs, a finite number > 0.
-    #[arg(long, default_value_t = defaults::BIAS_SCALE, allow_hyphen_values = true, value_parser = parse_positive)]
+    #[arg(long, default_value_t = eval_defaults::BIAS_SCALE, allow_hyphen_values = true, value_parser = parse_positive)]
     pub bias_scale: f32,
     /// std mapped to full colour in the std PNGs, a finite number > 0.
-    #[arg(long, default_value_t = defaults::STD_SCALE, allow_hyphen_values = true, value_parser = parse_positive)]
+    #[arg(long, default_value_t = eval_defaults::STD_SCALE, allow_hyphen_values = true, value_parser = parse_positive)]
     pub std_scale: f32,
     /// No progress bars.
     #[arg(long, short)]
@@ -121,13 +124,16 @@ pub struct EvalArgs {
 }
 
 impl EvalArgs {
-    /// The library's eval options.
-    pub fn options(&self) -> EvalOptions {
-        EvalOptions {
+    /// The library's eval options: the lists of `--estimators` and `--integrators` parsed.
+    pub fn options(&self) -> Result<EvalOptions> {
+        Ok(EvalOptions {
             scene: self.scene.options(),
             lookup: self.lookup.into(),
-            estimators: self.estimators.clone(),
-            integrators: self.integrators.clone(),
+            estimators: lab::eval_direct::parse_entries(&self.estimators)?,
+            integrators: match &self.integrators {
+                Some(list) => lab::evaluate::parse_integrators(list)?,
+                None => Vec::new(),
+            },
             t_hat: self.t_hat.into(),
             lights: self.lights.clone(),
             random_lights: self.random_lights,
@@ -156,6 +162,6 @@ impl EvalArgs {
             bias_scale: self.bias_scale,
             std_scale: self.std_scale,
             quiet: self.quiet,
-        }
+        })
     }
 }

@@ -1,6 +1,7 @@
 //! Command-line interface, the only module that uses clap: the flags of every subcommand
 //! (`host render` is the default), parsed into the library's option structs and run.
 
+pub mod applicable;
 pub mod bench;
 pub mod eval;
 pub mod parsers;
@@ -77,20 +78,41 @@ pub fn parse() -> Result<Cli, clap::Error> {
 /// Runs the parsed command through the library.
 pub fn run(cli: &Cli) -> Result<()> {
     // The environment is input too: checked before any work.
-    crate::gpu::forced_max_buffer_bytes()?;
+    engine::gpu::forced_max_buffer_bytes()?;
     match &cli.command {
-        None => crate::commands::run_render(&cli.render.options()).map(|_| ()),
-        Some(Command::Render(args)) => crate::commands::run_render(&args.options()).map(|_| ()),
-        Some(Command::Probe(args)) => crate::commands::run_probe(&args.options()),
-        Some(Command::Eval(args)) => crate::commands::run_eval(&args.options()),
-        Some(Command::Study(args)) => crate::study::run(&args.options()),
-        Some(Command::Bench(args)) => crate::bench::run(&args.options()).map(|_| ()),
-        Some(Command::Report(args)) => crate::report::run(&args.options()),
+        None => render(&cli.render),
+        Some(Command::Render(args)) => render(args),
+        Some(Command::Probe(args)) => lab::probe::run_probe(&args.options()),
+        Some(Command::Eval(args)) => lab::evaluate::run_eval(&args.options()?),
+        Some(Command::Study(args)) => studies::run(&args.options()),
+        Some(Command::Bench(args)) => lab::bench::run(&args.options()?).map(|_| ()),
+        Some(Command::Report(args)) => lab::report::run(&args.options()?),
     }
 }
 
+/// The workspace's crates whose events [`init_tracing`] prints (tracing targets are crate paths;
+/// other crates' events are dropped).
+pub const OUR_CRATES: [&str; 9] = [
+    "host",
+    "engine",
+    "lab",
+    "studies",
+    "output",
+    "vulkan_backend",
+    "volume_io",
+    "jackknife",
+    "shared",
+];
+
+/// `host render`: the flags the user gave must apply, then the library renders.
+fn render(args: &RenderArgs) -> Result<()> {
+    let options = args.options();
+    applicable::check(&options, &args.given)?;
+    engine::render_job::run_render(&options).map(|_| ())
+}
+
 /// Prints the library's diagnostics on stderr as before: `warning: <message>` for warnings,
-/// the bare message for progress and info lines; only events of this crate, INFO and above, or
+/// the bare message for progress and info lines; only events of the workspace's crates, INFO and above, or
 /// down to the level that the environment variable `JK_LOG` names (`debug`: e.g. each GPU
 /// pipeline's build time).
 pub fn init_tracing() {
@@ -117,7 +139,8 @@ pub fn init_tracing() {
             }
         },
     };
-    let filter = tracing_subscriber::filter::Targets::new().with_target("host", level);
+    let filter = tracing_subscriber::filter::Targets::new()
+        .with_targets(OUR_CRATES.iter().map(|&target| (target, level)));
     // A second call (a subscriber already set) keeps the first one.
     let _ = tracing_subscriber::registry()
         .with(layer)
@@ -147,5 +170,47 @@ where
         }
         ctx.field_format().format_fields(writer.by_ref(), event)?;
         writeln!(writer)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::OUR_CRATES;
+
+    /// Every workspace crate that emits tracing events is one whose events `init_tracing`
+    /// prints: a crate missing from the list would have its warnings dropped silently.
+    #[test]
+    fn every_crate_that_logs_is_printed() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let workspace = std::fs::read_to_string(root.join("Cargo.toml")).unwrap();
+        let members = workspace
+            .lines()
+            .find(|l| l.starts_with("members"))
+            .expect("a members line");
+        let names: Vec<&str> = members
+            .split('"')
+            .skip(1)
+            .step_by(2)
+            .filter(|m| !m.is_empty())
+            .collect();
+        assert!(names.contains(&"engine") && names.contains(&"host"));
+        let mut checked = 0;
+        for member in names {
+            let manifest = std::fs::read_to_string(root.join(member).join("Cargo.toml")).unwrap();
+            if manifest.lines().any(|l| l.starts_with("tracing ")) {
+                let name = manifest
+                    .lines()
+                    .find_map(|l| l.strip_prefix("name = \""))
+                    .and_then(|l| l.strip_suffix('"'))
+                    .expect("a package name")
+                    .replace('-', "_");
+                assert!(
+                    OUR_CRATES.contains(&name.as_str()),
+                    "{name} logs with tracing but init_tracing drops its events"
+                );
+                checked += 1;
+            }
+        }
+        assert!(checked >= 4, "only {checked} crates with tracing found");
     }
 }

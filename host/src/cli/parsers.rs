@@ -1,16 +1,16 @@
 //! Value parsers of the flags (ranges, vectors, lights) and the value enums of the CLI, each
 //! converting into its library type.
 
-use crate::backend::BackendChoice;
-use crate::bench::BenchBackend;
-use crate::render::UpAxis;
-use crate::shadow_map::{MsmStorage, ShadowKind};
-use crate::study::distributions::Distribution;
-use crate::study::profile::Sampling;
+use engine::backend::BackendChoice;
+use engine::render::UpAxis;
+use engine::shadow_map::{MsmStorage, ShadowKind};
 use jackknife::SupervoxelFormat;
+use lab::bench::BenchBackend;
 use shared::params::TransmittanceHat;
 use shared::shadows::map::{MsmFilter, MAX_FILTER_RADIUS};
 use shared::volume::grid::Lookup;
+use studies::distributions::Distribution;
+use studies::profile::Sampling;
 
 /// A clap value enum mirroring a library enum variant by variant, with `From` into it.
 macro_rules! value_enum {
@@ -315,7 +315,7 @@ pub fn parse_g_coefficient(s: &str) -> Result<f32, String> {
 
 /// `--albedo`: one value in [0, 1] or "r,g,b", each in [0, 1].
 pub fn parse_albedo(s: &str) -> Result<[f32; 3], String> {
-    let v = crate::integrators::parse_f32_list(s)?;
+    let v = engine::integrators::parse_f32_list(s)?;
     let ok = |x: &f32| x.is_finite() && (0.0..=1.0).contains(x);
     match v.as_slice() {
         [a] if ok(a) => Ok([*a; 3]),
@@ -327,8 +327,8 @@ pub fn parse_albedo(s: &str) -> Result<[f32; 3], String> {
 }
 
 /// `--env`: `sky`, `none` or an equirectangular `.exr` / `.hdr` file.
-pub fn parse_env(s: &str) -> Result<crate::lighting::EnvSource, String> {
-    use crate::lighting::EnvSource;
+pub fn parse_env(s: &str) -> Result<engine::lighting::EnvSource, String> {
+    use engine::lighting::EnvSource;
     match s {
         "sky" => Ok(EnvSource::Sky),
         "none" => Ok(EnvSource::None),
@@ -339,8 +339,8 @@ pub fn parse_env(s: &str) -> Result<crate::lighting::EnvSource, String> {
 
 /// `--sun x,y,z[,intensity[,angular_radius_deg]]`: the direction toward the sun (non-zero), its
 /// irradiance (finite, >= 0) and its angular radius in [0, 45] degrees.
-pub fn parse_sun(s: &str) -> Result<crate::lighting::SunSpec, String> {
-    let v = crate::integrators::parse_f32_list(s)?;
+pub fn parse_sun(s: &str) -> Result<engine::lighting::SunSpec, String> {
+    let v = engine::integrators::parse_f32_list(s)?;
     let usage = || {
         format!(
             "expected x,y,z[,intensity[,angular_radius_deg]] with a finite non-zero direction, \
@@ -354,11 +354,14 @@ pub fn parse_sun(s: &str) -> Result<crate::lighting::SunSpec, String> {
         return Err(usage());
     }
     let irradiance = v.get(3).copied();
-    let radius_deg = v.get(4).copied().unwrap_or(crate::lighting::SUN_RADIUS_DEG);
+    let radius_deg = v
+        .get(4)
+        .copied()
+        .unwrap_or(engine::lighting::SUN_RADIUS_DEG);
     if irradiance.is_some_and(|e| e < 0.0) || !(0.0..=45.0).contains(&radius_deg) {
         return Err(usage());
     }
-    Ok(crate::lighting::SunSpec {
+    Ok(engine::lighting::SunSpec {
         dir: [v[0], v[1], v[2]],
         irradiance,
         radius_deg,

@@ -1,8 +1,8 @@
 //! Flags of `host probe`.
 
 use super::parsers::{f32_in, BackendArg};
-use crate::commands::ProbeOptions;
 use clap::Args;
+use lab::probe::ProbeOptions;
 
 /// Flags of `host probe`.
 #[derive(Args, Debug, Clone)]

@@ -5,8 +5,10 @@ use super::parsers::{
     parse_msm_filter, parse_positive, parse_split_ratio, parse_sun, parse_vec3, BackendArg,
     LookupArg, MsmStorageArg, ShadowsArg, SupervoxelFormatArg, SupervoxelsArg, THatArg, UpArg,
 };
-use crate::commands::{defaults, RenderOptions, SceneOptions};
 use clap::Args;
+use engine::defaults;
+use engine::render_job::RenderOptions;
+use engine::scene::SceneOptions;
 use std::path::PathBuf;
 
 /// The volume and the camera, shared by `host render` and `host eval`.
@@ -102,7 +104,7 @@ impl SceneArgs {
             density_scale: self.density_scale,
             brick_size: self.brick_size,
             supervoxel_format: self.supervoxel_format.into(),
-            supervoxels: crate::commands::SupervoxelOptions {
+            supervoxels: engine::scene::SupervoxelOptions {
                 adaptive: self.supervoxels == SupervoxelsArg::Adaptive,
                 cell_size: self.cell_size,
                 split_ratio: self.split_ratio,
@@ -124,8 +126,8 @@ pub struct RenderArgs {
     /// Transmittance estimator: jackknife, naive, naive-m1, jackknife-adaptive, jackknife-mean,
     /// jackknife-uniform, biased-rm, biased-rm2, unbiased-rm, unbiased-rm2, track-length, ratio,
     /// regular (docs/reference/estimators.md).
-    #[arg(long, default_value = "jackknife", value_parser = crate::estimators::parse)]
-    pub estimator: &'static crate::estimators::EstimatorSpec,
+    #[arg(long, default_value = "jackknife", value_parser = engine::estimators::parse)]
+    pub estimator: &'static engine::estimators::EstimatorSpec,
     /// Samples per optical depth estimate (N; two estimates per ray), 1 to 4096.
     #[arg(long, allow_hyphen_values = true, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub n: u32,
@@ -143,18 +145,18 @@ pub struct RenderArgs {
     /// the point lights resampled from --restir-candidates draws by power), or
     /// single scattering from point lights: free-flight, equiangular, mis-jackknife, mis-naive,
     /// combined-jackknife, combined-naive, miller, mis-power (docs/guide/integrators.md).
-    #[arg(long, value_parser = crate::integrators::parse_integrator)]
+    #[arg(long, value_parser = engine::integrators::parse_integrator)]
     pub integrator: Option<shared::params::Integrator>,
     /// A point light "x,y,z,intensity" in world units (repeat for more; default: two lights
     /// inside the volume; with `direct`, `path`, `restir`: none, and a --light replaces the
     /// default sky unless --env is given).
-    #[arg(long = "light", value_parser = crate::integrators::parse_light, allow_hyphen_values = true)]
+    #[arg(long = "light", value_parser = engine::integrators::parse_light, allow_hyphen_values = true)]
     pub lights: Vec<shared::sampling::lights::PointLight>,
     /// `direct`, `path`, `restir`: `random:N[,seed]` adds N point lights scattered in and around
     /// the volume, of random colour and intensities over three orders of magnitude (seed default
     /// 1; selected by power). Like --light, it replaces the default sky unless --env is given.
-    #[arg(long = "lights", value_parser = crate::lighting::random::parse_random_lights)]
-    pub random_lights: Option<crate::lighting::random::RandomLights>,
+    #[arg(long = "lights", value_parser = engine::lighting::random::parse_random_lights)]
+    pub random_lights: Option<engine::lighting::random::RandomLights>,
     #[command(flatten)]
     pub restir: super::restir::RestirArgs,
     /// Single-scattering albedo: one value or r,g,b (RGB: `direct`, `path`, `restir`), each in
@@ -165,7 +167,7 @@ pub struct RenderArgs {
     /// with its sun), `none`, or an equirectangular .exr / .hdr light probe [default: sky, unless
     /// --sun, --light or --lights is given].
     #[arg(long, value_parser = parse_env)]
-    pub env: Option<crate::lighting::EnvSource>,
+    pub env: Option<engine::lighting::EnvSource>,
     /// Multiplier of the environment map's radiance, finite and >= 0.
     #[arg(long, default_value_t = 1.0, allow_hyphen_values = true, value_parser = f32_in(0.0, 3.0e38))]
     pub env_scale: f32,
@@ -178,14 +180,14 @@ pub struct RenderArgs {
     /// colour is a slightly warm white: linear Rec. 709 (1, 0.93, 0.85) scaled to luminance 1,
     /// times the intensity.
     #[arg(long, value_parser = parse_sun, allow_hyphen_values = true)]
-    pub sun: Option<crate::lighting::SunSpec>,
+    pub sun: Option<engine::lighting::SunSpec>,
     /// `direct`, `path`: transmittance of light samples toward the sun: shadow rays through
     /// --estimator, or the sun's moment shadow map with four or six moments (Peters et al. 2017;
     /// deterministic, biased, no voxel lookups per shadow ray; needs a sun).
     #[arg(long, value_enum, default_value_t = ShadowsArg::Rays)]
     pub shadows: ShadowsArg,
     /// Texels per side of the moment shadow map, 8 to 2048.
-    #[arg(long, allow_hyphen_values = true, default_value_t = crate::shadow_map::DEFAULT_RESOLUTION, value_parser = clap::value_parser!(u32).range(8..=2048))]
+    #[arg(long, allow_hyphen_values = true, default_value_t = engine::shadow_map::DEFAULT_RESOLUTION, value_parser = clap::value_parser!(u32).range(8..=2048))]
     pub msm_res: u32,
     /// Storage of the moment shadow map [default: u16 for msm4, f32 for msm6].
     #[arg(long, value_enum)]
@@ -261,7 +263,7 @@ impl RenderArgs {
             env_scale: self.env_scale,
             env_rotate: self.env_rotate,
             sun: self.sun,
-            shadows: crate::shadow_map::ShadowOptions {
+            shadows: engine::shadow_map::ShadowOptions {
                 kind: self.shadows.into(),
                 storage: self.msm_storage.map(Into::into),
                 resolution: self.msm_res,
@@ -281,7 +283,6 @@ impl RenderArgs {
             out: self.out.clone(),
             json: self.json.clone(),
             quiet: self.quiet,
-            given: self.given.clone(),
         }
     }
 }

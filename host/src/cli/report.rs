@@ -1,9 +1,10 @@
 //! Flags of `host report`.
 
 use super::parsers::{parse_density_scale, parse_positive, BackendArg, LookupArg};
-use crate::commands::SceneOptions;
-use crate::report::ReportOptions;
+use anyhow::Result;
 use clap::Args;
+use engine::scene::SceneOptions;
+use lab::report::ReportOptions;
 use std::path::PathBuf;
 
 /// Flags of `host report`.
@@ -76,13 +77,20 @@ pub struct ReportArgs {
 }
 
 impl ReportArgs {
-    /// The library's report options.
-    pub fn options(&self) -> ReportOptions {
-        ReportOptions {
+    /// The library's report options: the lists of `--volumes`, `--estimators` and
+    /// `--integrators` parsed.
+    pub fn options(&self) -> Result<ReportOptions> {
+        Ok(ReportOptions {
             out: self.out.clone(),
-            volumes: self.volumes.clone(),
-            estimators: self.estimators.clone(),
-            integrators: self.integrators.clone(),
+            volumes: self
+                .volumes
+                .as_ref()
+                .map(|list| list.split(',').map(|v| v.trim().to_string()).collect()),
+            estimators: lab::eval_direct::parse_entries(&self.estimators)?,
+            integrators: match &self.integrators {
+                Some(list) => lab::evaluate::parse_integrators(list)?,
+                None => Vec::new(),
+            },
             from_eval: self.from_eval.clone(),
             scene: self.view.applied(SceneOptions {
                 resolution: self.resolution,
@@ -101,6 +109,6 @@ impl ReportArgs {
             bias_scale: self.bias_scale,
             std_scale: self.std_scale,
             quiet: self.quiet,
-        }
+        })
     }
 }

@@ -3,20 +3,20 @@
 use super::parsers::{
     count_in, finite_in, parse_g_coefficient, positive_up_to, DistributionArg, SamplingArg,
 };
-use crate::study::convergence::ConvergenceOptions;
-use crate::study::distributions::DistributionsOptions;
-use crate::study::files::Output;
-use crate::study::histogram::HistogramOptions;
-use crate::study::limits::{
-    MAX_BINS, MAX_HISTOGRAM_TRIALS, MAX_SAMPLES, MAX_SIGMA, MAX_TAU, MAX_TRIALS,
-};
-use crate::study::mis_bias::MisBiasOptions;
-use crate::study::normal::NormalOptions;
-use crate::study::profile_study::ProfileOptions;
-use crate::study::table1::Table1Options;
-use crate::study::{Study, StudyOptions};
 use clap::{Args, Subcommand};
 use std::path::PathBuf;
+use studies::convergence::ConvergenceOptions;
+use studies::distributions::DistributionsOptions;
+use studies::files::Output;
+use studies::histogram::HistogramOptions;
+use studies::limits::{
+    MAX_BINS, MAX_HISTOGRAM_TRIALS, MAX_SAMPLES, MAX_SIGMA, MAX_TAU, MAX_TRIALS,
+};
+use studies::mis_bias::MisBiasOptions;
+use studies::normal::NormalOptions;
+use studies::profile_study::ProfileOptions;
+use studies::table1::Table1Options;
+use studies::{Study, StudyOptions};
 
 /// Flags of `host study`.
 #[derive(Args, Debug, Clone)]
@@ -244,8 +244,8 @@ impl OutputArgs {
 
 impl ProfileFlag {
     /// The library's profile choice.
-    fn options(&self) -> crate::study::profile::ProfileFlag {
-        crate::study::profile::ProfileFlag {
+    fn options(&self) -> studies::profile::ProfileFlag {
+        studies::profile::ProfileFlag {
             profile: self.profile.clone(),
         }
     }

@@ -164,6 +164,49 @@ fn lum(c: [f64; 3]) -> f64 {
 /// Builds the lights of a `direct` render; `center` and `radius` bound the volume (for the
 /// point lights' share of the pmf).
 pub fn build(opts: &LightingOptions, center: [f64; 3], radius: f64) -> Result<SceneLights> {
+    check_options(opts)?;
+    let sun_spec = sun_spec_of(opts);
+    let sun_dir = match &sun_spec {
+        Some(s) => Some(unit(s.dir, "--sun")?),
+        None => None,
+    };
+    let (map, sun_e) = env_map_and_sun(opts, sun_spec, sun_dir)?;
+    let mut lighting = Lighting {
+        albedo: Rgb::new(opts.albedo[0], opts.albedo[1], opts.albedo[2]),
+        ..Default::default()
+    };
+    let (env_data, w_env) = match map {
+        Some(map) => install_env(&mut lighting, map, opts)?,
+        None => (vec![0.0f32], 0.0),
+    };
+    let w_sun = match (sun_spec, sun_dir, sun_e) {
+        (Some(spec), Some(dir), Some(e)) => install_sun(&mut lighting, spec, dir, e)?,
+        _ => 0.0,
+    };
+    for (k, l) in opts.points.iter().enumerate() {
+        check_emission(
+            &format!("point light {} (--light or --lights random)", k + 1),
+            l.intensity as f64,
+            "lower its intensity",
+        )?;
+    }
+    let w_points = points_weight(&opts.points, center, radius);
+    let p = kind_pmf([w_sun, w_env, w_points]);
+    lighting.p_sun = p[0] as f32;
+    lighting.p_env = p[1] as f32;
+    lighting.p_points = p[2] as f32;
+    let mut points = opts.points.clone();
+    power::build_power_table(&mut points);
+    Ok(SceneLights {
+        lighting,
+        points,
+        env: env_data,
+        shadow_map: vec![0],
+    })
+}
+
+/// Refuses too many point lights and non-finite environment settings.
+fn check_options(opts: &LightingOptions) -> Result<()> {
     ensure!(
         opts.points.len() <= random::MAX_POINT_LIGHTS,
         "at most {} point lights (got {})",
@@ -178,7 +221,12 @@ pub fn build(opts: &LightingOptions, center: [f64; 3], radius: f64) -> Result<Sc
         opts.env_rotate_deg.is_finite(),
         "--env-rotate must be a finite angle in degrees"
     );
-    let sun_spec = match (&opts.sun, &opts.env) {
+    Ok(())
+}
+
+/// `--sun`, or the sky's default sun.
+fn sun_spec_of(opts: &LightingOptions) -> Option<SunSpec> {
+    match (&opts.sun, &opts.env) {
         (Some(s), _) => Some(*s),
         (None, EnvSource::Sky) => Some(SunSpec {
             dir: DEFAULT_SUN,
@@ -186,12 +234,17 @@ pub fn build(opts: &LightingOptions, center: [f64; 3], radius: f64) -> Result<Sc
             radius_deg: SUN_RADIUS_DEG,
         }),
         (None, _) => None,
-    };
-    let sun_dir = match &sun_spec {
-        Some(s) => Some(unit(s.dir, "--sun")?),
-        None => None,
-    };
-    let (map, sun_e) = match &opts.env {
+    }
+}
+
+/// The environment map (a file or the Preetham sky for the sun's direction) and the sun's
+/// irradiance (the sky's own unless `--sun` gives one).
+fn env_map_and_sun(
+    opts: &LightingOptions,
+    sun_spec: Option<SunSpec>,
+    sun_dir: Option<[f64; 3]>,
+) -> Result<(Option<EnvMap>, Option<f64>)> {
+    Ok(match &opts.env {
         EnvSource::None => (None, sun_spec.map(|s| s.irradiance.unwrap_or(1.0) as f64)),
         EnvSource::File(p) => (
             Some(EnvMap::load(p)?),
@@ -210,108 +263,100 @@ pub fn build(opts: &LightingOptions, center: [f64; 3], radius: f64) -> Result<Sc
             let (map, e) = sky::preetham(dir, given);
             (Some(map), Some(e))
         }
+    })
+}
+
+/// Scales, checks and rotates the environment map into `lighting`; returns its texels (with the
+/// sampling tables) and its integral, the environment's weight in the pmf over light kinds.
+fn install_env(
+    lighting: &mut Lighting,
+    map: EnvMap,
+    opts: &LightingOptions,
+) -> Result<(Vec<f32>, f64)> {
+    let brightest = map.texels.iter().flatten().fold(0.0f32, |a, v| a.max(*v));
+    let what = match &opts.env {
+        EnvSource::File(p) => format!("--env {}", p.display()),
+        _ => "the sky".to_owned(),
     };
-    let mut lighting = Lighting {
-        albedo: Rgb::new(opts.albedo[0], opts.albedo[1], opts.albedo[2]),
-        ..Default::default()
+    check_emission(
+        &format!("{what}: its brightest texel times --env-scale"),
+        brightest as f64 * opts.env_scale as f64,
+        &format!(
+            "use --env-scale {:.3e} or less",
+            MAX_EMISSION / (brightest as f64).max(f64::MIN_POSITIVE)
+        ),
+    )?;
+    let (width, height) = (map.width, map.height);
+    let (data, integral) = map.data(opts.env_scale).with_context(|| what.clone())?;
+    ensure!(
+        integral.is_finite() && data.iter().all(|v| v.is_finite()),
+        "--env-scale {}: the scaled light probe's radiance overflows f32 (brightest texel \
+         {brightest:.3e}); use a smaller --env-scale",
+        opts.env_scale,
+    );
+    let rot = (opts.env_rotate_deg as f64).to_radians();
+    lighting.env = EnvDesc {
+        width,
+        height,
+        cos_rotation: rot.cos() as f32,
+        sin_rotation: rot.sin() as f32,
     };
-    let mut env_data = vec![0.0f32];
-    let mut w_env = 0.0;
-    if let Some(map) = map {
-        let brightest = map.texels.iter().flatten().fold(0.0f32, |a, v| a.max(*v));
-        let what = match &opts.env {
-            EnvSource::File(p) => format!("--env {}", p.display()),
-            _ => "the sky".to_owned(),
-        };
-        check_emission(
-            &format!("{what}: its brightest texel times --env-scale"),
-            brightest as f64 * opts.env_scale as f64,
-            &format!(
-                "use --env-scale {:.3e} or less",
-                MAX_EMISSION / (brightest as f64).max(f64::MIN_POSITIVE)
-            ),
-        )?;
-        let (width, height) = (map.width, map.height);
-        let (data, integral) = map.data(opts.env_scale).with_context(|| what.clone())?;
-        ensure!(
-            integral.is_finite() && data.iter().all(|v| v.is_finite()),
-            "--env-scale {}: the scaled light probe's radiance overflows f32 (brightest texel \
-             {brightest:.3e}); use a smaller --env-scale",
-            opts.env_scale,
-        );
-        let rot = (opts.env_rotate_deg as f64).to_radians();
-        lighting.env = EnvDesc {
-            width,
-            height,
-            cos_rotation: rot.cos() as f32,
-            sin_rotation: rot.sin() as f32,
-        };
-        env_data = data;
-        w_env = integral;
-    }
-    let mut w_sun = 0.0;
-    if let (Some(spec), Some(dir), Some(e)) = (sun_spec, sun_dir, sun_e) {
-        ensure!(
-            e.is_finite() && e >= 0.0,
-            "--sun: the intensity must be finite and >= 0"
-        );
-        ensure!(
-            spec.radius_deg.is_finite() && (0.0..=45.0).contains(&spec.radius_deg),
-            "--sun: the angular radius must be in [0, 45] degrees"
-        );
-        lighting.sun = make_sun(dir, e, spec.radius_deg as f64);
-        let r = lighting.sun.radiance;
-        ensure!(
-            [r.r, r.g, r.b].iter().all(|v| v.is_finite()),
-            "--sun: intensity {e:.3e} over a disk of {} degrees is a radiance beyond f32; lower \
-             the intensity or widen the disk",
+    Ok((data, integral))
+}
+
+/// Checks and installs the sun of irradiance `e` toward `dir` into `lighting`; returns its
+/// weight in the pmf over light kinds.
+fn install_sun(lighting: &mut Lighting, spec: SunSpec, dir: [f64; 3], e: f64) -> Result<f64> {
+    ensure!(
+        e.is_finite() && e >= 0.0,
+        "--sun: the intensity must be finite and >= 0"
+    );
+    ensure!(
+        spec.radius_deg.is_finite() && (0.0..=45.0).contains(&spec.radius_deg),
+        "--sun: the angular radius must be in [0, 45] degrees"
+    );
+    lighting.sun = make_sun(dir, e, spec.radius_deg as f64);
+    let r = lighting.sun.radiance;
+    ensure!(
+        [r.r, r.g, r.b].iter().all(|v| v.is_finite()),
+        "--sun: intensity {e:.3e} over a disk of {} degrees is a radiance beyond f32; lower \
+         the intensity or widen the disk",
+        spec.radius_deg
+    );
+    check_emission(
+        &format!(
+            "--sun: the radiance of intensity {e:.3e} over a disk of {} degrees",
             spec.radius_deg
-        );
-        check_emission(
-            &format!(
-                "--sun: the radiance of intensity {e:.3e} over a disk of {} degrees",
-                spec.radius_deg
-            ),
-            r.r.max(r.g).max(r.b) as f64,
-            "lower the intensity or widen the disk",
-        )?;
-        w_sun = e;
-    }
-    for (k, l) in opts.points.iter().enumerate() {
-        check_emission(
-            &format!("point light {} (--light or --lights random)", k + 1),
-            l.intensity as f64,
-            "lower its intensity",
-        )?;
-    }
-    let w_points: f64 = opts
-        .points
+        ),
+        r.r.max(r.g).max(r.b) as f64,
+        "lower the intensity or widen the disk",
+    )?;
+    Ok(e)
+}
+
+/// The point lights' weight in the pmf over light kinds: intensity over squared distance to the
+/// volume's center, no closer than half its radius.
+fn points_weight(points: &[PointLight], center: [f64; 3], radius: f64) -> f64 {
+    points
         .iter()
         .map(|l| {
             let p = [l.position.x, l.position.y, l.position.z].map(|v| v as f64);
             let d2: f64 = (0..3).map(|a| (p[a] - center[a]).powi(2)).sum();
             l.intensity as f64 / d2.max(0.25 * radius * radius)
         })
-        .sum();
-    let weights = [w_sun, w_env, w_points];
+        .sum()
+}
+
+/// The pmf over light kinds (sun, environment, points) from their weights, with a uniform share
+/// among the kinds present.
+fn kind_pmf(weights: [f64; 3]) -> [f64; 3] {
     let present = weights.iter().filter(|w| **w > 0.0).count();
     let total: f64 = weights.iter().sum();
-    let p = weights.map(|w| {
+    weights.map(|w| {
         if w > 0.0 {
             (1.0 - UNIFORM_SHARE) * w / total + UNIFORM_SHARE / present as f64
         } else {
             0.0
         }
-    });
-    lighting.p_sun = p[0] as f32;
-    lighting.p_env = p[1] as f32;
-    lighting.p_points = p[2] as f32;
-    let mut points = opts.points.clone();
-    power::build_power_table(&mut points);
-    Ok(SceneLights {
-        lighting,
-        points,
-        env: env_data,
-        shadow_map: vec![0],
     })
 }

@@ -339,24 +339,10 @@ fn render_tiles(
         .tiles
         .lock()
         .map_err(|_| anyhow::anyhow!("internal: poisoned tile cache"))?;
-    // Tiles of whole workgroups, each small enough for one storage buffer.
     let sums_size = std::mem::size_of::<PixelSums>() as u64;
-    // With a wavefront, the states (80 or 160 B per pixel) must fit one buffer too.
     let state_size = wave.map_or(0, Wave::state_size);
-    let per_pixel = sums_size.max(state_size);
-    let tile = (gpu.max_buffer_bytes() / per_pixel / 64 * 64)
-        .max(64)
-        .min(u64::from(count)) as u32;
+    let tile = tile_pixels(gpu, wave, params, count)?;
     let tile_count = count.div_ceil(tile) as usize;
-    if wave == Some(Wave::Restir) && params.restir_passes > 0 && tile < count {
-        anyhow::bail!(
-            "--restir-passes {} needs every pixel's state in one GPU buffer: {count} pixels of \
-             {state_size} bytes exceed the device's largest buffer ({} bytes); lower the \
-             resolution or use --restir-passes 0",
-            params.restir_passes,
-            gpu.max_buffer_bytes()
-        );
-    }
     let tile_bytes = u64::from(tile) * sums_size;
     if tiles.len() != tile_count || tiles.iter().any(|b| b.size() != tile_bytes) {
         tiles.clear();
@@ -403,10 +389,71 @@ fn render_tiles(
             )?;
             continue;
         }
-        let submissions = tile_submissions(params.seed, passes, ids.clone(), chunk, bar.is_none());
-        let last = submissions.len() - 1;
         let slice = &mut sums[ids.start as usize..ids.end as usize];
-        let mut readback = Some(bytemuck::cast_slice_mut::<PixelSums, u8>(slice));
+        let pass = TilePass {
+            params,
+            passes,
+            chunk,
+            grid: dev.grid,
+        };
+        pass.submit(gpu, &buffers, ids, std::mem::take(&mut uploads), slice, bar)?;
+    }
+    Ok(sums)
+}
+
+/// Pixels per tile: whole workgroups, with each tile's sums (and a wavefront's states, 80 or
+/// 160 B per pixel) in one storage buffer. Refuses `restir`'s reuse passes when the image does
+/// not fit one tile (they read every pixel's state).
+fn tile_pixels(gpu: &Gpu, wave: Option<Wave>, params: &RenderParams, count: u32) -> Result<u32> {
+    let sums_size = std::mem::size_of::<PixelSums>() as u64;
+    let state_size = wave.map_or(0, Wave::state_size);
+    let per_pixel = sums_size.max(state_size);
+    let tile = (gpu.max_buffer_bytes() / per_pixel / 64 * 64)
+        .max(64)
+        .min(u64::from(count)) as u32;
+    if wave == Some(Wave::Restir) && params.restir_passes > 0 && tile < count {
+        anyhow::bail!(
+            "--restir-passes {} needs every pixel's state in one GPU buffer: {count} pixels of \
+             {state_size} bytes exceed the device's largest buffer ({} bytes); lower the \
+             resolution or use --restir-passes 0",
+            params.restir_passes,
+            gpu.max_buffer_bytes()
+        );
+    }
+    Ok(tile)
+}
+
+/// The submissions of one tile of `transmittance_cs` or `scattering_cs`: the schedule's passes
+/// over its ids, the sums read back after the last.
+struct TilePass<'a> {
+    params: &'a RenderParams,
+    passes: &'a [(u32, u32)],
+    chunk: u32,
+    grid: GridSpec,
+}
+
+impl TilePass<'_> {
+    /// Submits the tile `ids` (the first submission carries `uploads`) and reads its sums
+    /// into `out`.
+    fn submit(
+        &self,
+        gpu: &Gpu,
+        buffers: &RenderBuffers,
+        ids: std::ops::Range<u32>,
+        mut uploads: Vec<(&Buffer, &[u8])>,
+        out: &mut [PixelSums],
+        bar: Option<&ProgressBar>,
+    ) -> Result<()> {
+        let params = self.params;
+        let submissions =
+            tile_submissions(params.seed, self.passes, ids, self.chunk, bar.is_none());
+        let last = submissions.len() - 1;
+        let mut readback = Some(bytemuck::cast_slice_mut::<PixelSums, u8>(out));
+        let kernel = if params.integrator == 0 {
+            &TRANSMITTANCE
+        } else {
+            &SCATTERING
+        };
         for (i, (steps, work)) in submissions.into_iter().enumerate() {
             let readbacks = if i == last {
                 vec![(
@@ -416,12 +463,7 @@ fn render_tiles(
             } else {
                 vec![]
             };
-            let kernel = if params.integrator == 0 {
-                &TRANSMITTANCE
-            } else {
-                &SCATTERING
-            };
-            let grid = dev.grid;
+            let grid = self.grid;
             gpu.submit(Work {
                 pipeline: &|_: &RenderPass| (kernel, render_specialization(params, grid)),
                 buffers: buffers.slots(),
@@ -434,8 +476,8 @@ fn render_tiles(
                 bar.inc(work);
             }
         }
+        Ok(())
     }
-    Ok(sums)
 }
 
 /// The wavefront integrators: which kernel, how many stages per sample, how large a state.

@@ -7,12 +7,15 @@
 //! the page as a JSON literal, the images stay files referenced by relative paths, so the report
 //! opens from `file://` without a server or network.
 
-use crate::backend::BackendChoice;
-use crate::commands::{EvalOptions, SceneOptions};
 use crate::eval::{ColourMap, EvalHeader, EvalReport, IntegratorEvalReport};
 use crate::eval_direct::DirectEvalReport;
+use crate::eval_direct::ShadowEntry;
+use crate::evaluate::EvalOptions;
 use anyhow::{bail, Context, Result};
+use engine::backend::BackendChoice;
+use engine::scene::SceneOptions;
 use serde::Serialize;
+use shared::params::Integrator;
 use shared::volume::grid::Lookup;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -119,12 +122,13 @@ const fn column(
 pub struct ReportOptions {
     /// Directory for index.html and one subdirectory per evaluation.
     pub out: PathBuf,
-    /// Comma-separated volumes to evaluate now (None: cloud unless `from_eval` is given).
-    pub volumes: Option<String>,
-    /// Comma-separated estimators for the new evaluations, or "all".
-    pub estimators: String,
-    /// Also evaluate these integrators (comma-separated or "all") per volume.
-    pub integrators: Option<String>,
+    /// Volumes to evaluate now, embedded names or files (None: cloud unless `from_eval` is
+    /// given).
+    pub volumes: Option<Vec<String>>,
+    /// Estimators of the new evaluations (shadow-map entries only with lit integrators).
+    pub estimators: Vec<ShadowEntry>,
+    /// Also evaluate these integrators per volume (empty: none).
+    pub integrators: Vec<Integrator>,
     /// Existing `host eval` outputs (directories or JSON files).
     pub from_eval: Vec<PathBuf>,
     /// Grid, density scale, embedded resolution and camera of every volume of `volumes` (its
@@ -156,7 +160,9 @@ pub fn run(args: &ReportOptions) -> Result<()> {
         "--bias-scale and --std-scale must be finite and > 0"
     );
     let out = &args.out;
-    crate::output::OutputPlan::new().dir("--out", out).check()?;
+    engine::output::OutputPlan::new()
+        .dir("--out", out)
+        .check()?;
     let mut used = Vec::new();
     let mut sources: Vec<(String, PathBuf)> = Vec::new();
     // Read every --from-eval first, with every file it names: a typo or a missing image should
@@ -168,18 +174,15 @@ pub fn run(args: &ReportOptions) -> Result<()> {
         sources.push((id, json));
     }
     let volumes = match (&args.volumes, args.from_eval.is_empty()) {
-        (Some(list), _) => list.split(',').map(|v| v.trim().to_string()).collect(),
+        (Some(list), _) => list.clone(),
         (None, true) => vec!["cloud".to_string()],
         (None, false) => Vec::new(),
     };
     if !volumes.is_empty() {
-        crate::eval::parse_list(&args.estimators)?;
-        if let Some(list) = &args.integrators {
-            crate::commands::check_integrator_list(list)?;
-        }
+        crate::evaluate::rays_only(&args.estimators)?;
     }
     for volume in &volumes {
-        crate::commands::check_volume_spec(volume).context("--volumes")?;
+        engine::scene::check_volume_spec(volume).context("--volumes")?;
     }
     check_scene_flags(&args.scene, &volumes)?;
     for volume in &volumes {
@@ -188,16 +191,16 @@ pub fn run(args: &ReportOptions) -> Result<()> {
         let id = unique_id(&base, &mut used);
         let dir = out.join(&id);
         let mut eval = eval_options(args, volume, dir.clone());
-        crate::commands::run_eval(&eval).with_context(|| format!("evaluating {volume}"))?;
+        crate::evaluate::run_eval(&eval).with_context(|| format!("evaluating {volume}"))?;
         sources.push((id, dir.join("eval.json")));
-        if let Some(list) = &args.integrators {
+        if !args.integrators.is_empty() {
             let id = unique_id(&format!("{base}-integrators"), &mut used);
             let dir = out.join(&id);
-            eval.integrators = Some(list.clone());
+            eval.integrators = args.integrators.clone();
             eval.spp = args.integrator_spp;
             eval.reference_spp = Some(16 * args.integrator_spp);
             eval.out_dir = dir.clone();
-            crate::commands::run_eval(&eval)
+            crate::evaluate::run_eval(&eval)
                 .with_context(|| format!("evaluating the integrators on {volume}"))?;
             sources.push((id, dir.join("eval.json")));
         }
@@ -216,7 +219,7 @@ pub fn run(args: &ReportOptions) -> Result<()> {
     };
     let html = render_html(&data)?;
     let index = out.join("index.html");
-    crate::output::write_text(&index, &html)?;
+    engine::output::write_text(&index, &html)?;
     println!("wrote {}", index.display());
     Ok(())
 }
@@ -226,7 +229,7 @@ pub fn run(args: &ReportOptions) -> Result<()> {
 fn check_scene_flags(scene: &SceneOptions, volumes: &[String]) -> Result<()> {
     let files = volumes
         .iter()
-        .filter(|v| crate::commands::is_volume_file(v))
+        .filter(|v| engine::scene::is_volume_file(v))
         .count();
     if let (Some(n), true) = (scene.resolution, files == volumes.len()) {
         bail!(
@@ -245,7 +248,7 @@ fn check_scene_flags(scene: &SceneOptions, volumes: &[String]) -> Result<()> {
 
 /// `host eval` options for one volume of the report (defaults of `host eval` for the rest).
 fn eval_options(args: &ReportOptions, volume: &str, out_dir: PathBuf) -> EvalOptions {
-    let file = crate::commands::is_volume_file(volume);
+    let file = engine::scene::is_volume_file(volume);
     EvalOptions {
         scene: SceneOptions {
             volume: volume.into(),
@@ -459,7 +462,7 @@ impl Files<'_> {
             _ => false,
         };
         if !same && !self.dry {
-            crate::output::write_atomically(&to, |tmp| {
+            engine::output::write_atomically(&to, |tmp| {
                 std::fs::copy(from, tmp)
                     .map(drop)
                     .with_context(|| format!("copying {} to {}", from.display(), to.display()))
@@ -492,7 +495,7 @@ fn url_escape(s: &str) -> String {
 /// The grey ramp of the transmittance PNGs: T in [0, 1], sRGB-encoded (`output::write_png`).
 fn transmittance_map() -> ColourMap {
     crate::eval::colour_map("transmittance, sRGB-encoded", 0.0, 1.0, |v| {
-        let s = crate::output::srgb8(v);
+        let s = engine::output::srgb8(v);
         [s, s, s]
     })
 }

@@ -1,12 +1,13 @@
 //! `host eval`: per-pixel bias, standard deviation and cost of transmittance estimators against
 //! a reference, on the same primary rays (pixel centers), like the paper's Figs. 8-10.
 
-use crate::backend::Backend;
-use crate::bricks::PackedVolume;
-use crate::estimators::{by_name, EstimatorSpec};
-use crate::output::{write_exr, write_json};
-use crate::render::render;
 use anyhow::{Context, Result};
+use engine::backend::Backend;
+use engine::bricks::PackedVolume;
+use engine::estimators::{by_name, EstimatorSpec};
+use engine::output::{write_exr, write_json};
+use engine::render::render;
+pub use engine::supervoxel_info::SupervoxelInfo;
 use shared::kernels::render::PixelOut;
 use shared::params::RenderParams;
 use std::path::{Path, PathBuf};
@@ -34,7 +35,7 @@ pub struct EstimatorReport {
     pub mean_samples_per_ray: f64,
     /// Rays traced, rays a loop bound changed, rays outside the jackknife's regime (all pixels).
     #[serde(flatten)]
-    pub flags: crate::diagnostics::RayFlags,
+    pub flags: engine::diagnostics::RayFlags,
     /// Render time of all spp for the whole image, without the GPU pipeline builds it waited
     /// for (`pipeline_build_ms`: a kernel variant compiles on its first use).
     pub elapsed_ms: f64,
@@ -127,63 +128,6 @@ pub struct EvalHeader {
     pub supervoxels: Option<SupervoxelInfo>,
 }
 
-/// The super-voxel grid of an evaluation: brick size, format, fixed or adaptive, its memory.
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct SupervoxelInfo {
-    pub brick_size: u32,
-    /// "f32" or "bc4".
-    pub format: String,
-    /// "fixed" or "adaptive".
-    pub mode: String,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub cell_size: Option<u32>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub split_ratio: Option<f32>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub split_occupancy: Option<f32>,
-    pub subdivided_bricks: usize,
-    /// Bytes of the table as held (f32 records of the bricks and the cells).
-    pub table_bytes: u64,
-    /// Bytes a BC4 table would take (format "bc4" only).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub bc4_table_bytes: Option<u64>,
-    /// Super-voxel and brick reads of one traversal per camera ray ([`crate::traversal`]).
-    pub reads_per_ray: crate::traversal::ReadsPerRay,
-}
-
-impl SupervoxelInfo {
-    /// What `packed` was built with (`mode` as [`jackknife::Supervoxels`], `format`), and its
-    /// reads per camera ray of `params`.
-    pub fn of(
-        packed: &PackedVolume,
-        mode: jackknife::Supervoxels,
-        format: jackknife::SupervoxelFormat,
-        params: &RenderParams,
-    ) -> Self {
-        let (cell_size, split_ratio, split_occupancy) = match mode {
-            jackknife::Supervoxels::Adaptive {
-                cell,
-                ratio,
-                occupancy,
-            } => (Some(cell), Some(ratio), Some(occupancy)),
-            jackknife::Supervoxels::Fixed => (None, None, None),
-        };
-        SupervoxelInfo {
-            brick_size: packed.desc.brick_size,
-            format: format.name().into(),
-            mode: mode.name().into(),
-            cell_size,
-            split_ratio,
-            split_occupancy,
-            subdivided_bricks: packed.subdivided_bricks(),
-            table_bytes: packed.table_bytes(),
-            bc4_table_bytes: (format == jackknife::SupervoxelFormat::Bc4)
-                .then(|| packed.bc4_table_bytes()),
-            reads_per_ray: crate::traversal::reads_per_ray(packed, params),
-        }
-    }
-}
-
 /// The whole evaluation, as written to `--json`.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct EvalReport {
@@ -241,7 +185,7 @@ fn write_false_colour(
     f: impl Fn(f32) -> [u8; 3],
 ) -> Result<()> {
     let bytes: Vec<u8> = values.iter().flat_map(|&v| f(v)).collect();
-    crate::output::write_rgb_png(path, w, h, &bytes)
+    engine::output::write_rgb_png(path, w, h, &bytes)
 }
 
 /// E|X - R| of a pixel mean X with per-sample std `std` over `spp` samples and a reference mean
@@ -352,7 +296,7 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
     step(setup, 0, estimators.len(), "the reference", ref_params.spp);
     let reference = render(setup.backend, setup.volume, &ref_params, setup.progress)
         .context("rendering the reference")?;
-    crate::diagnostics::check_finite(&reference, w).context("rendering the reference")?;
+    engine::diagnostics::check_finite(&reference, w).context("rendering the reference")?;
     let ref_t: Vec<f32> = reference.iter().map(|p| p.t_mean).collect();
     // The variance of each reference pixel's mean (0 for an exact reference: one deterministic
     // estimate per pixel), part of the noise floor of every |bias|.
@@ -374,7 +318,7 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
         setup.out_dir.join("reference.png"),
     );
     write_exr(&reference_exr, w, h, &ref_t)?;
-    crate::output::write_png(&reference_png, w, h, &ref_t)?;
+    engine::output::write_png(&reference_png, w, h, &ref_t)?;
 
     let mut reports = Vec::new();
     for (k, spec) in estimators.iter().enumerate() {
@@ -385,7 +329,7 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
             .backend
             .timed(|| render(setup.backend, setup.volume, &params, setup.progress))
             .with_context(|| format!("rendering {}", spec.name))?;
-        crate::diagnostics::check_finite(&pixels, w)
+        engine::diagnostics::check_finite(&pixels, w)
             .with_context(|| format!("rendering {}", spec.name))?;
         let bias: Vec<f32> = pixels
             .iter()
@@ -406,7 +350,7 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
         };
         let mean_t: Vec<f32> = pixels.iter().map(|p| p.t_mean).collect();
         write_exr(Path::new(&file("mean.exr")), w, h, &mean_t)?;
-        crate::output::write_png(Path::new(&file("mean.png")), w, h, &mean_t)?;
+        engine::output::write_png(Path::new(&file("mean.png")), w, h, &mean_t)?;
         write_exr(Path::new(&file("bias.exr")), w, h, &bias)?;
         write_exr(Path::new(&file("std.exr")), w, h, &std)?;
         write_false_colour(Path::new(&file("bias.png")), w, h, &bias, |v| {
@@ -427,7 +371,7 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
             mean_std: masked(&|i| std[i] as f64),
             rmse: masked(&|i| (bias[i] as f64).powi(2) + (std[i] as f64).powi(2)).sqrt(),
             mean_samples_per_ray: masked(&|i| pixels[i].samples as f64) / params.spp as f64,
-            flags: crate::diagnostics::RayFlags::of(&pixels, params.spp),
+            flags: engine::diagnostics::RayFlags::of(&pixels, params.spp),
             elapsed_ms,
             pipeline_build_ms: built.ms(),
             bias_exr: file("bias.exr"),
@@ -478,20 +422,25 @@ pub fn parse_list(list: &str) -> Result<Vec<&'static EstimatorSpec>> {
     parse_list_of(list, "--estimators")
 }
 
+/// Every estimator but regular tracking (the deterministic reference): `--estimators all`.
+pub fn every_estimator() -> Vec<&'static EstimatorSpec> {
+    engine::estimators::ESTIMATORS
+        .iter()
+        .filter(|s| s.name != "regular")
+        .collect()
+}
+
 /// [`parse_list`] of the flag `flag` (named in the error).
 pub fn parse_list_of(list: &str, flag: &str) -> Result<Vec<&'static EstimatorSpec>> {
     if list == "all" {
-        return Ok(crate::estimators::ESTIMATORS
-            .iter()
-            .filter(|s| s.name != "regular")
-            .collect());
+        return Ok(every_estimator());
     }
     list.split(',')
         .map(|n| {
             by_name(n.trim()).with_context(|| {
                 format!(
                     "{flag}: unknown estimator {n:?}; choose from: {}",
-                    crate::estimators::names()
+                    engine::estimators::names()
                 )
             })
         })
@@ -517,7 +466,7 @@ pub fn check_reference_sees_the_volume(reference: &[PixelOut]) -> Result<()> {
 
 /// Writes the report as JSON.
 pub fn write_report(path: &Path, report: &EvalReport) -> Result<()> {
-    crate::output::ensure_parent(path)?;
+    engine::output::ensure_parent(path)?;
     write_json(path, report)
 }
 
@@ -543,7 +492,7 @@ pub struct IntegratorReport {
     pub mean_samples_per_ray: f64,
     /// Rays traced, rays a loop bound changed, rays outside the jackknife's regime.
     #[serde(flatten)]
-    pub flags: crate::diagnostics::RayFlags,
+    pub flags: engine::diagnostics::RayFlags,
     pub exr: String,
     pub png: String,
 }
@@ -592,7 +541,7 @@ pub fn evaluate_integrators(
     ref_params.spp = setup.reference_spp;
     ref_params.seed = setup.params.seed ^ 0x5eed_0001;
     step(setup, 0, integrators.len(), "the reference", ref_params.spp);
-    let reference = crate::render::render_scene(
+    let reference = engine::render::render_scene(
         setup.backend,
         setup.volume,
         &ref_params,
@@ -607,7 +556,7 @@ pub fn evaluate_integrators(
         setup.out_dir.join("reference.png"),
     );
     write_exr(&reference_exr, w, h, &ref_l)?;
-    crate::output::write_png(&reference_png, w, h, &tone(&ref_l))?;
+    engine::output::write_png(&reference_png, w, h, &tone(&ref_l))?;
     let n = ref_l.len() as f64;
     let mut reports = Vec::new();
     for (k, &(name, integrator)) in integrators.iter().enumerate() {
@@ -617,7 +566,7 @@ pub fn evaluate_integrators(
         let (pixels, elapsed_ms, built) = setup
             .backend
             .timed(|| {
-                crate::render::render_scene(
+                engine::render::render_scene(
                     setup.backend,
                     setup.volume,
                     &params,
@@ -630,7 +579,7 @@ pub fn evaluate_integrators(
         let exr = setup.out_dir.join(format!("{name}.exr"));
         let png = setup.out_dir.join(format!("{name}.png"));
         write_exr(&exr, w, h, &l)?;
-        crate::output::write_png(&png, w, h, &tone(&l))?;
+        engine::output::write_png(&png, w, h, &tone(&l))?;
         let pairs = l.iter().zip(&ref_l).map(|(&a, &b)| (a as f64, b as f64));
         let smape = pairs
             .clone()
@@ -648,7 +597,7 @@ pub fn evaluate_integrators(
             ms_per_frame: elapsed_ms / params.spp as f64,
             mean_samples_per_ray: pixels.iter().map(|p| p.samples as f64).sum::<f64>()
                 / (n * params.spp as f64),
-            flags: crate::diagnostics::RayFlags::of(&pixels, params.spp),
+            flags: engine::diagnostics::RayFlags::of(&pixels, params.spp),
             exr: exr.display().to_string(),
             png: png.display().to_string(),
         };

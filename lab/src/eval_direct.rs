@@ -16,15 +16,15 @@
 //! of regular tracking draw no random numbers), so for a map the paired error is its shadow
 //! bias alone, free of the camera's noise.
 
-use crate::estimators::EstimatorSpec;
 use crate::eval::{EvalHeader, EvalSetup};
-use crate::lighting::SceneLights;
-use crate::output::{write_exr_rgb, write_png_rgb_exposed};
-use crate::render::Resident;
-use crate::shadow_map::{self, MapSummary, ShadowKind, ShadowOptions};
 use anyhow::{Context, Result};
+use engine::estimators::EstimatorSpec;
+use engine::lighting::SceneLights;
+use engine::output::{write_exr_rgb, write_png_rgb_exposed};
+use engine::render::Resident;
+use engine::shadow_map::{self, MapSummary, ShadowKind, ShadowOptions};
 use shared::kernels::render::PixelOut;
-use shared::params::Integrator;
+use shared::params::{Integrator, RenderParams};
 use std::path::{Path, PathBuf};
 
 /// SMAPE's epsilon (Fig. 12).
@@ -58,7 +58,7 @@ pub struct DirectEntry {
     /// camera ray.
     pub lookups_per_ray: f64,
     #[serde(flatten)]
-    pub flags: crate::diagnostics::RayFlags,
+    pub flags: engine::diagnostics::RayFlags,
     /// The tracking loops' collision cap used.
     pub collision_cap: u32,
     /// Map entries: the sun's moment shadow map (its build time is part of `elapsed_ms`).
@@ -232,9 +232,10 @@ fn stem(integrator: &str, name: &str) -> String {
 }
 
 /// Every image [`evaluate_direct`] writes in `out_dir` for these integrators and estimators.
-pub fn direct_files(out_dir: &Path, integrators: &[&str], names: &[&str]) -> Vec<PathBuf> {
+pub fn direct_files(out_dir: &Path, integrators: &[Integrator], names: &[&str]) -> Vec<PathBuf> {
     let mut files = Vec::new();
-    for integrator in integrators {
+    for &i in integrators {
+        let integrator = engine::integrators::integrator_name(i);
         for name in ["reference", "exact"]
             .into_iter()
             .chain(names.iter().copied())
@@ -243,10 +244,11 @@ pub fn direct_files(out_dir: &Path, integrators: &[&str], names: &[&str]) -> Vec
             files.push(out_dir.join(format!("{}.png", stem(integrator, name))));
         }
         files.push(out_dir.join(format!("{}.png", stem(integrator, "insets"))));
-        if *integrator == "restir" {
-            // Its reference is `direct`'s.
-            files.push(out_dir.join(format!("{}.exr", stem("direct", "reference"))));
-            files.push(out_dir.join(format!("{}.png", stem("direct", "reference"))));
+        if reference_of(i) != i {
+            // Its reference is another integrator's (`restir`'s is `direct`'s).
+            let other = engine::integrators::integrator_name(reference_of(i));
+            files.push(out_dir.join(format!("{}.exr", stem(other, "reference"))));
+            files.push(out_dir.join(format!("{}.png", stem(other, "reference"))));
         }
     }
     files.sort();
@@ -280,7 +282,7 @@ fn write_insets(pngs: &[String], out: &Path) -> Result<()> {
             }
         }
     }
-    crate::output::write_atomically(out, |tmp| {
+    engine::output::write_atomically(out, |tmp| {
         out_img
             .save(tmp)
             .with_context(|| format!("writing {}", out.display()))
@@ -322,9 +324,9 @@ fn render_one(
     // calibration and the reported times compare renders, not the driver's compiler.
     let (pixels, elapsed_ms, built) = setup
         .backend
-        .timed(|| crate::render::render_resident_lit(resident, params, lights, setup.progress))
+        .timed(|| engine::render::render_resident_lit(resident, params, lights, setup.progress))
         .with_context(|| format!("rendering {stem}"))?;
-    crate::diagnostics::check_finite(&pixels, params.width)
+    engine::diagnostics::check_finite(&pixels, params.width)
         .with_context(|| format!("rendering {stem}"))?;
     if reference {
         // Before its files are written: statistics over a view that misses the volume are refused.
@@ -350,6 +352,209 @@ fn render_one(
     })
 }
 
+/// The reference of an integrator: per-pixel moments, its parameters, its EXR and PNG.
+type Reference = (Vec<(f64, f64)>, RenderParams, String, String);
+
+/// `restir` estimates the same integral as `direct`: its reference is `direct`'s (rendered once
+/// when both are evaluated).
+fn reference_of(i: Integrator) -> Integrator {
+    if i == Integrator::Restir {
+        Integrator::Direct
+    } else {
+        i
+    }
+}
+
+/// One evaluation of lit integrators under way: the volume on the backend, the lights, the
+/// progress through its renders and the equal-time budget once the first entry set it.
+struct DirectRun<'a> {
+    setup: &'a EvalSetup<'a>,
+    resident: Resident<'a>,
+    bounds: ([f64; 3], [f64; 3]),
+    exposure: f32,
+    equal_time: bool,
+    budget_ms: Option<f64>,
+    done: usize,
+    total: usize,
+}
+
+impl DirectRun<'_> {
+    /// Announces the next render (progress line) and counts it.
+    fn step(&mut self, what: &str, spp: u32) {
+        crate::eval::step(self.setup, self.done, self.total, what, spp);
+        self.done += 1;
+    }
+
+    /// The reference of `integrator`: ratio-tracking shadow rays at `--reference-spp`.
+    fn reference(
+        &mut self,
+        base: &RenderParams,
+        integrator: Integrator,
+        lights: &SceneLights,
+    ) -> Result<Reference> {
+        let label = engine::integrators::integrator_name(integrator);
+        let reference = engine::estimators::by_name("ratio").expect("registered");
+        let mut ref_params = *base;
+        ref_params.integrator = integrator as u32;
+        reference.apply(&mut ref_params);
+        ref_params.roulette = 0;
+        ref_params.spp = self.setup.reference_spp;
+        ref_params.seed = base.seed ^ 0x5eed_0001;
+        let ref_params = engine::render::fit_collision_cap(&ref_params, &self.setup.volume.desc);
+        self.step(&format!("the {label} reference"), ref_params.spp);
+        let rendered = render_one(
+            self.setup,
+            &self.resident,
+            &ref_params,
+            lights,
+            &stem(label, "reference"),
+            self.exposure,
+            true,
+        )?;
+        Ok((
+            moments(&rendered.pixels),
+            ref_params,
+            rendered.exr,
+            rendered.png,
+        ))
+    }
+
+    /// Exact shadows (regular tracking) with the entries' camera samples, for the paired
+    /// errors of the shadow-map entries.
+    fn exact(
+        &mut self,
+        base: &RenderParams,
+        label: &str,
+        lights: &SceneLights,
+    ) -> Result<Vec<PixelOut>> {
+        let mut p = *base;
+        engine::estimators::by_name("regular")
+            .expect("registered")
+            .apply(&mut p);
+        let p = engine::render::fit_collision_cap(&p, &self.setup.volume.desc);
+        self.step(&format!("{label} with exact shadows (paired)"), p.spp);
+        let rendered = render_one(
+            self.setup,
+            &self.resident,
+            &p,
+            lights,
+            &stem(label, "exact"),
+            self.exposure,
+            false,
+        )?;
+        Ok(rendered.pixels)
+    }
+
+    /// `--equal-time`: for every entry after the first, a short timing run and the spp that
+    /// fits the first entry's time (None for the first entry or without `--equal-time`).
+    fn calibrate(
+        &mut self,
+        name: &str,
+        params: &mut RenderParams,
+        lights: &SceneLights,
+    ) -> Result<Option<Calibration>> {
+        let (true, Some(budget)) = (self.equal_time, self.budget_ms) else {
+            return Ok(None);
+        };
+        let spp = calibration_spp(params.spp);
+        let timing = RenderParams { spp, ..*params };
+        crate::eval::step(
+            self.setup,
+            self.done,
+            self.total,
+            &format!("{name} (timing run)"),
+            spp,
+        );
+        // The entry's first render: without its pipeline builds (GPU), which would otherwise
+        // count against its budget.
+        let (_, ms, _) = self
+            .setup
+            .backend
+            .timed(|| engine::render::render_resident_lit(&self.resident, &timing, lights, false))
+            .with_context(|| format!("timing {name}"))?;
+        let (fitted, clamped) = equal_time_spp(budget, ms / spp as f64);
+        if clamped {
+            tracing::warn!(
+                "--equal-time: {name} takes {:.3} ms per sample against a budget of \
+                 {budget:.1} ms; it runs at {fitted} spp and misses the budget (its JSON entry \
+                 records spp and elapsed_ms)",
+                ms / spp as f64
+            );
+        }
+        params.spp = fitted;
+        Ok(Some(Calibration {
+            spp,
+            ms,
+            budget_ms: budget,
+            smape_at_budget: f64::NAN,
+        }))
+    }
+
+    /// One entry of `integrator` (label `label`): its shadow rays or map, its image, its errors
+    /// against the reference.
+    fn entry(
+        &mut self,
+        base: &RenderParams,
+        label: &str,
+        entry: &ShadowEntry,
+        lights: &SceneLights,
+        reference: &Reference,
+        exact: Option<&[PixelOut]>,
+    ) -> Result<DirectEntry> {
+        let mut params = *base;
+        let mut entry_lights = lights.clone();
+        let spec = match entry {
+            ShadowEntry::Rays(spec) => spec,
+            ShadowEntry::Map { .. } => {
+                engine::estimators::by_name("jackknife").expect("registered")
+            }
+        };
+        spec.apply(&mut params);
+        let mut params = engine::render::fit_collision_cap(&params, &self.setup.volume.desc);
+        let name = format!("{label}/{}", entry.name());
+        let calibration = self.calibrate(&name, &mut params, &entry_lights)?;
+        self.step(&name, params.spp);
+        let map = match entry {
+            ShadowEntry::Rays(_) => None,
+            ShadowEntry::Map { kind, resolution } => {
+                let opts = ShadowOptions {
+                    kind: *kind,
+                    resolution: *resolution,
+                    ..Default::default()
+                };
+                let bounds = self.bounds;
+                shadow_map::build_into(&self.resident, &params, &mut entry_lights, bounds, &opts)?
+                    .map
+            }
+        };
+        let (ref_m, ref_params, _, _) = reference;
+        let mut e = measure(
+            self.setup,
+            &self.resident,
+            &params,
+            &entry_lights,
+            ref_m,
+            ref_params,
+            label,
+            &entry.name(),
+            self.exposure,
+            exact,
+        )?;
+        if let Some(m) = &map {
+            e.elapsed_ms += m.build_ms;
+        }
+        e.calibration = calibration.map(|c| Calibration {
+            smape_at_budget: smape_at_budget(e.smape, e.elapsed_ms, c.budget_ms),
+            ..c
+        });
+        if self.equal_time && self.budget_ms.is_none() {
+            self.budget_ms = Some(e.elapsed_ms);
+        }
+        e.shadow_map = map;
+        Ok(e)
+    }
+}
+
 /// Renders, for each of `integrators` (`direct`, `path`; `setup.params` carries the depths), the
 /// reference (ratio-tracking shadow rays), the exact-shadow image if any entry is a map, each
 /// entry's image, and the insets. `bounds` is the world box of the volume's density (the
@@ -363,221 +568,72 @@ pub fn evaluate_direct(
     exposure: f32,
     equal_time: bool,
 ) -> Result<DirectEvalReport> {
+    let any_map = entries_in
+        .iter()
+        .any(|e| matches!(e, ShadowEntry::Map { .. }));
     anyhow::ensure!(
-        !equal_time
-            || !entries_in
-                .iter()
-                .any(|e| matches!(e, ShadowEntry::Map { .. })),
+        !equal_time || !any_map,
         "--equal-time gives entries different sample counts, but a moment-shadow-map entry is \
          compared sample by sample with an exact-shadow image of --spp samples; drop \
          --equal-time or the msm entries"
     );
-    let mut budget_ms: Option<f64> = None;
     std::fs::create_dir_all(setup.out_dir)
         .with_context(|| format!("creating {}", setup.out_dir.display()))?;
-    let resident = Resident::new(setup.backend, setup.volume)?;
-    let any_map = entries_in
-        .iter()
-        .any(|e| matches!(e, ShadowEntry::Map { .. }));
-    let mut references: Vec<ReferenceImage> = Vec::new();
-    let mut entries = Vec::new();
-    // `restir` estimates the same integral as `direct`: its reference is `direct`'s (rendered
-    // once when both are evaluated).
-    let reference_of = |i: Integrator| {
-        if i == Integrator::Restir {
-            Integrator::Direct
-        } else {
-            i
-        }
-    };
     let mut distinct: Vec<Integrator> = integrators.iter().map(|&i| reference_of(i)).collect();
     distinct.sort_by_key(|&i| i as u32);
     distinct.dedup();
-    let total = distinct.len() + integrators.len() * (entries_in.len() + any_map as usize);
-    let mut done = 0;
-    type Reference = (
-        Vec<(f64, f64)>,
-        shared::params::RenderParams,
-        String,
-        String,
-    );
+    let mut run = DirectRun {
+        setup,
+        resident: Resident::new(setup.backend, setup.volume)?,
+        bounds,
+        exposure,
+        equal_time,
+        budget_ms: None,
+        done: 0,
+        total: distinct.len() + integrators.len() * (entries_in.len() + any_map as usize),
+    };
+    let mut references: Vec<ReferenceImage> = Vec::new();
+    let mut entries = Vec::new();
     let mut direct_reference: Option<Reference> = None;
     for &integrator in integrators {
         let mut base = setup.params;
         base.integrator = integrator as u32;
         base.light_count = lights.points.len() as u32;
-        let label = crate::integrators::integrator_name(integrator);
-        // `restir` resamples the point lights on their own: they leave the pmf over kinds.
-        let scene = if integrator == Integrator::Restir {
-            let mut s = lights.clone();
-            s.resample_points();
-            std::borrow::Cow::Owned(s)
-        } else {
-            std::borrow::Cow::Borrowed(lights)
-        };
+        let label = engine::integrators::integrator_name(integrator);
         let ref_integrator = reference_of(integrator);
-        let ref_label = crate::integrators::integrator_name(ref_integrator);
-        let cached = match (&direct_reference, ref_integrator) {
-            (Some(r), Integrator::Direct) => Some(r.clone()),
-            _ => None,
+        let reference = match (&direct_reference, ref_integrator) {
+            (Some(r), Integrator::Direct) => r.clone(),
+            _ => run.reference(&base, ref_integrator, lights)?,
         };
-        let (ref_m, ref_params, exr, png) = match cached {
-            Some(r) => r,
-            None => {
-                let reference = crate::estimators::by_name("ratio").expect("registered");
-                let mut ref_params = base;
-                ref_params.integrator = ref_integrator as u32;
-                reference.apply(&mut ref_params);
-                ref_params.roulette = 0;
-                ref_params.spp = setup.reference_spp;
-                ref_params.seed = base.seed ^ 0x5eed_0001;
-                let ref_params = crate::render::fit_collision_cap(&ref_params, &setup.volume.desc);
-                let what = format!("the {ref_label} reference");
-                crate::eval::step(setup, done, total, &what, ref_params.spp);
-                done += 1;
-                let rendered = render_one(
-                    setup,
-                    &resident,
-                    &ref_params,
-                    lights,
-                    &stem(ref_label, "reference"),
-                    exposure,
-                    true,
-                )?;
-                let r = (
-                    moments(&rendered.pixels),
-                    ref_params,
-                    rendered.exr,
-                    rendered.png,
-                );
-                if ref_integrator == Integrator::Direct {
-                    direct_reference = Some(r.clone());
-                }
-                r
-            }
-        };
-        let lights: &SceneLights = &scene;
-        // Exact shadows with the entries' camera samples, for the paired errors.
+        if ref_integrator == Integrator::Direct {
+            direct_reference = Some(reference.clone());
+        }
+        // `restir` resamples the point lights on their own: they leave the pmf over kinds.
+        let mut own = lights.clone();
+        if integrator == Integrator::Restir {
+            own.resample_points();
+        }
         let exact = if any_map {
-            let mut p = base;
-            crate::estimators::by_name("regular")
-                .expect("registered")
-                .apply(&mut p);
-            let p = crate::render::fit_collision_cap(&p, &setup.volume.desc);
-            let what = format!("{label} with exact shadows (paired)");
-            crate::eval::step(setup, done, total, &what, p.spp);
-            done += 1;
-            let rendered = render_one(
-                setup,
-                &resident,
-                &p,
-                lights,
-                &stem(label, "exact"),
-                exposure,
-                false,
-            )?;
-            Some(rendered.pixels)
+            Some(run.exact(&base, label, &own)?)
         } else {
             None
         };
-        let mut pngs = vec![png.clone()];
+        let mut pngs = vec![reference.3.clone()];
         for entry in entries_in {
-            let mut params = base;
-            let mut entry_lights = lights.clone();
-            let spec = match entry {
-                ShadowEntry::Rays(spec) => spec,
-                ShadowEntry::Map { .. } => {
-                    crate::estimators::by_name("jackknife").expect("registered")
-                }
-            };
-            spec.apply(&mut params);
-            let mut params = crate::render::fit_collision_cap(&params, &setup.volume.desc);
-            let name = format!("{label}/{}", entry.name());
-            // `--equal-time`: every entry after the first gets the first one's time, its spp
-            // from a short timing run.
-            let calibration = match (equal_time, budget_ms) {
-                (true, Some(budget)) => {
-                    let spp = calibration_spp(params.spp);
-                    let timing = shared::params::RenderParams { spp, ..params };
-                    let what = format!("{name} (timing run)");
-                    crate::eval::step(setup, done, total, &what, spp);
-                    // The entry's first render: without its pipeline builds (GPU), which
-                    // would otherwise count against its budget.
-                    let (_, ms, _) = setup
-                        .backend
-                        .timed(|| {
-                            crate::render::render_resident_lit(
-                                &resident,
-                                &timing,
-                                &entry_lights,
-                                false,
-                            )
-                        })
-                        .with_context(|| format!("timing {name}"))?;
-                    let (fitted, clamped) = equal_time_spp(budget, ms / spp as f64);
-                    if clamped {
-                        tracing::warn!(
-                            "--equal-time: {name} takes {:.3} ms per sample against a budget of \
-                             {budget:.1} ms; it runs at {fitted} spp and misses the budget \
-                             (its JSON entry records spp and elapsed_ms)",
-                            ms / spp as f64
-                        );
-                    }
-                    params.spp = fitted;
-                    Some(Calibration {
-                        spp,
-                        ms,
-                        budget_ms: budget,
-                        smape_at_budget: f64::NAN,
-                    })
-                }
-                _ => None,
-            };
-            crate::eval::step(setup, done, total, &name, params.spp);
-            done += 1;
-            let map = match entry {
-                ShadowEntry::Rays(_) => None,
-                ShadowEntry::Map { kind, resolution } => {
-                    let opts = ShadowOptions {
-                        kind: *kind,
-                        resolution: *resolution,
-                        ..Default::default()
-                    };
-                    shadow_map::build_into(&resident, &params, &mut entry_lights, bounds, &opts)?
-                        .map
-                }
-            };
-            let mut e = measure(
-                setup,
-                &resident,
-                &params,
-                &entry_lights,
-                &ref_m,
-                &ref_params,
-                label,
-                &entry.name(),
-                exposure,
-                exact.as_deref(),
-            )?;
-            if let Some(m) = &map {
-                e.elapsed_ms += m.build_ms;
-            }
-            e.calibration = calibration.map(|c| Calibration {
-                smape_at_budget: smape_at_budget(e.smape, e.elapsed_ms, c.budget_ms),
-                ..c
-            });
-            if equal_time && budget_ms.is_none() {
-                budget_ms = Some(e.elapsed_ms);
-            }
-            e.shadow_map = map;
+            let e = run.entry(&base, label, entry, &own, &reference, exact.as_deref())?;
             pngs.push(e.png.clone());
             entries.push(e);
         }
         let insets = setup.out_dir.join(format!("{}.png", stem(label, "insets")));
         write_insets(&pngs, &insets)?;
+        let (_, ref_params, exr, png) = reference;
         references.push(ReferenceImage {
             integrator: label.into(),
-            reference: format!("{ref_label}/ratio at {} spp", ref_params.spp),
+            reference: format!(
+                "{}/ratio at {} spp",
+                engine::integrators::integrator_name(ref_integrator),
+                ref_params.spp
+            ),
             spp: ref_params.spp,
             exr,
             png,
@@ -655,8 +711,8 @@ fn measure(
         spp: params.spp,
         calibration: None,
         lookups_per_ray: px.iter().map(|p| p.samples as f64).sum::<f64>() / (n * params.spp as f64),
-        flags: crate::diagnostics::RayFlags::of(&px, params.spp),
-        collision_cap: crate::render::collision_cap(params),
+        flags: engine::diagnostics::RayFlags::of(&px, params.spp),
+        collision_cap: engine::render::collision_cap(params),
         shadow_map: None,
         paired_rms: paired.map(|p| p.0),
         paired_mean: paired.map(|p| p.1),

@@ -2,19 +2,19 @@
 //! with work-normalized variance, the goal ratios, and a sweep over volume resolution
 //! and image size.
 
-use crate::backend::{Backend, BackendChoice};
-use crate::commands::SceneOptions;
-use crate::estimators::EstimatorSpec;
-use crate::render::{render_resident, Resident};
-use crate::study::plot::{self, Figure, Legend, LinePanel, Series, Style};
-use crate::volume::VolumeData;
 use anyhow::{bail, Context, Result};
+use engine::backend::{Backend, BackendChoice};
+use engine::estimators::EstimatorSpec;
+use engine::render::{render_resident, Resident};
+use engine::scene::SceneOptions;
+use engine::volume::VolumeData;
 use serde::Serialize;
 use shared::kernels::render::PixelOut;
 use shared::params::RenderParams;
 use shared::volume::grid::Lookup;
 use std::path::PathBuf;
 use std::time::Instant;
+use studies::plot::{self, Figure, Legend, LinePanel, Series, Style};
 
 /// Where `host bench` runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -30,8 +30,8 @@ pub enum BenchBackend {
 pub struct BenchOptions {
     pub scene: SceneOptions,
     pub lookup: Lookup,
-    /// Comma-separated estimators, or "all".
-    pub estimators: String,
+    /// The estimators to time.
+    pub estimators: Vec<&'static EstimatorSpec>,
     pub backend: BenchBackend,
     pub width: u32,
     pub height: u32,
@@ -45,12 +45,12 @@ pub struct BenchOptions {
     pub warmup: u32,
     /// Also sweep the embedded volume's resolution and the image size.
     pub sweep: bool,
-    /// Comma-separated volume resolutions of the sweep.
-    pub sweep_resolutions: String,
-    /// Comma-separated image sizes of the sweep.
-    pub sweep_sizes: String,
-    /// Comma-separated estimators of the sweep (and of `sweep_files`).
-    pub sweep_estimators: String,
+    /// Volume resolutions of the sweep (8 to 1024).
+    pub sweep_resolutions: Vec<u32>,
+    /// Image sizes of the sweep (1 to 16384).
+    pub sweep_sizes: Vec<u32>,
+    /// Estimators of the sweep (and of `sweep_files`).
+    pub sweep_estimators: Vec<&'static EstimatorSpec>,
     /// Volume files timed one by one (the sparse-volume series): load time, peak memory,
     /// pool and ns/ray of each, with the image and camera of `--width` and `--height`.
     pub sweep_files: Vec<PathBuf>,
@@ -94,7 +94,7 @@ pub struct Row {
 #[derive(Clone, Debug, Serialize)]
 pub struct KernelRow {
     pub name: &'static str,
-    pub module: crate::gpu::module_stats::ModuleStats,
+    pub module: engine::gpu::module_stats::ModuleStats,
     /// Pipeline builds during the row's warm-up frames (0 when an earlier row built it).
     pub pipeline_build_ms: f64,
 }
@@ -155,7 +155,7 @@ pub struct BenchReport {
     /// Iterations of one super-voxel traversal per pixel-centre camera ray that meets the grid
     /// (Alg. 2 takes one such traversal, Alg. 1 a second; delta and ratio tracking one up to
     /// their last collision): skipped spans, bricks and cells.
-    pub steps_per_traversal: crate::traversal::ReadsPerRay,
+    pub steps_per_traversal: engine::traversal::ReadsPerRay,
     pub rows: Vec<Row>,
     pub goals: Vec<Goal>,
     pub sweep_resolution: Vec<SweepPoint>,
@@ -165,12 +165,16 @@ pub struct BenchReport {
 }
 
 /// Parses a comma-separated list of estimator names ("all": every one).
-fn estimators(list: &str, flag: &str) -> Result<Vec<&'static EstimatorSpec>> {
+pub fn parse_estimators(list: &str, flag: &str) -> Result<Vec<&'static EstimatorSpec>> {
     crate::eval::parse_list_of(list, flag)
 }
 
-/// Parses a comma-separated list of positive integers.
-fn numbers(list: &str, flag: &str, range: std::ops::RangeInclusive<u32>) -> Result<Vec<u32>> {
+/// Parses the comma-separated whole numbers of `flag`, each in `range`.
+pub fn parse_numbers(
+    list: &str,
+    flag: &str,
+    range: std::ops::RangeInclusive<u32>,
+) -> Result<Vec<u32>> {
     list.split(',')
         .map(|s| {
             let v: u32 = s
@@ -308,16 +312,23 @@ fn quality(pixels: &[PixelOut], spp: u32) -> (f64, f64) {
 #[allow(clippy::type_complexity)]
 fn sweep_lists(args: &BenchOptions) -> Result<(Vec<&'static EstimatorSpec>, Vec<u32>, Vec<u32>)> {
     let name = args.scene.volume.as_str();
-    if !crate::procedural::NAMES.contains(&name) {
+    if !engine::procedural::NAMES.contains(&name) {
         bail!(
             "--sweep needs an embedded volume (--volume {}), not {name:?}",
-            crate::procedural::NAMES.join("|")
+            engine::procedural::NAMES.join("|")
         );
     }
+    let in_range = |list: &[u32], flag: &str, range: std::ops::RangeInclusive<u32>| match list
+        .iter()
+        .find(|v| !range.contains(v))
+    {
+        Some(v) => bail!("{flag}: {v} is outside {}..={}", range.start(), range.end()),
+        None => Ok(list.to_vec()),
+    };
     Ok((
-        estimators(&args.sweep_estimators, "--sweep-estimators")?,
-        numbers(&args.sweep_resolutions, "--sweep-resolutions", 8..=1024)?,
-        numbers(&args.sweep_sizes, "--sweep-sizes", 1..=16384)?,
+        args.sweep_estimators.clone(),
+        in_range(&args.sweep_resolutions, "--sweep-resolutions", 8..=1024)?,
+        in_range(&args.sweep_sizes, "--sweep-sizes", 1..=16384)?,
     ))
 }
 
@@ -352,15 +363,9 @@ fn check_sweep_file(f: &std::path::Path) -> Result<()> {
     })
 }
 
-/// `host bench`.
-pub fn run(args: &BenchOptions) -> Result<BenchReport> {
-    crate::render::check_image_memory(args.width, args.height, 1)?;
-    let lookup = args.lookup;
-    let specs = estimators(&args.estimators, "--estimators")?;
-    if args.sweep {
-        sweep_lists(args)?;
-    }
-    let mut plan = crate::output::OutputPlan::new();
+/// Checks every output and input path of `host bench` before any work.
+fn plan_outputs(args: &BenchOptions) -> Result<()> {
+    let mut plan = engine::output::OutputPlan::new();
     if args.sweep {
         plot::check_format(&args.plot)?;
         plan.file("--plot", &args.plot);
@@ -373,20 +378,75 @@ pub fn run(args: &BenchOptions) -> Result<BenchReport> {
         check_sweep_file(f)?;
         plan.input("--sweep-files", f);
     }
-    plan.check()?;
+    plan.check()
+}
+
+/// Times the estimator `name` (its `params`) on `backend`: `--warmup` frames, then `--reps`
+/// timed frames of `rays` rays each.
+fn time_estimator(
+    resident: &Resident,
+    backend: &Backend,
+    params: &RenderParams,
+    name: &str,
+    args: &BenchOptions,
+    rays: f64,
+) -> Result<Row> {
+    let Frames {
+        pixels,
+        wall,
+        kernel,
+        build_ms,
+    } = frames(resident, backend, params, args.warmup, args.reps)
+        .with_context(|| format!("{name} on {}", backend.kind()))?;
+    let (variance, samples_per_ray) = quality(&pixels, args.spp);
+    let med = median(&wall);
+    let ns_per_ray = med * 1e6 / rays;
+    Ok(Row {
+        backend: backend.kind().into(),
+        device: backend.device(),
+        estimator: name.into(),
+        frame_ms_median: med,
+        frame_ms_min: wall.iter().copied().fold(f64::INFINITY, f64::min),
+        frame_ms: wall,
+        kernel_ms_median: (!kernel.is_empty()).then(|| median(&kernel)),
+        rays_per_s: rays / (med * 1e-3),
+        ns_per_ray,
+        samples_per_ray,
+        variance,
+        work_normalized_variance: variance * ns_per_ray,
+        kernel: matches!(backend, Backend::Gpu(_)).then(|| {
+            let k = engine::gpu::Kernel::TransmittanceCs;
+            KernelRow {
+                name: k.name(),
+                module: engine::gpu::module_stats::module_stats(k.spirv()),
+                pipeline_build_ms: build_ms,
+            }
+        }),
+    })
+}
+
+/// `host bench`.
+pub fn run(args: &BenchOptions) -> Result<BenchReport> {
+    engine::render::check_image_memory(args.width, args.height, 1)?;
+    let lookup = args.lookup;
+    let specs = args.estimators.clone();
+    if args.sweep {
+        sweep_lists(args)?;
+    }
+    plan_outputs(args)?;
     let file_specs = if args.sweep_files.is_empty() {
         Vec::new()
     } else {
-        estimators(&args.sweep_estimators, "--sweep-estimators")?
+        args.sweep_estimators.clone()
     };
     let backends = backends(args.backend)?;
-    let scene = crate::commands::prepare_scene(
+    let scene = engine::scene::prepare_scene(
         &args.scene,
         lookup,
         args.width,
         args.height,
         page_log2(&backends),
-        Some(crate::io::TopologyCheck(&cpu_check(&args.scene))),
+        Some(engine::io::TopologyCheck(&cpu_check(&args.scene))),
     )?;
     let base = RenderParams {
         camera: scene.camera,
@@ -401,7 +461,7 @@ pub fn run(args: &BenchOptions) -> Result<BenchReport> {
         ..Default::default()
     };
     let rays = f64::from(args.width) * f64::from(args.height) * f64::from(args.spp);
-    let steps_per_traversal = crate::traversal::reads_per_ray(&scene.packed, &base);
+    let steps_per_traversal = engine::traversal::reads_per_ray(&scene.packed, &base);
     if !args.quiet {
         tracing::info!(
             "bench: {} {}x{}x{}, {}x{} px, {} spp, {} reps (+{} warm-up), {} CPU threads",
@@ -427,38 +487,7 @@ pub fn run(args: &BenchOptions) -> Result<BenchReport> {
         for spec in &specs {
             let mut params = base;
             spec.apply(&mut params);
-            let Frames {
-                pixels,
-                wall,
-                kernel,
-                build_ms,
-            } = frames(&resident, backend, &params, args.warmup, args.reps)
-                .with_context(|| format!("{} on {}", spec.name, backend.kind()))?;
-            let (variance, samples_per_ray) = quality(&pixels, args.spp);
-            let med = median(&wall);
-            let ns_per_ray = med * 1e6 / rays;
-            let row = Row {
-                backend: backend.kind().into(),
-                device: backend.device(),
-                estimator: spec.name.into(),
-                frame_ms_median: med,
-                frame_ms_min: wall.iter().copied().fold(f64::INFINITY, f64::min),
-                frame_ms: wall,
-                kernel_ms_median: (!kernel.is_empty()).then(|| median(&kernel)),
-                rays_per_s: rays / (med * 1e-3),
-                ns_per_ray,
-                samples_per_ray,
-                variance,
-                work_normalized_variance: variance * ns_per_ray,
-                kernel: matches!(backend, Backend::Gpu(_)).then(|| {
-                    let k = crate::gpu::Kernel::TransmittanceCs;
-                    KernelRow {
-                        name: k.name(),
-                        module: crate::gpu::module_stats::module_stats(k.spirv()),
-                        pipeline_build_ms: build_ms,
-                    }
-                }),
-            };
+            let row = time_estimator(&resident, backend, &params, spec.name, args, rays)?;
             if !args.quiet {
                 tracing::info!(
                     "  {:<4} {:<20} {:9.1} ms/frame  {:7.1} ns/ray  {:6.2} lookups/ray  var {:.5}",
@@ -484,7 +513,7 @@ pub fn run(args: &BenchOptions) -> Result<BenchReport> {
     let sweep_files = sweep_files(args, &backends, base, &file_specs)?;
     let report = BenchReport {
         volume,
-        lookup: crate::commands::lookup_name(args.lookup),
+        lookup: engine::scene::lookup_name(args.lookup),
         width: args.width,
         height: args.height,
         spp: args.spp,
@@ -505,7 +534,7 @@ pub fn run(args: &BenchOptions) -> Result<BenchReport> {
         println!("sweep plot: {}", args.plot.display());
     }
     if let Some(path) = &args.json {
-        crate::output::write_json(path, &report)?;
+        engine::output::write_json(path, &report)?;
     }
     Ok(report)
 }
@@ -579,19 +608,19 @@ fn sweep(
                 .map(|&s| (args.scene.embedded_resolution(), s, false)),
         )
         .collect();
-    let mut cached: Option<(u32, crate::commands::Scene, f64)> = None;
+    let mut cached: Option<(u32, engine::scene::Scene, f64)> = None;
     for (resolution, size, is_resolution) in cases {
         if cached.as_ref().is_none_or(|(r, _, _)| *r != resolution) {
             let mut scene_args = args.scene.clone();
             scene_args.resolution = Some(resolution);
             let t = Instant::now();
-            let scene = crate::commands::prepare_scene(
+            let scene = engine::scene::prepare_scene(
                 &scene_args,
                 lookup,
                 size,
                 size,
                 page_log2(backends),
-                Some(crate::io::TopologyCheck(&cpu_check(&scene_args))),
+                Some(engine::io::TopologyCheck(&cpu_check(&scene_args))),
             )?;
             if !args.quiet {
                 tracing::info!(
@@ -609,13 +638,13 @@ fn sweep(
         let (_, scene, prepare_ms) = cached.as_ref().expect("just set");
         let params = RenderParams {
             // The camera frames the volume the same way at every resolution (same world box).
-            camera: crate::render::make_camera(
-                &crate::render::CameraSpec {
+            camera: engine::render::make_camera(
+                &engine::render::CameraSpec {
                     position: args.scene.camera,
                     look_at: args.scene.look_at,
                     fov_deg: args.scene.fov,
                 },
-                crate::render::occupied_world_bounds(&scene.volume),
+                engine::render::occupied_world_bounds(&scene.volume),
                 size,
                 size,
             )?,
@@ -659,13 +688,13 @@ fn sweep_files(
         scene_args.resolution = None;
         let rss_before_bytes = reset_peak_rss().then(|| memory_line("VmRSS:")).flatten();
         let t = Instant::now();
-        let scene = crate::commands::prepare_scene(
+        let scene = engine::scene::prepare_scene(
             &scene_args,
             args.lookup,
             args.width,
             args.height,
             page_log2(backends),
-            Some(crate::io::TopologyCheck(&cpu_check(&scene_args))),
+            Some(engine::io::TopologyCheck(&cpu_check(&scene_args))),
         )
         .with_context(|| format!("--sweep-files {}", file.display()))?;
         let prepare_ms = t.elapsed().as_secs_f64() * 1e3;
@@ -711,7 +740,7 @@ fn time_points(
     args: &BenchOptions,
     backends: &[Backend],
     specs: &[&'static EstimatorSpec],
-    scene: &crate::commands::Scene,
+    scene: &engine::scene::Scene,
     params: &RenderParams,
     prepare_ms: f64,
     [rss_before_bytes, peak_rss_bytes]: [Option<u64>; 2],
@@ -993,6 +1022,6 @@ impl Figure for SweepFigure<'_> {
 /// checked per backend after packing ([`Backend::cannot_hold`]), where a bench skips a backend.
 fn cpu_check(
     scene: &SceneOptions,
-) -> impl Fn(&crate::io::Topology) -> Result<()> + Sync + std::panic::RefUnwindSafe {
+) -> impl Fn(&engine::io::Topology) -> Result<()> + Sync + std::panic::RefUnwindSafe {
     Backend::Cpu.topology_check(BackendChoice::Cpu, scene.brick_size)
 }

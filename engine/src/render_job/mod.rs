@@ -1,0 +1,304 @@
+//! `host render` as a library call: checks, loads, packs, renders, writes the images and the
+//! JSON summary.
+
+pub mod lights;
+pub mod options;
+pub mod summary;
+
+pub use lights::{direct_lights, lights_or_default};
+pub use options::{check_render_flags, plan_render_outputs, RenderOptions};
+pub use summary::{Albedo, CameraSummary, IntegratorSettings, RenderSummary, SunSettings};
+
+use crate::backend::{Backend, BackendChoice};
+use crate::diagnostics::RayFlags;
+use crate::job::Job;
+use crate::lighting::SceneLights;
+use crate::output::{write_exr, write_json, write_png};
+use crate::render::{occupied_world_bounds, Resident};
+use crate::scene::{prepare_scene, Scene};
+use crate::shadow_map::ShadowSummary;
+use crate::volume::VolumeData;
+use anyhow::Result;
+use shared::kernels::render::PixelOut;
+use shared::params::{Integrator, RenderParams};
+use std::path::Path;
+use std::time::Instant;
+
+/// `host render`: checks flags and outputs, loads, packs, renders, writes EXR + PNG (+ JSON),
+/// prints a summary.
+pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
+    check_render_flags(args)?;
+    crate::render::check_image_memory(args.width, args.height, 1)?;
+    let png = plan_render_outputs(args)?;
+    // The backend first: a forced GPU that is missing fails before any loading, and the pool
+    // is laid out in the pages the device binds.
+    let backend = Backend::open(args.backend)?;
+    let t_load = Instant::now();
+    let scene = load_scene(args, &backend)?;
+    let load_ms = t_load.elapsed().as_secs_f64() * 1e3;
+    let job = Job::render(args.integrator, args.width, args.height, args.spp);
+    let backend = backend.fit(args.backend, &scene.packed, &job)?;
+    if !args.quiet {
+        log_scene(args, &scene, &backend, load_ms);
+    }
+    let direct = args.integrator.is_some_and(Integrator::is_lit);
+    let mut lights = render_lights(args, &scene.volume)?;
+    let params = render_params(args, &scene, &lights.points);
+    let per_ray = crate::render::loop_iterations_per_ray(&params, &scene.packed.desc);
+    let backend = fall_back_from_long_rays(args, backend, per_ray, &scene.volume);
+    let resident = Resident::new(&backend, &scene.packed)?;
+    let shadows = if direct {
+        Some(build_shadows(
+            args,
+            &resident,
+            &params,
+            &mut lights,
+            &scene.volume,
+        )?)
+    } else {
+        None
+    };
+    let (pixels, elapsed_ms, built) = backend
+        .timed(|| crate::render::render_resident_lit(&resident, &params, &lights, !args.quiet))?;
+    let flags = RayFlags::of(&pixels, args.spp);
+    flags.warn(&params);
+    crate::diagnostics::check_finite(&pixels, args.width)?;
+    let mean = write_images(args, &png, &pixels, direct)?;
+    let rays = pixels.len() as f64 * args.spp as f64;
+    let samples: f64 = pixels.iter().map(|p| p.samples as f64).sum();
+    let summary = summary::summarize(&summary::Rendered {
+        args,
+        scene: &scene,
+        params: &params,
+        backend: &backend,
+        lights: &lights,
+        shadows,
+        png: &png,
+        flags,
+        mean,
+        samples_per_ray: samples / rays,
+        elapsed_ms,
+        built,
+        load_ms,
+        per_ray,
+    })?;
+    if let Some(path) = &args.json {
+        write_json(path, &summary)?;
+    }
+    print_line(args, &summary, &scene, built, mean);
+    Ok(summary)
+}
+
+/// Loads and packs `--volume` in the pages `backend` binds, refusing grids it cannot hold
+/// before any voxel is read.
+fn load_scene(args: &RenderOptions, backend: &Backend) -> Result<Scene> {
+    let check = backend.topology_check(args.backend, args.scene.brick_size);
+    prepare_scene(
+        &args.scene,
+        args.lookup,
+        args.width,
+        args.height,
+        backend.page_log2(),
+        Some(crate::io::TopologyCheck(&check)),
+    )
+}
+
+/// The volume's name, with the grid read from a file.
+fn volume_label(scene: &Scene) -> String {
+    match &scene.grid {
+        Some(grid) => format!("{} (grid '{grid}')", scene.volume.name()),
+        None => scene.volume.name().to_owned(),
+    }
+}
+
+/// The info lines of a render before it starts: the volume as packed, and the backend.
+fn log_scene(args: &RenderOptions, scene: &Scene, backend: &Backend, load_ms: f64) {
+    let (vol, packed) = (&scene.volume, &scene.packed);
+    tracing::info!(
+        "volume {} {}x{}x{} (density scale {}, {} bricks of {}^3, {} occupied: {:.1} MiB of voxels), prepared in {load_ms:.0} ms",
+        volume_label(scene),
+        vol.dims()[0],
+        vol.dims()[1],
+        vol.dims()[2],
+        scene.density_scale,
+        packed.grid_bricks().len(),
+        args.scene.brick_size,
+        packed.occupied_bricks(),
+        std::mem::size_of_val(packed.voxels.as_slice()) as f64 / (1 << 20) as f64
+    );
+    tracing::info!("backend: {} ({})", backend.kind(), backend.device());
+}
+
+/// The lights of a render: those of `direct`, `path` and `restir` (resampled points for
+/// `restir`), or the point lights of the single-scattering integrators.
+fn render_lights(args: &RenderOptions, vol: &dyn VolumeData) -> Result<SceneLights> {
+    if args.integrator.is_some_and(Integrator::is_lit) {
+        let mut l = direct_lights(args, vol)?;
+        if args.integrator == Some(Integrator::Restir) {
+            l.resample_points();
+        }
+        Ok(l)
+    } else {
+        Ok(SceneLights::points_only(&lights::scene_lights(args, vol)?))
+    }
+}
+
+/// The kernels' parameters of a render: camera, image, estimator, and the integrator's
+/// settings with the collision cap fitted to a GPU invocation's loop budget.
+fn render_params(
+    args: &RenderOptions,
+    scene: &Scene,
+    points: &[shared::sampling::lights::PointLight],
+) -> RenderParams {
+    let mut params = RenderParams {
+        camera: scene.camera,
+        world_to_index: scene.world_to_index,
+        width: args.width,
+        height: args.height,
+        spp: args.spp,
+        seed: args.seed,
+        n: args.n,
+        f_delta: args.f_delta,
+        pixel_jitter: 1,
+        roulette: args.ratio_roulette as u32,
+        ..Default::default()
+    };
+    args.estimator.apply(&mut params);
+    if let Some(integrator) = args.integrator {
+        params.integrator = integrator as u32;
+        params.light_count = points.len() as u32;
+        params.albedo = args.albedo[0];
+        params.hg_g = args.hg_g;
+        params.t_hat = args.t_hat as u32;
+        params.rr_depth = args.rr_depth;
+        params.max_depth = args.max_depth;
+        args.restir.apply(&mut params);
+        if integrator.is_lit() {
+            // A safeguard: lower the tracking loops' collision cap if one invocation would not
+            // fit.
+            params = crate::render::fit_collision_cap(&params, &scene.packed.desc);
+        }
+    }
+    params
+}
+
+/// Under `--backend auto`, the CPU instead of a GPU on which one ray could exceed an
+/// invocation's loop budget (with a warning).
+fn fall_back_from_long_rays(
+    args: &RenderOptions,
+    backend: Backend,
+    per_ray: u64,
+    vol: &dyn VolumeData,
+) -> Backend {
+    match backend {
+        Backend::Gpu(_)
+            if args.backend == BackendChoice::Auto && per_ray > crate::render::LOOP_BUDGET =>
+        {
+            tracing::warn!(
+                "one ray may need {per_ray} loop iterations through this {}x{}x{} grid, more than \
+                 a GPU invocation may run; falling back to the CPU backend",
+                vol.dims()[0],
+                vol.dims()[1],
+                vol.dims()[2]
+            );
+            Backend::Cpu
+        }
+        b => b,
+    }
+}
+
+/// The sun's shadow rays or its moment shadow map (`--shadows`), built into `lights`.
+fn build_shadows(
+    args: &RenderOptions,
+    resident: &Resident,
+    params: &RenderParams,
+    lights: &mut SceneLights,
+    vol: &dyn VolumeData,
+) -> Result<ShadowSummary> {
+    let s = crate::shadow_map::build_into(
+        resident,
+        params,
+        lights,
+        occupied_world_bounds(vol),
+        &args.shadows,
+    )?;
+    if let (Some(m), false) = (&s.map, args.quiet) {
+        tracing::info!(
+            "moment shadow map of the sun ({}, {}x{} texels, {:?}, {} bytes) built in {:.1} ms",
+            crate::shadow_map::name(s.shadows),
+            m.resolution,
+            m.resolution,
+            m.storage,
+            m.bytes,
+            m.build_ms
+        );
+    }
+    Ok(s)
+}
+
+/// Writes the EXR (linear) and its PNG preview; returns the image's mean (T, or L's luminance
+/// channel for integrators).
+fn write_images(
+    args: &RenderOptions,
+    png: &Path,
+    pixels: &[PixelOut],
+    direct: bool,
+) -> Result<f64> {
+    let t: Vec<f32> = pixels.iter().map(|p| p.t_mean).collect();
+    let mean = t.iter().map(|&v| v as f64).sum::<f64>() / t.len() as f64;
+    if direct {
+        let rgb: Vec<[f32; 3]> = pixels
+            .iter()
+            .map(|p| [p.rgb_mean.r, p.rgb_mean.g, p.rgb_mean.b])
+            .collect();
+        crate::output::write_exr_rgb(&args.out, args.width, args.height, &rgb)?;
+        crate::output::write_png_rgb_exposed(png, args.width, args.height, &rgb, args.exposure)?;
+        return Ok(mean);
+    }
+    write_exr(&args.out, args.width, args.height, &t)?;
+    let preview: Vec<f32> = if args.integrator.is_some() {
+        // Radiance: exposure, then Reinhard x / (1 + x) so highlights do not clip.
+        t.iter()
+            .map(|&v| {
+                let x = v * args.exposure;
+                x / (1.0 + x)
+            })
+            .collect()
+    } else {
+        t
+    };
+    write_png(png, args.width, args.height, &preview)?;
+    Ok(mean)
+}
+
+/// The one line a render prints when it is done.
+fn print_line(
+    args: &RenderOptions,
+    summary: &RenderSummary,
+    scene: &Scene,
+    built: crate::gpu::BuildTime,
+    mean: f64,
+) {
+    let compiled = match built.count {
+        0 => String::new(),
+        n => format!(
+            " (+ {:.1} s compiling {n} GPU pipeline{} on first use)",
+            built.wall.as_secs_f64(),
+            if n == 1 { "" } else { "s" }
+        ),
+    };
+    println!(
+        "{} {}x{} spp {} on {}: {:.1} ms{compiled}, {:.2} samples/ray, mean {} {:.5} -> {} (volume {})",
+        summary.estimator,
+        args.width,
+        args.height,
+        args.spp,
+        summary.backend,
+        summary.elapsed_ms,
+        summary.mean_samples_per_ray,
+        if args.integrator.is_some() { "L" } else { "T" },
+        mean,
+        args.out.display(),
+        volume_label(scene)
+    );
+}

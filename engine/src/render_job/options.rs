@@ -1,0 +1,98 @@
+//! What `host render` renders and where it writes it, and the checks of those options before
+//! any work.
+
+use crate::backend::BackendChoice;
+use crate::output::OutputPlan;
+use crate::scene::SceneOptions;
+use anyhow::Result;
+use shared::params::{Integrator, TransmittanceHat};
+use shared::sampling::lights::PointLight;
+use shared::volume::grid::Lookup;
+use std::path::{Path, PathBuf};
+
+/// What `host render` renders and where it writes it.
+#[derive(Debug, Clone)]
+pub struct RenderOptions {
+    pub scene: SceneOptions,
+    pub lookup: Lookup,
+    pub estimator: &'static crate::estimators::EstimatorSpec,
+    pub n: u32,
+    pub f_delta: f32,
+    pub ratio_roulette: bool,
+    /// Single scattering with this integrator instead of primary-ray transmittance.
+    pub integrator: Option<Integrator>,
+    pub lights: Vec<PointLight>,
+    /// `--lights random:N[,seed]`: point lights scattered in and around the volume (`direct`,
+    /// `path`), added to `lights`.
+    pub random_lights: Option<crate::lighting::random::RandomLights>,
+    /// Albedo per channel (the single-scattering integrators need equal channels).
+    pub albedo: [f32; 3],
+    /// Environment light of `direct` (None: the sky unless --sun or --light are given).
+    pub env: Option<crate::lighting::EnvSource>,
+    pub env_scale: f32,
+    /// Degrees about +y.
+    pub env_rotate: f32,
+    pub sun: Option<crate::lighting::SunSpec>,
+    /// `direct`, `path`: shadow rays toward the sun or its moment shadow map.
+    pub shadows: crate::shadow_map::ShadowOptions,
+    /// `restir`: candidates, target, its N and floor.
+    pub restir: crate::restir::RestirOptions,
+    /// `path`: vertices before Russian roulette.
+    pub rr_depth: u32,
+    /// `path`: most vertices of a path.
+    pub max_depth: u32,
+    pub hg_g: f32,
+    pub t_hat: TransmittanceHat,
+    pub exposure: f32,
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub seed: u32,
+    pub backend: BackendChoice,
+    /// Output EXR; the PNG preview goes next to it.
+    pub out: PathBuf,
+    pub json: Option<PathBuf>,
+    /// No progress bar or info lines.
+    pub quiet: bool,
+}
+
+/// Checks the options a render reads before any work: `restir`'s settings against the image,
+/// the shadow-map options, and that `--out` is an .exr file. (Whether each flag applies to the
+/// integrator is the command line's check: `host::cli::applicable`.)
+pub fn check_render_flags(args: &RenderOptions) -> Result<()> {
+    if args.integrator == Some(Integrator::Restir) {
+        args.restir.check()?;
+        args.restir.check_image(args.width, args.height)?;
+    }
+    args.shadows.check()?;
+    let is_exr = args
+        .out
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    anyhow::ensure!(
+        is_exr,
+        "--out {}: the image is written as a linear OpenEXR file, so --out must end in .exr (the \
+         PNG preview is written next to it with the extension .png)",
+        args.out.display()
+    );
+    Ok(())
+}
+
+/// Checks every output of `host render` up front: the EXR, its PNG preview and the JSON must
+/// be distinct, must not replace the input volume, and must be writable. Returns the PNG path.
+pub fn plan_render_outputs(args: &RenderOptions) -> Result<std::path::PathBuf> {
+    let png = args.out.with_extension("png");
+    let mut plan = OutputPlan::new();
+    plan.input("--volume", Path::new(&args.scene.volume))
+        .file("--out", &args.out)
+        .file("the PNG preview of --out", &png);
+    if let Some(crate::lighting::EnvSource::File(env)) = &args.env {
+        crate::lighting::env::check_path(env)?;
+        plan.input("--env", env);
+    }
+    if let Some(json) = &args.json {
+        plan.file("--json", json);
+    }
+    plan.check()?;
+    Ok(png)
+}
