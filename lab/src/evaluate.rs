@@ -10,7 +10,7 @@ use engine::job::{Job, WorkKind};
 use engine::output::OutputPlan;
 use engine::render::occupied_world_bounds;
 use engine::render_job::{direct_lights, lights_or_default, RenderOptions};
-use engine::scene::{prepare_scene, SceneOptions};
+use engine::scene::{prepare_scene, Scene, SceneOptions};
 use engine::volume::VolumeData;
 use shared::params::RenderParams;
 use shared::params::{Integrator, TransmittanceHat};
@@ -172,6 +172,53 @@ fn names(integrators: &[Integrator]) -> String {
     names.join(",")
 }
 
+/// Opens the backend of `--backend` and loads and packs the volume in the pages it binds,
+/// refusing grids it cannot hold before any voxel is read.
+fn open_scene(args: &EvalOptions) -> Result<(Backend, Scene)> {
+    let backend = Backend::open(args.backend)?;
+    let check = backend.topology_check(args.backend, args.scene.brick_size);
+    let scene = prepare_scene(
+        &args.scene,
+        args.lookup,
+        args.width,
+        args.height,
+        backend.page_log2(),
+        Some(engine::io::TopologyCheck(&check)),
+    )?;
+    Ok((backend, scene))
+}
+
+/// The setup of an evaluation against `reference` at `reference_spp`, with the report's
+/// scales, output directory and super-voxel grid from `args`.
+fn eval_setup<'a>(
+    args: &'a EvalOptions,
+    backend: &'a Backend,
+    vol: &dyn VolumeData,
+    packed: &'a engine::bricks::PackedVolume,
+    params: RenderParams,
+    reference: &'a EstimatorSpec,
+    reference_spp: u32,
+) -> Result<crate::eval::EvalSetup<'a>> {
+    Ok(crate::eval::EvalSetup {
+        backend,
+        volume: packed,
+        volume_name: vol.name().to_owned(),
+        params,
+        reference,
+        reference_spp,
+        out_dir: &args.out_dir,
+        bias_scale: args.bias_scale,
+        std_scale: args.std_scale,
+        progress: !args.quiet,
+        supervoxels: Some(engine::supervoxel_info::SupervoxelInfo::of(
+            packed,
+            args.scene.supervoxels.mode()?,
+            args.scene.supervoxel_format,
+            &params,
+        )),
+    })
+}
+
 /// `host eval`: the reference and each estimator on pixel-center rays; JSON + images.
 pub fn run_eval(args: &EvalOptions) -> Result<()> {
     engine::render::check_image_memory(args.width, args.height, 2)?;
@@ -231,18 +278,7 @@ pub fn run_eval(args: &EvalOptions) -> Result<()> {
     };
     let json = plan_eval_outputs(args, &images)?;
     let lookup = args.lookup;
-    let backend = Backend::open(args.backend)?;
-    let page_log2 = backend.page_log2();
-    let check = backend.topology_check(args.backend, args.scene.brick_size);
-    let check = Some(engine::io::TopologyCheck(&check));
-    let scene = prepare_scene(
-        &args.scene,
-        lookup,
-        args.width,
-        args.height,
-        page_log2,
-        check,
-    )?;
+    let (backend, scene) = open_scene(args)?;
     let (vol, packed) = (&scene.volume, &scene.packed);
     let job = match &integrators {
         // Each integrator: every estimator at --spp and a jackknife reference at 16 x --spp.
@@ -292,24 +328,15 @@ pub fn run_eval(args: &EvalOptions) -> Result<()> {
             args.reference_spp.unwrap_or(4 * args.spp),
         ),
     };
-    let setup = crate::eval::EvalSetup {
-        backend: &backend,
-        volume: packed,
-        volume_name: vol.name().to_owned(),
+    let setup = eval_setup(
+        args,
+        &backend,
+        vol,
+        packed,
         params,
         reference,
         reference_spp,
-        out_dir: &args.out_dir,
-        bias_scale: args.bias_scale,
-        std_scale: args.std_scale,
-        progress: !args.quiet,
-        supervoxels: Some(engine::supervoxel_info::SupervoxelInfo::of(
-            packed,
-            args.scene.supervoxels.mode()?,
-            args.scene.supervoxel_format,
-            &params,
-        )),
-    };
+    )?;
     let report = crate::eval::evaluate(&setup, &estimators)?;
     crate::eval::write_report(&json, &report)?;
     println!("wrote {}", json.display());
@@ -356,24 +383,15 @@ fn run_eval_integrators(
     params.hg_g = args.hg_g.unwrap_or(0.0);
     params.pixel_jitter = 1;
     params.t_hat = args.t_hat as u32;
-    let setup = crate::eval::EvalSetup {
+    let setup = eval_setup(
+        args,
         backend,
-        volume: packed,
-        volume_name: vol.name().to_owned(),
+        vol,
+        packed,
         params,
-        reference: engine::estimators::by_name("jackknife").expect("registered"),
-        reference_spp: args.reference_spp.unwrap_or(16 * args.spp),
-        out_dir: &args.out_dir,
-        bias_scale: args.bias_scale,
-        std_scale: args.std_scale,
-        progress: !args.quiet,
-        supervoxels: Some(engine::supervoxel_info::SupervoxelInfo::of(
-            packed,
-            args.scene.supervoxels.mode()?,
-            args.scene.supervoxel_format,
-            &params,
-        )),
-    };
+        engine::estimators::by_name("jackknife").expect("registered"),
+        args.reference_spp.unwrap_or(16 * args.spp),
+    )?;
     let report = crate::eval::evaluate_integrators(&setup, &lights, integrators, args.exposure)?;
     engine::output::write_json(json, &report)?;
     println!("wrote {}", json.display());
@@ -409,18 +427,7 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
     let names: Vec<&str> = names.iter().map(String::as_str).collect();
     let images = crate::eval_direct::direct_files(&args.out_dir, integrators, &names);
     let json = plan_eval_outputs(args, &images)?;
-    let backend = Backend::open(args.backend)?;
-    let page_log2 = backend.page_log2();
-    let check = backend.topology_check(args.backend, args.scene.brick_size);
-    let check = Some(engine::io::TopologyCheck(&check));
-    let scene = prepare_scene(
-        &args.scene,
-        args.lookup,
-        args.width,
-        args.height,
-        page_log2,
-        check,
-    )?;
+    let (backend, scene) = open_scene(args)?;
     let (vol, packed) = (&scene.volume, &scene.packed);
     let reference_spp = args.reference_spp.unwrap_or(16 * args.spp);
     let job = eval_job(
@@ -502,24 +509,15 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
     }
     let mut params = params;
     args.restir.apply(&mut params);
-    let setup = crate::eval::EvalSetup {
-        backend: &backend,
-        volume: packed,
-        volume_name: vol.name().to_owned(),
+    let setup = eval_setup(
+        args,
+        &backend,
+        vol,
+        packed,
         params,
-        reference: engine::estimators::by_name("ratio").expect("registered"),
-        reference_spp: args.reference_spp.unwrap_or(16 * args.spp),
-        out_dir: &args.out_dir,
-        bias_scale: args.bias_scale,
-        std_scale: args.std_scale,
-        progress: !args.quiet,
-        supervoxels: Some(engine::supervoxel_info::SupervoxelInfo::of(
-            packed,
-            args.scene.supervoxels.mode()?,
-            args.scene.supervoxel_format,
-            &params,
-        )),
-    };
+        engine::estimators::by_name("ratio").expect("registered"),
+        args.reference_spp.unwrap_or(16 * args.spp),
+    )?;
     let report = crate::eval_direct::evaluate_direct(
         &setup,
         integrators,
