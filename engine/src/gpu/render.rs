@@ -10,9 +10,7 @@ use crate::lighting::SceneLights;
 use crate::schedule::{RenderBackend, Schedule};
 use anyhow::{Context, Result};
 use indicatif::ProgressBar;
-use shared::integrators::direct::DirectState;
-use shared::integrators::path::PathState;
-use shared::integrators::restir::{stage_count, RestirState};
+use shared::integrators::stages::{StageKernel, Wavefront};
 use shared::kernels::launch::bindings::path;
 use shared::kernels::launch::Launch;
 use shared::kernels::render::{PathPass, PixelSums, RenderPass};
@@ -304,12 +302,7 @@ fn render_tiles(
     let l = gpu.buffer(std::mem::size_of_val(points) as u64)?;
     // `direct_cs` and `path_cs` (wavefronts) also read the lights' block, the map and the
     // samples' states; `transmittance_cs` and `scattering_cs` none of them.
-    let wave = match Integrator::from_u32(params.integrator) {
-        Integrator::Direct => Some(Wave::Direct),
-        Integrator::Path => Some(Wave::Path),
-        Integrator::Restir => Some(Wave::Restir),
-        _ => None,
-    };
+    let wave = Wavefront::of(Integrator::from_u32(params.integrator));
     let direct = wave.is_some();
     let env_data: &[f32] = if direct { &lights.env } else { &[0.0] };
     let lighting = gpu.buffer(std::mem::size_of::<Lighting>() as u64)?;
@@ -340,7 +333,7 @@ fn render_tiles(
         .lock()
         .map_err(|_| anyhow::anyhow!("internal: poisoned tile cache"))?;
     let sums_size = std::mem::size_of::<PixelSums>() as u64;
-    let state_size = wave.map_or(0, Wave::state_size);
+    let state_size = wave.map_or(0, |w| u64::from(w.state_bytes()));
     let tile = tile_pixels(gpu, wave, params, count)?;
     let tile_count = count.div_ceil(tile) as usize;
     let tile_bytes = u64::from(tile) * sums_size;
@@ -404,14 +397,19 @@ fn render_tiles(
 /// Pixels per tile: whole workgroups, with each tile's sums (and a wavefront's states, 80 or
 /// 160 B per pixel) in one storage buffer. Refuses `restir`'s reuse passes when the image does
 /// not fit one tile (they read every pixel's state).
-fn tile_pixels(gpu: &Gpu, wave: Option<Wave>, params: &RenderParams, count: u32) -> Result<u32> {
+fn tile_pixels(
+    gpu: &Gpu,
+    wave: Option<Wavefront>,
+    params: &RenderParams,
+    count: u32,
+) -> Result<u32> {
     let sums_size = std::mem::size_of::<PixelSums>() as u64;
-    let state_size = wave.map_or(0, Wave::state_size);
+    let state_size = wave.map_or(0, |w| u64::from(w.state_bytes()));
     let per_pixel = sums_size.max(state_size);
     let tile = (gpu.max_buffer_bytes() / per_pixel / 64 * 64)
         .max(64)
         .min(u64::from(count)) as u32;
-    if wave == Some(Wave::Restir) && params.restir_passes > 0 && tile < count {
+    if wave == Some(Wavefront::Restir) && params.restir_passes > 0 && tile < count {
         anyhow::bail!(
             "--restir-passes {} needs every pixel's state in one GPU buffer: {count} pixels of \
              {state_size} bytes exceed the device's largest buffer ({} bytes); lower the \
@@ -480,94 +478,34 @@ impl TilePass<'_> {
     }
 }
 
-/// The wavefront integrators: which kernel, how many stages per sample, how large a state.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Wave {
-    /// `direct_cs`: a start and three estimates.
-    Direct,
-    /// `path_cs`: a start and `max_depth + 1` bounces.
-    Path,
-    /// `restir_*_cs`, a kernel per stage kind: a start, M candidates, P reuse passes, the resolve
-    /// and four estimates.
-    Restir,
+/// The Vulkan kernel of a wavefront stage kernel (`shared::integrators::stages`).
+fn stage_kernel(kernel: StageKernel) -> &'static super::KernelDef<PathPass, { path::COUNT }> {
+    match kernel {
+        StageKernel::Direct => &DIRECT,
+        StageKernel::Path => &PATH,
+        StageKernel::RestirStart => &RESTIR_START,
+        StageKernel::RestirCandidate => &RESTIR_CANDIDATE,
+        StageKernel::RestirReuse => &RESTIR_REUSE,
+        StageKernel::RestirResolve => &RESTIR_RESOLVE,
+        StageKernel::RestirQuery => &RESTIR_QUERY,
+    }
 }
 
-impl Wave {
-    /// Bytes of one sample's state.
-    fn state_size(self) -> u64 {
-        match self {
-            Wave::Direct => std::mem::size_of::<DirectState>() as u64,
-            Wave::Path => std::mem::size_of::<PathState>() as u64,
-            Wave::Restir => std::mem::size_of::<RestirState>() as u64,
-        }
+/// The specialization constants of a stage of kind `kind` ([`specialization`]); a stage that
+/// does not read the render's estimator leaves constant 1 at [`UNSPECIALIZED`] (the kernel then
+/// reads the params buffer's value, which it ignores), so one pipeline serves every
+/// `--estimator`.
+fn wave_specialization(
+    wave: Wavefront,
+    params: &RenderParams,
+    kind: u32,
+    grid: GridSpec,
+) -> Vec<u32> {
+    let mut spec = specialization(Some(params), kind, grid);
+    if !wave.reads_estimator(kind) {
+        spec[1] = UNSPECIALIZED;
     }
-
-    /// The push `mode` of each step of one sample, in order.
-    fn modes(self, params: &RenderParams) -> Vec<u32> {
-        match self {
-            Wave::Direct => vec![0, 1, 2, 3],
-            Wave::Path => std::iter::once(0)
-                .chain(std::iter::repeat_n(1, params.max_depth as usize + 1))
-                .collect(),
-            Wave::Restir => (0..stage_count(params)).collect(),
-        }
-    }
-
-    /// The kind of each stage: the kernel's stage specialization constant (id 2).
-    fn stage_kind(self) -> fn(&RenderParams, u32) -> u32 {
-        match self {
-            Wave::Direct | Wave::Path => shared::kernels::render::wave_kind,
-            Wave::Restir => shared::kernels::render::restir_stage_kind,
-        }
-    }
-
-    /// Whether a stage of kind `kind` reads the render's estimator: `direct`'s start (free flight
-    /// by delta tracking, light and phase samples: `direct_start`) and `restir`'s start,
-    /// candidates, reuse and resolve (their targets' T̂ has its own estimator,
-    /// `--restir-target`) do not, so their pipelines leave specialization constant 1 at
-    /// [`UNSPECIALIZED`] (the kernel then reads the params buffer's value, which they ignore)
-    /// and one pipeline serves every `--estimator`.
-    fn reads_estimator(self, kind: u32) -> bool {
-        use shared::integrators::restir::KIND_QUERY;
-        match self {
-            Wave::Direct => kind != 0,
-            Wave::Path => true,
-            Wave::Restir => kind == KIND_QUERY,
-        }
-    }
-
-    /// The specialization constants of a stage of kind `kind` ([`specialization`]).
-    fn specialization(self, params: &RenderParams, kind: u32, grid: GridSpec) -> Vec<u32> {
-        let mut spec = specialization(Some(params), kind, grid);
-        if !self.reads_estimator(kind) {
-            spec[1] = UNSPECIALIZED;
-        }
-        spec
-    }
-
-    /// The kernel of a stage of kind `kind` (all take `LitBuffers`' layout).
-    fn kernel(self, kind: u32) -> &'static super::KernelDef<PathPass, { path::COUNT }> {
-        use shared::integrators::restir::{KIND_CANDIDATE, KIND_RESOLVE, KIND_REUSE, KIND_START};
-        match (self, kind) {
-            (Wave::Direct, _) => &DIRECT,
-            (Wave::Path, _) => &PATH,
-            (Wave::Restir, KIND_START) => &RESTIR_START,
-            (Wave::Restir, KIND_CANDIDATE) => &RESTIR_CANDIDATE,
-            (Wave::Restir, KIND_REUSE) => &RESTIR_REUSE,
-            (Wave::Restir, KIND_RESOLVE) => &RESTIR_RESOLVE,
-            // KIND_QUERY, restir::stage_kind's only other value.
-            (Wave::Restir, _) => &RESTIR_QUERY,
-        }
-    }
-
-    /// Its kernels' name, for messages.
-    fn name(self) -> &'static str {
-        match self {
-            Wave::Direct => "direct_cs",
-            Wave::Path => "path_cs",
-            Wave::Restir => "restir_*_cs",
-        }
-    }
+    spec
 }
 
 /// A wavefront render of one tile: per sample, the stages of `wave` with a barrier after each
@@ -576,7 +514,7 @@ impl Wave {
 #[allow(clippy::too_many_arguments)]
 fn render_wave(
     gpu: &Gpu,
-    wave: Wave,
+    wave: Wavefront,
     grid: GridSpec,
     params: &RenderParams,
     ids: std::ops::Range<u32>,
@@ -586,8 +524,9 @@ fn render_wave(
     slice: &mut [PixelSums],
     bar: Option<&ProgressBar>,
 ) -> Result<()> {
-    let modes = wave.modes(params);
-    let stage_kind = wave.stage_kind();
+    let modes: Vec<u32> = (0..wave.stage_count(params))
+        .map(|s| wave.mode(s))
+        .collect();
     let mut uploads = Some(uploads);
     let mut readback = Some(bytemuck::cast_slice_mut::<PixelSums, u8>(slice));
     for s in 0..params.spp {
@@ -602,15 +541,18 @@ fn render_wave(
         };
         gpu.submit(Work {
             pipeline: &|push: &PathPass| {
-                let kind = stage_kind(params, push.mode);
-                (wave.kernel(kind), wave.specialization(params, kind, grid))
+                let kind = wave.kind(params, push.mode);
+                (
+                    stage_kernel(wave.kernel(kind)),
+                    wave_specialization(wave, params, kind, grid),
+                )
             },
             buffers: buffers.slots(),
             uploads: uploads.take().unwrap_or_default(),
             steps,
             readbacks,
         })
-        .with_context(|| format!("GPU kernel {}", wave.name()))?;
+        .with_context(|| format!("GPU kernels of the {wave:?} wavefront"))?;
         if let Some(bar) = bar {
             bar.inc(u64::from(ids.end - ids.start));
         }
@@ -842,20 +784,20 @@ mod tests {
         };
         let (a, b) = (with(Estimator::Jackknife), with(Estimator::RatioTracking));
         let cases = [
-            (Wave::Direct, 0, false),
-            (Wave::Direct, 1, true),
-            (Wave::Path, 0, true),
-            (Wave::Path, 1, true),
-            (Wave::Restir, KIND_START, false),
-            (Wave::Restir, KIND_CANDIDATE, false),
-            (Wave::Restir, KIND_REUSE, false),
-            (Wave::Restir, KIND_RESOLVE, false),
-            (Wave::Restir, KIND_QUERY, true),
+            (Wavefront::Direct, 0, false),
+            (Wavefront::Direct, 1, true),
+            (Wavefront::Path, 0, true),
+            (Wavefront::Path, 1, true),
+            (Wavefront::Restir, KIND_START, false),
+            (Wavefront::Restir, KIND_CANDIDATE, false),
+            (Wavefront::Restir, KIND_REUSE, false),
+            (Wavefront::Restir, KIND_RESOLVE, false),
+            (Wavefront::Restir, KIND_QUERY, true),
         ];
         for (wave, kind, reads) in cases {
             let (sa, sb) = (
-                wave.specialization(&a, kind, GridSpec::plain()),
-                wave.specialization(&b, kind, GridSpec::plain()),
+                wave_specialization(wave, &a, kind, GridSpec::plain()),
+                wave_specialization(wave, &b, kind, GridSpec::plain()),
             );
             assert_eq!(sa[2], kind, "{wave:?} {kind}");
             if reads {

@@ -14,6 +14,7 @@ pub mod path;
 pub mod resampling_mis;
 pub mod restir;
 pub mod restir_reuse;
+pub mod stages;
 mod strategy;
 mod weights;
 

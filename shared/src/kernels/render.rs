@@ -341,12 +341,7 @@ pub fn direct_step(
     )
 }
 
-/// The kind of wavefront stage `stage` of `direct` and `path`: 0 starts the sample, 1 is any
-/// later stage (the stage specialization constant of `direct_cs` and `path_cs`).
-#[inline]
-pub fn wave_kind(_params: &RenderParams, stage: u32) -> u32 {
-    (stage != 0) as u32
-}
+pub use crate::integrators::stages::wave_kind;
 
 /// [`direct_step`] with the stage's [`wave_kind`] given (`direct_cs`).
 #[allow(clippy::too_many_arguments)]
