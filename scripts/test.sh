@@ -27,6 +27,9 @@ fi
 # rustup does not auto-install on these machines: install what rust-toolchain.toml names.
 rustup toolchain install
 
+# The results pages' generated tables match their JSONs.
+python3 scripts/results_check.py
+
 # No crate's modules import each other in a cycle.
 for src in shared/src host/src engine/src lab/src jackknife/src volume-io/src kernels/src output/src \
   studies/src vulkan-backend/src; do

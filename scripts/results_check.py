@@ -1,0 +1,75 @@
+#!/usr/bin/env python3
+"""Checks that the results pages' tables are what their generators print from the JSONs beside
+them: every table row a generator prints must appear, character for character, in its page.
+A page edited by hand, or a JSON re-recorded without regenerating its page, fails here.
+
+Usage: scripts/results_check.py   (run by scripts/test.sh; exits 1 naming each missing row)
+
+Pages and generators:
+  docs/results/transmittance.md  scripts/eval_tables.py docs/results/eval_{cloud,explosion,constant}.json
+  docs/results/scattering.md     scripts/eval_tables.py docs/results/eval_integrators_cloud.json
+  docs/results/adaptive.md       scripts/adaptive_table.py (its f32 nearest rows appear in the
+                                 page's first adaptive table without the lookup and format columns)
+"""
+import os
+import subprocess
+import sys
+
+root = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
+results = os.path.join(root, "docs", "results")
+
+
+def rows(command):
+    """The table rows (not headers' rules) a generator prints."""
+    out = subprocess.run(
+        [sys.executable] + command, cwd=root, check=True, capture_output=True, text=True
+    ).stdout
+    return [
+        line
+        for line in out.splitlines()
+        if line.startswith("|") and not line.startswith("|---")
+    ]
+
+
+def condensed_adaptive(row):
+    """An adaptive_table.py row of f32 nearest lookups as the page's first table shows it."""
+    cells = row.split(" | ")
+    if len(cells) > 3 and cells[1] == "nearest" and cells[2] == "f32":
+        return " | ".join([cells[0]] + cells[3:])
+    return row
+
+
+checks = [
+    (
+        "transmittance.md",
+        ["scripts/eval_tables.py"]
+        + [f"docs/results/eval_{v}.json" for v in ("cloud", "explosion", "constant")],
+        lambda r: r,
+    ),
+    (
+        "scattering.md",
+        ["scripts/eval_tables.py", "docs/results/eval_integrators_cloud.json"],
+        lambda r: r,
+    ),
+    ("adaptive.md", ["scripts/adaptive_table.py"], condensed_adaptive),
+]
+
+missing = 0
+for page, command, shown in checks:
+    text = open(os.path.join(results, page)).read()
+    generated = rows(command)
+    # A table's header row stands once per table; the data rows must all be there.
+    absent = [r for r in generated if shown(r) not in text]
+    for r in absent:
+        print(f"docs/results/{page}: a row of `{' '.join(command)}` is missing:\n  {shown(r)}")
+    missing += len(absent)
+    if not generated:
+        print(f"docs/results/{page}: `{' '.join(command)}` printed no rows")
+        missing += 1
+if missing:
+    print(
+        f"results_check: {missing} generated rows missing; regenerate the tables with the "
+        "commands above and paste them into the pages"
+    )
+    sys.exit(1)
+print(f"results_check: {len(checks)} pages match their generators")
