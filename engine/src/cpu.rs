@@ -7,9 +7,10 @@ use anyhow::Result;
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 use shared::integrators::restir::{stage_count, RestirState};
+use shared::integrators::stages::Wavefront;
 use shared::kernels::render::{
-    direct_pixel_pass, is_reuse_stage, path_pixel_pass, render_pixel_pass, restir_pixel_pass,
-    restir_reuse_step, restir_step, restir_store_reuse, tile_order_pixel, PixelSums,
+    cpu_pixel_pass, is_reuse_stage, restir_reuse_step, restir_step, restir_store_reuse,
+    tile_order_pixel, PixelSums,
 };
 use shared::kernels::shadow_map::{msm_raw_texel, msm_store_texel, MsmPass};
 use shared::params::Integrator;
@@ -73,10 +74,8 @@ impl RenderBackend for CpuVolume<'_> {
     ) -> Result<Vec<PixelSums>> {
         let view = self.view();
         let scene = lights.view();
-        let direct = params.integrator == Integrator::Direct as u32;
-        let path = params.integrator == Integrator::Path as u32;
-        let restir = params.integrator == Integrator::Restir as u32;
-        if restir && params.restir_passes > 0 {
+        let wave = Integrator::from_u32(params.integrator).wavefront();
+        if wave == Some(Wavefront::Restir) && params.restir_passes > 0 {
             return Ok(restir_wave(&view, params, &scene, bar));
         }
         let count = params.width * params.height;
@@ -87,15 +86,7 @@ impl RenderBackend for CpuVolume<'_> {
                 let base = c as u32 * chunk;
                 block.par_iter_mut().enumerate().for_each(|(i, acc)| {
                     let pixel = tile_order_pixel(base + i as u32, params.width, params.height);
-                    *acc = if restir {
-                        restir_pixel_pass(&view, params, &scene, pixel, s0, s1, *acc)
-                    } else if path {
-                        path_pixel_pass(&view, params, &scene, pixel, s0, s1, *acc)
-                    } else if direct {
-                        direct_pixel_pass(&view, params, &scene, pixel, s0, s1, *acc)
-                    } else {
-                        render_pixel_pass(&view, params, &lights.points, pixel, s0, s1, *acc)
-                    };
+                    *acc = cpu_pixel_pass(&view, params, &scene, pixel, s0, s1, *acc);
                 });
                 if let Some(bar) = bar {
                     bar.inc(block.len() as u64 * (s1 - s0) as u64);

@@ -136,27 +136,28 @@ pub fn capped_advice(params: &RenderParams) -> String {
 /// [`capped_advice`] of the estimator's or integrator's own loop bound.
 fn estimator_advice(params: &RenderParams) -> String {
     use shared::estimators::ray_marching::{MAX_BIASED_SAMPLES, MAX_UNBIASED_SAMPLES};
-    let cap = crate::render::collision_cap(params);
+    let cap = params.collision_cap();
     let tracking = format!(
         "after {cap} tentative collisions the rest of the ray was finished \
          by regular tracking (exact for --lookup nearest, approximate for stochastic and trilinear lookups); \
          the medium is too dense for its per-brick majorants: lower --density-scale or use a \
          smaller --brick-size"
     );
-    if params.integrator == shared::params::Integrator::Path as u32 {
-        return format!(
-            "a path scattered more than --max-depth {} times and was cut off (its radiance is \
-             underestimated; raise --max-depth), or a free flight or tracking estimate {tracking}",
-            params.max_depth
-        );
-    }
-    if params.integrator == shared::params::Integrator::Direct as u32
-        || params.integrator == shared::params::Integrator::Restir as u32
-    {
-        return format!("free-flight sampling or a tracking estimate {tracking}");
-    }
-    if params.integrator != 0 {
-        return format!("free-flight sampling or ratio tracking {tracking}");
+    use shared::integrators::{stages::Wavefront, unit::Family};
+    match shared::params::Integrator::from_u32(params.integrator).family() {
+        Family::Lit(Wavefront::Path) => {
+            return format!(
+                "a path scattered more than --max-depth {} times and was cut off (its radiance \
+                 is underestimated; raise --max-depth), or a free flight or tracking estimate \
+                 {tracking}",
+                params.max_depth
+            )
+        }
+        Family::Lit(_) => return format!("free-flight sampling or a tracking estimate {tracking}"),
+        Family::SingleScattering => {
+            return format!("free-flight sampling or ratio tracking {tracking}")
+        }
+        Family::Transmittance => {}
     }
     match Estimator::from_u32(params.estimator) {
         Estimator::TrackLength | Estimator::RatioTracking => format!("tracking {tracking}"),

@@ -1,80 +1,72 @@
-//! Integrator names (`--integrator`, `--integrators`) and point lights (`--light`).
+//! Integrator names (`--integrator`, `--integrators`), read from the integrator table, and
+//! point lights (`--light`).
 
 use anyhow::{Context, Result};
+use shared::integrators::unit::{Family, OwnSettings, UNITS};
 use shared::params::Integrator;
 use shared::sampling::lights::PointLight;
 
-/// Integrator names of `--integrator`.
-pub const INTEGRATORS: &[(&str, Integrator)] = {
-    use Integrator as I;
-    &[
-        ("free-flight", I::FreeFlight),
-        ("equiangular", I::Equiangular),
-        ("mis-jackknife", I::MisJackknife),
-        ("mis-naive", I::MisNaive),
-        ("combined-jackknife", I::CombinedJackknife),
-        ("combined-naive", I::CombinedNaive),
-        ("miller", I::Miller),
-        ("mis-power", I::MisPowerJackknife),
-        ("direct", I::Direct),
-        ("path", I::Path),
-        ("restir", I::Restir),
-    ]
-};
+/// The integrators `--integrator` takes, in enum order: every row of the integrator table
+/// (`shared::integrators::unit::UNITS`) but transmittance, which is the render without one.
+pub fn integrators() -> impl Iterator<Item = Integrator> {
+    UNITS
+        .iter()
+        .map(|u| u.integrator)
+        .filter(|i| i.family() != Family::Transmittance)
+}
 
-/// True for the integrators `host eval --integrators` compares (single scattering from point
-/// lights; `direct` renders are not evaluated there yet).
+/// The names of the integrators whose own settings are `settings`, joined by " or " (for
+/// messages).
+pub fn reading(settings: OwnSettings) -> String {
+    let names: Vec<&str> = integrators()
+        .filter(|i| i.unit().settings == settings)
+        .map(|i| i.unit().name)
+        .collect();
+    names.join(" or ")
+}
+
+/// True for the integrators `host eval --integrators` compares with each other (single
+/// scattering from point lights; each lit integrator is evaluated alone).
 fn evaluated(i: Integrator) -> bool {
     !i.is_lit()
 }
 
 /// Parses an integrator name.
 pub fn parse_integrator(s: &str) -> Result<Integrator, String> {
-    INTEGRATORS
-        .iter()
-        .find(|(n, _)| *n == s)
-        .map(|(_, i)| *i)
-        .ok_or_else(|| {
-            let names: Vec<&str> = INTEGRATORS.iter().map(|(n, _)| *n).collect();
-            format!(
-                "unknown integrator {s:?}; choose one of: {}",
-                names.join(", ")
-            )
-        })
+    integrators().find(|i| i.unit().name == s).ok_or_else(|| {
+        let names: Vec<&str> = integrators().map(|i| i.unit().name).collect();
+        format!(
+            "unknown integrator {s:?}; choose one of: {}",
+            names.join(", ")
+        )
+    })
 }
 
-/// Name of an integrator.
+/// Name of an integrator ("transmittance" for the render without one).
 pub fn integrator_name(i: Integrator) -> &'static str {
-    INTEGRATORS
-        .iter()
-        .find(|(_, x)| *x == i)
-        .map(|(n, _)| *n)
-        .unwrap_or("transmittance")
+    i.unit().name
 }
 
 /// Parses `--integrators`: comma-separated names or "all".
 pub fn parse_integrator_list(list: &str) -> Result<Vec<(&'static str, Integrator)>> {
     if list == "all" {
-        return Ok(INTEGRATORS
-            .iter()
-            .copied()
-            .filter(|(_, i)| evaluated(*i))
+        return Ok(integrators()
+            .filter(|i| evaluated(*i))
+            .map(|i| (i.unit().name, i))
             .collect());
     }
     list.split(',')
         .map(|n| {
             let n = n.trim();
-            let found = INTEGRATORS
-                .iter()
-                .find(|(name, _)| *name == n)
-                .copied()
+            let found = integrators()
+                .find(|i| i.unit().name == n)
                 .with_context(|| format!("--integrators: unknown integrator {n:?}"))?;
             anyhow::ensure!(
-                evaluated(found.1),
+                evaluated(found),
                 "--integrators: {n} is evaluated alone (--integrators {n} --estimators LIST: \
                  one entry per shadow-ray estimator); do not mix it with other integrators"
             );
-            Ok(found)
+            Ok((found.unit().name, found))
         })
         .collect()
 }

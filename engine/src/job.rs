@@ -4,72 +4,37 @@
 
 use shared::params::Integrator;
 
-/// The kernels' families as the cost model tells them apart.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum WorkKind {
-    /// Primary-ray transmittance (no integrator).
-    Transmittance,
-    /// Free-flight distance sampling.
-    FreeFlight,
-    /// The single-scattering integrators with a shadow ray (equiangular, the MIS families,
-    /// Miller et al.).
-    SingleScattering,
-    /// `direct`.
-    Direct,
-    /// `path` (a wavefront of several kernels per vertex).
-    Path,
-    /// `restir` (eight kernels per sample).
-    Restir,
+/// The kernels' cost classes as the cost model tells them apart: each integrator's row of the
+/// integrator table (`shared::integrators::unit`) names its class.
+pub use shared::integrators::unit::Work as WorkKind;
+
+/// The cost class of `integrator` (`None`: transmittance).
+pub fn work_of(integrator: Option<Integrator>) -> WorkKind {
+    integrator.unwrap_or(Integrator::Transmittance).unit().work
 }
 
-impl WorkKind {
-    /// The family of `integrator` (`None`: transmittance).
-    pub fn of(integrator: Option<Integrator>) -> Self {
-        match integrator {
-            None | Some(Integrator::Transmittance) => Self::Transmittance,
-            Some(Integrator::FreeFlight) => Self::FreeFlight,
-            Some(Integrator::Direct) => Self::Direct,
-            Some(Integrator::Path) => Self::Path,
-            Some(Integrator::Restir) => Self::Restir,
-            Some(_) => Self::SingleScattering,
-        }
-    }
+/// The kind among `kinds` that a software device runs worst (the largest time ratio), which
+/// stands for a job of several; transmittance if there is none.
+pub fn costliest(kinds: &[WorkKind]) -> WorkKind {
+    kinds
+        .iter()
+        .copied()
+        .max_by(|a, b| costs(*a).1.total_cmp(&costs(*b).1))
+        .unwrap_or(WorkKind::Transmittance)
+}
 
-    /// The kind among `kinds` that a software device runs worst (the largest time ratio), which
-    /// stands for a job of several; transmittance if there is none.
-    pub fn costliest(kinds: &[WorkKind]) -> Self {
-        kinds
-            .iter()
-            .copied()
-            .max_by(|a, b| a.costs().1.total_cmp(&b.costs().1))
-            .unwrap_or(Self::Transmittance)
-    }
-
-    /// The name the messages use.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Transmittance => "transmittance",
-            Self::FreeFlight => "free-flight",
-            Self::SingleScattering => "single scattering",
-            Self::Direct => "direct",
-            Self::Path => "path",
-            Self::Restir => "restir",
-        }
-    }
-
-    /// CPU core-nanoseconds per sample on the embedded cloud at its defaults, and a software
-    /// device's time per sample over the CPU backend's on the same cores: measured with
-    /// `scripts/speed_integrators.sh target/release/host OUT 256` on 2 cores (lavapipe,
-    /// docs/results/speed.md, "`--backend auto` on a software device").
-    pub fn costs(self) -> (f64, f64) {
-        match self {
-            Self::Transmittance => (2.0 * 352.0, 0.55),
-            Self::FreeFlight => (2.0 * 641.0, 0.94),
-            Self::SingleScattering => (2.0 * 1212.0, 1.01),
-            Self::Direct => (2.0 * 1390.0, 1.04),
-            Self::Path => (2.0 * 1394.0, 18.3),
-            Self::Restir => (2.0 * 5000.0, 2.19),
-        }
+/// CPU core-nanoseconds per sample on the embedded cloud at its defaults, and a software
+/// device's time per sample over the CPU backend's on the same cores: measured with
+/// `scripts/speed_integrators.sh target/release/host OUT 256` on 2 cores (lavapipe,
+/// docs/results/speed.md, "`--backend auto` on a software device").
+pub fn costs(kind: WorkKind) -> (f64, f64) {
+    match kind {
+        WorkKind::Transmittance => (2.0 * 352.0, 0.55),
+        WorkKind::FreeFlight => (2.0 * 641.0, 0.94),
+        WorkKind::SingleScattering => (2.0 * 1212.0, 1.01),
+        WorkKind::Direct => (2.0 * 1390.0, 1.04),
+        WorkKind::Path => (2.0 * 1394.0, 18.3),
+        WorkKind::Restir => (2.0 * 5000.0, 2.19),
     }
 }
 
@@ -98,7 +63,7 @@ impl Job {
     /// A render of `width` x `height` pixels at `spp` samples each.
     pub fn render(integrator: Option<Integrator>, width: u32, height: u32, spp: u32) -> Self {
         Self {
-            kind: WorkKind::of(integrator),
+            kind: work_of(integrator),
             samples: u64::from(width) * u64::from(height) * u64::from(spp),
         }
     }
@@ -107,7 +72,7 @@ impl Job {
     /// cores: both divide the same per-sample work among the cores; the device adds
     /// [`SOFTWARE_FIXED_S`].
     pub fn estimate(&self, threads: usize) -> Estimate {
-        let (core_ns, ratio) = self.kind.costs();
+        let (core_ns, ratio) = costs(self.kind);
         let cpu_s = self.samples as f64 * core_ns * 1e-9 / threads.max(1) as f64;
         Estimate {
             cpu_s,
@@ -157,8 +122,8 @@ mod tests {
     #[test]
     fn the_costliest_kind_stands_for_a_mix() {
         let mix = [WorkKind::Transmittance, WorkKind::Path, WorkKind::Direct];
-        assert_eq!(WorkKind::costliest(&mix), WorkKind::Path);
-        assert_eq!(WorkKind::costliest(&[]), WorkKind::Transmittance);
+        assert_eq!(costliest(&mix), WorkKind::Path);
+        assert_eq!(costliest(&[]), WorkKind::Transmittance);
     }
 
     /// More cores shorten both backends' sample work but not the fixed cost, so a job that

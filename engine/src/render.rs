@@ -8,6 +8,7 @@ use crate::volume::{Affine, VolumeData};
 use anyhow::{Context, Result};
 use shared::camera::Camera;
 use shared::geometry::{Affine3x4, V3};
+pub use shared::integrators::budget::loop_iterations_per_ray;
 use shared::kernels::render::{finish_pixel, PixelOut};
 use shared::params::RenderParams;
 use shared::sampling::lights::PointLight;
@@ -210,100 +211,6 @@ pub fn make_camera(
 
 /// Most samples per pixel per pass (see [`shared::kernels::render::RenderPass`] for why passes exist).
 pub const SPP_PER_PASS: u32 = 16;
-
-/// Loop iterations one high-resolution sample of Alg. 1 (and of the ray-marching baselines)
-/// costs a GPU invocation: one of the sample loop and one for entering the brick loop inside it.
-/// lavapipe's limiter is one counter per invocation, decremented at the end of every loop
-/// iteration of any loop, also where no lane ran the body (a loop entered and left at once), so
-/// a loop entry costs an iteration (measured: one ray of 8192 samples runs 16384; a jackknife
-/// with --n 4096 at 7 spp per pass lost its later samples on lavapipe).
-pub const ITERATIONS_PER_SAMPLE: u64 = 2;
-
-/// Loop iterations of unbiased ray marching's power series besides its estimates: the degree's
-/// roulette (<= MAX_DEGREE), then per pivot (<= MAX_DEGREE + 1) the symmetric means (one loop
-/// entry and <= MAX_DEGREE iterations per offset) and the terms (P_j's loop each), about 1,600
-/// for MAX_DEGREE = 8; rounded up.
-const SERIES_ITERATIONS: u64 = 2_000;
-
-/// Upper bound on the loop iterations one primary ray of this estimator can take.
-pub fn loop_iterations_per_ray(
-    params: &RenderParams,
-    desc: &shared::volume::grid::GridDesc,
-) -> u64 {
-    use shared::params::Estimator as E;
-    // One traversal of the super-voxels or voxels: the builder's bound from the occupied bricks
-    // with empty-space skipping, or the stepping bound if smaller (the DDA's own budget), plus
-    // the cells of subdivided bricks (adaptive super-voxels).
-    let bricks = desc.brick_budget() as u64 + desc.cell_budget() as u64;
-    let voxels = desc.voxel_budget() as u64;
-    let fixed = 64;
-    // A tracking loop: two iterations per tentative collision (the collision loop and the
-    // sampler's), one sampler iteration per brick segment, and at the cap the completion by a
-    // voxel DDA (two for free-flight sampling: the flight, then T up to it).
-    let tracking = 2 * collision_cap(params) as u64 + bricks + 2 * voxels;
-    if params.integrator == shared::params::Integrator::Path as u32 {
-        // One bounce per invocation: a free flight, one shadow ray's estimate, a CDF search.
-        let mut estimate = *params;
-        estimate.integrator = 0;
-        return fixed + tracking + loop_iterations_per_ray(&estimate, desc) + 32;
-    }
-    if params.integrator == shared::params::Integrator::Direct as u32
-        || params.integrator == shared::params::Integrator::Restir as u32
-    {
-        // A wavefront (`direct_cs`, `restir_*_cs`): one invocation runs either the camera ray's
-        // free flight and two CDF searches, or one transmittance estimate by the chosen
-        // estimator (restir: or one candidate's target estimate, of at most as many loops: a
-        // jackknife of restir_n <= n samples or ratio tracking under the same cap).
-        let mut estimate = *params;
-        estimate.integrator = 0;
-        return fixed + tracking.max(loop_iterations_per_ray(&estimate, desc)) + 2 * 32;
-    }
-    if params.integrator != 0 {
-        // Free-flight sampling and one ratio tracking (Miller, --t-hat ratio), up to four pairs
-        // of estimates on the camera ray and two shadow rays, and two passes over the lights.
-        return fixed
-            + 2 * tracking
-            + 6 * (3 * bricks + 2 * ITERATIONS_PER_SAMPLE * params.n as u64)
-            + 2 * shared::sampling::lights::MAX_LIGHTS as u64;
-    }
-    fixed
-        + match E::from_u32(params.estimator) {
-            E::Jackknife | E::NaiveMean | E::NaiveSingle => {
-                3 * bricks + 2 * ITERATIONS_PER_SAMPLE * params.n as u64
-            }
-            E::JackknifeAdaptive => {
-                3 * bricks
-                    + 2 * ITERATIONS_PER_SAMPLE
-                        * shared::estimators::optical_depth::MAX_ADAPTIVE_STRATA as u64
-            }
-            E::RegularTracking => voxels,
-            E::BiasedRayMarching => {
-                3 * bricks
-                    + ITERATIONS_PER_SAMPLE
-                        * shared::estimators::ray_marching::MAX_BIASED_SAMPLES as u64
-            }
-            E::UnbiasedRayMarching => {
-                let estimates = shared::estimators::ray_marching::MAX_DEGREE as u64 + 1;
-                bricks
-                    + estimates
-                        * (2 * bricks
-                            + ITERATIONS_PER_SAMPLE
-                                * shared::estimators::ray_marching::MAX_UNBIASED_SAMPLES as u64)
-                    + SERIES_ITERATIONS
-            }
-            E::TrackLength | E::RatioTracking => bricks + tracking,
-        }
-}
-
-/// The collision cap of the tracking loops of `params` (its decode in `shared::params::Config`).
-pub fn collision_cap(params: &RenderParams) -> u32 {
-    use shared::params::MAX_TENTATIVE_COLLISIONS as MAX;
-    if params.max_collisions == 0 || params.max_collisions > MAX {
-        MAX
-    } else {
-        params.max_collisions
-    }
-}
 
 /// Smallest collision cap [`fit_collision_cap`] lowers to before refusing the render.
 pub const MIN_COLLISION_CAP: u32 = 1000;

@@ -23,6 +23,7 @@ use engine::lighting::SceneLights;
 use engine::output::{write_exr_rgb, write_png_rgb_exposed};
 use engine::render::Resident;
 use engine::shadow_map::{self, MapSummary, ShadowKind, ShadowOptions};
+use shared::integrators::unit::OwnSettings;
 use shared::kernels::render::PixelOut;
 use shared::params::{Integrator, RenderParams};
 use std::path::{Path, PathBuf};
@@ -355,14 +356,11 @@ fn render_one(
 /// The reference of an integrator: per-pixel moments, its parameters, its EXR and PNG.
 type Reference = (Vec<(f64, f64)>, RenderParams, String, String);
 
-/// `restir` estimates the same integral as `direct`: its reference is `direct`'s (rendered once
-/// when both are evaluated).
+/// The integrator whose converged image is `i`'s reference (the integrator table's: `restir`
+/// estimates the same integral as `direct`, whose reference is rendered once when both are
+/// evaluated).
 fn reference_of(i: Integrator) -> Integrator {
-    if i == Integrator::Restir {
-        Integrator::Direct
-    } else {
-        i
-    }
+    i.unit().reference
 }
 
 /// One evaluation of lit integrators under way: the volume on the backend, the lights, the
@@ -594,23 +592,26 @@ pub fn evaluate_direct(
     };
     let mut references: Vec<ReferenceImage> = Vec::new();
     let mut entries = Vec::new();
-    let mut direct_reference: Option<Reference> = None;
+    // References by integrator: one integrator's serves every other that names it.
+    let mut rendered: Vec<(Integrator, Reference)> = Vec::new();
     for &integrator in integrators {
         let mut base = setup.params;
         base.integrator = integrator as u32;
         base.light_count = lights.points.len() as u32;
         let label = engine::integrators::integrator_name(integrator);
         let ref_integrator = reference_of(integrator);
-        let reference = match (&direct_reference, ref_integrator) {
-            (Some(r), Integrator::Direct) => r.clone(),
-            _ => run.reference(&base, ref_integrator, lights)?,
+        let reference = match rendered.iter().find(|(i, _)| *i == ref_integrator) {
+            Some((_, r)) => r.clone(),
+            None => {
+                let r = run.reference(&base, ref_integrator, lights)?;
+                rendered.push((ref_integrator, r.clone()));
+                r
+            }
         };
-        if ref_integrator == Integrator::Direct {
-            direct_reference = Some(reference.clone());
-        }
-        // `restir` resamples the point lights on their own: they leave the pmf over kinds.
+        // An integrator that resamples the point lights (restir) takes them out of the pmf
+        // over kinds.
         let mut own = lights.clone();
-        if integrator == Integrator::Restir {
+        if integrator.unit().resamples_points {
             own.resample_points();
         }
         let exact = if any_map {
@@ -712,7 +713,7 @@ fn measure(
         calibration: None,
         lookups_per_ray: px.iter().map(|p| p.samples as f64).sum::<f64>() / (n * params.spp as f64),
         flags: engine::diagnostics::RayFlags::of(&px, params.spp),
-        collision_cap: engine::render::collision_cap(params),
+        collision_cap: params.collision_cap(),
         shadow_map: None,
         paired_rms: paired.map(|p| p.0),
         paired_mean: paired.map(|p| p.1),
@@ -751,8 +752,9 @@ fn bias_variance(
     ref_params: &shared::params::RenderParams,
 ) -> f64 {
     let reference: f64 = ref_m.iter().map(|(_, v)| v / ref_params.spp as f64).sum();
-    let correlated =
-        params.integrator == shared::params::Integrator::Restir as u32 && params.restir_passes > 0;
+    // Spatial reuse passes make neighbouring pixels' estimates correlated.
+    let restir = Integrator::from_u32(params.integrator).unit().settings == OwnSettings::Restir;
+    let correlated = restir && params.restir_passes > 0;
     let own = if correlated {
         let sd: f64 = m.iter().map(|(_, v)| (v / params.spp as f64).sqrt()).sum();
         sd * sd

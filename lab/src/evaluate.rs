@@ -6,7 +6,7 @@ use anyhow::{bail, Result};
 use engine::backend::{Backend, BackendChoice};
 use engine::defaults;
 use engine::estimators::EstimatorSpec;
-use engine::job::{Job, WorkKind};
+use engine::job::{costliest, work_of, Job, WorkKind};
 use engine::output::OutputPlan;
 use engine::render::occupied_world_bounds;
 use engine::render_job::{direct_lights, lights_or_default, RenderOptions};
@@ -407,14 +407,11 @@ fn eval_job(
     renders: usize,
     reference_spp: u32,
 ) -> Job {
-    let kinds: Vec<WorkKind> = integrators
-        .into_iter()
-        .map(|i| WorkKind::of(Some(i)))
-        .collect();
+    let kinds: Vec<WorkKind> = integrators.into_iter().map(|i| work_of(Some(i))).collect();
     let pixels = u64::from(args.width) * u64::from(args.height);
     let spp = u64::from(args.spp) * renders as u64 + u64::from(reference_spp);
     Job {
-        kind: WorkKind::costliest(&kinds),
+        kind: costliest(&kinds),
         samples: pixels * spp * kinds.len() as u64,
     }
 }
@@ -498,7 +495,10 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
         hg_g: args.hg_g.unwrap_or(0.0),
         ..Default::default()
     };
-    if integrators.contains(&Integrator::Restir) {
+    let reads_restir = integrators
+        .iter()
+        .any(|i| i.unit().settings == shared::integrators::unit::OwnSettings::Restir);
+    if reads_restir {
         args.restir.check()?;
         args.restir.check_image(args.width, args.height)?;
     } else {

@@ -191,16 +191,6 @@ impl Integrator {
             _ => Integrator::Transmittance,
         }
     }
-
-    /// The RGB light-transport integrators (`direct`, `path`, `restir`): lit by the scene's
-    /// map, sun and point lights, rendered as wavefronts on the GPU.
-    #[inline]
-    pub fn is_lit(self) -> bool {
-        matches!(
-            self,
-            Integrator::Direct | Integrator::Path | Integrator::Restir
-        )
-    }
 }
 
 /// Which estimate of T(t0) the equiangular strategy of Eq. 9 uses (`RenderParams::t_hat`).
@@ -283,6 +273,17 @@ use crate::spec::or_keep;
 pub use crate::spec::UNSPECIALIZED;
 
 impl RenderParams {
+    /// The collision cap of the tracking loops: [`RenderParams::max_collisions`], or
+    /// [`MAX_TENTATIVE_COLLISIONS`] where that is 0 or larger.
+    #[inline]
+    pub fn collision_cap(&self) -> u32 {
+        if self.max_collisions == 0 || self.max_collisions > MAX_TENTATIVE_COLLISIONS {
+            MAX_TENTATIVE_COLLISIONS
+        } else {
+            self.max_collisions
+        }
+    }
+
     /// `self` with `integrator`, `estimator` and `importance` replaced by a pipeline's
     /// specialization constants ([`UNSPECIALIZED`] keeps the field): the driver folds them, so a
     /// pipeline compiles only the code of one integrator, estimator and importance instead of
@@ -337,13 +338,7 @@ impl Config {
                 TransmittanceHat::Jackknife
             },
             roulette: params.roulette != 0,
-            max_collisions: if params.max_collisions == 0
-                || params.max_collisions > MAX_TENTATIVE_COLLISIONS
-            {
-                MAX_TENTATIVE_COLLISIONS
-            } else {
-                params.max_collisions
-            },
+            max_collisions: params.collision_cap(),
         }
     }
 }

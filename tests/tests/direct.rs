@@ -191,7 +191,7 @@ fn direct_fits_every_estimator_without_lowering_the_collision_cap() {
             "{e:?}"
         );
         let fitted = engine::render::fit_collision_cap(&p, &packed.desc);
-        assert_eq!(engine::render::collision_cap(&fitted), 10_000, "{e:?}");
+        assert_eq!(fitted.collision_cap(), 10_000, "{e:?}");
     }
 }
 

@@ -1,7 +1,7 @@
 //! Issue 43, item 3: many samples per ray stay within a GPU invocation's loop budget. lavapipe
 //! ends an invocation after 65535 loop iterations summed over all its loops, counting a loop
 //! that is entered and left at once as one; Alg. 1's sample loop enters the brick loop once per
-//! sample, so a sample costs two (`engine::render::ITERATIONS_PER_SAMPLE`). Planned at one, a
+//! sample, so a sample costs two (`shared::integrators::budget::ITERATIONS_PER_SAMPLE`). Planned at one, a
 //! jackknife with `--n 4096` at 8 spp lost its later samples on the GPU (224 of 256 pixels
 //! differed, misses included), biased ray marching at density 3e4 and 4 spp lost 41 samples of a
 //! capped ray, and one unbiased ray-marching ray of 9 estimates of 4096 samples ran past the

@@ -294,12 +294,10 @@ fn gpu_and_cpu_render_identical_images_for_every_integrator() {
         let packed = pack(&vol, 2.0, 8, lookup).unwrap();
         // The integrators lit by point lights (direct, path, restir: tests/tests/direct.rs,
         // path.rs, restir.rs).
-        let point_lit = engine::integrators::INTEGRATORS
-            .iter()
-            .filter(|(_, i)| !i.is_lit());
-        for (_, integrator) in point_lit {
+        let point_lit = engine::integrators::integrators().filter(|i| !i.is_lit());
+        for integrator in point_lit {
             for t_hat in [TransmittanceHat::Jackknife, TransmittanceHat::Ratio] {
-                let mut p = params(&vol, 12, 10, 6, *integrator, t_hat);
+                let mut p = params(&vol, 12, 10, 6, integrator, t_hat);
                 p.pixel_jitter = 1;
                 p.hg_g = 0.3;
                 let g = render_scene(&gpu, &packed, &p, &test_lights(), false).unwrap();

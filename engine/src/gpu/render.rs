@@ -302,7 +302,7 @@ fn render_tiles(
     let l = gpu.buffer(std::mem::size_of_val(points) as u64)?;
     // `direct_cs` and `path_cs` (wavefronts) also read the lights' block, the map and the
     // samples' states; `transmittance_cs` and `scattering_cs` none of them.
-    let wave = Wavefront::of(Integrator::from_u32(params.integrator));
+    let wave = Integrator::from_u32(params.integrator).wavefront();
     let direct = wave.is_some();
     let env_data: &[f32] = if direct { &lights.env } else { &[0.0] };
     let lighting = gpu.buffer(std::mem::size_of::<Lighting>() as u64)?;

@@ -134,7 +134,7 @@ fn log_scene(args: &RenderOptions, scene: &Scene, backend: &Backend, load_ms: f6
 fn render_lights(args: &RenderOptions, vol: &dyn VolumeData) -> Result<SceneLights> {
     if args.integrator.is_some_and(Integrator::is_lit) {
         let mut l = direct_lights(args, vol)?;
-        if args.integrator == Some(Integrator::Restir) {
+        if args.integrator.is_some_and(|i| i.unit().resamples_points) {
             l.resample_points();
         }
         Ok(l)

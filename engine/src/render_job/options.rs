@@ -5,6 +5,7 @@ use crate::backend::BackendChoice;
 use crate::output::OutputPlan;
 use crate::scene::SceneOptions;
 use anyhow::Result;
+use shared::integrators::unit::OwnSettings;
 use shared::params::{Integrator, TransmittanceHat};
 use shared::sampling::lights::PointLight;
 use shared::volume::grid::Lookup;
@@ -56,11 +57,19 @@ pub struct RenderOptions {
     pub quiet: bool,
 }
 
+impl RenderOptions {
+    /// The settings of the integrator's own ([`OwnSettings::None`] without one).
+    pub fn own_settings(&self) -> OwnSettings {
+        self.integrator
+            .map_or(OwnSettings::None, |i| i.unit().settings)
+    }
+}
+
 /// Checks the options a render reads before any work: `restir`'s settings against the image,
 /// the shadow-map options, and that `--out` is an .exr file. (Whether each flag applies to the
 /// integrator is the command line's check: `host::cli::applicable`.)
 pub fn check_render_flags(args: &RenderOptions) -> Result<()> {
-    if args.integrator == Some(Integrator::Restir) {
+    if args.own_settings() == OwnSettings::Restir {
         args.restir.check()?;
         args.restir.check_image(args.width, args.height)?;
     }

@@ -10,6 +10,7 @@ use crate::shadow_map::ShadowSummary;
 use crate::supervoxel_info::SupervoxelInfo;
 use crate::volume::VolumeData;
 use anyhow::Result;
+use shared::integrators::unit::OwnSettings;
 use shared::params::{Integrator, RenderParams};
 use shared::sampling::lights::PointLight;
 use std::path::Path;
@@ -254,6 +255,7 @@ pub(super) fn direct_settings(
             angular_radius_deg: (1.0 - l.sun.one_minus_cos as f64).acos().to_degrees() as f32,
         }
     });
+    let own = args.own_settings();
     IntegratorSettings {
         name: crate::integrators::integrator_name(args.integrator.unwrap_or(Integrator::Direct))
             .into(),
@@ -271,9 +273,9 @@ pub(super) fn direct_settings(
         shadows: Some(shadows),
         light_pmf: Some([l.p_sun, l.p_env, l.p_points]),
         collision_cap: Some(collision_cap),
-        restir: (args.integrator == Some(Integrator::Restir)).then(|| args.restir.settings()),
-        rr_depth: (args.integrator == Some(Integrator::Path)).then_some(args.rr_depth),
-        max_depth: (args.integrator == Some(Integrator::Path)).then_some(args.max_depth),
+        restir: (own == OwnSettings::Restir).then(|| args.restir.settings()),
+        rr_depth: (own == OwnSettings::PathDepth).then_some(args.rr_depth),
+        max_depth: (own == OwnSettings::PathDepth).then_some(args.max_depth),
         hg_g: args.hg_g,
         t_hat: "none".into(),
         exposure: args.exposure,
@@ -314,7 +316,7 @@ pub(super) fn summarize(r: &Rendered) -> Result<RenderSummary> {
         Some(i) if i.is_lit() => Some(direct_settings(
             args,
             r.lights,
-            crate::render::collision_cap(params),
+            params.collision_cap(),
             r.shadows.clone().expect("built for direct and path"),
         )),
         Some(i) => Some(integrator_settings(args, i, &r.lights.points)),

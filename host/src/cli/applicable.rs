@@ -5,6 +5,7 @@
 use anyhow::{bail, Result};
 use engine::render_job::RenderOptions;
 use engine::shadow_map::ShadowKind;
+use shared::integrators::unit::OwnSettings;
 use shared::params::{Estimator, Integrator, TransmittanceHat};
 
 /// Options that only an integrator render reads (clap ids, flag spelling).
@@ -40,10 +41,10 @@ const MSM_ONLY: &[(&str, &str)] = &[
     ("msm_filter", "--msm-filter"),
 ];
 
-/// Options only `--integrator path` reads.
+/// Options only the integrators with `path`'s depths read ([`OwnSettings::PathDepth`]).
 const PATH_ONLY: &[(&str, &str)] = &[("rr_depth", "--rr-depth"), ("max_depth", "--max-depth")];
 
-/// Options only `--integrator restir` reads.
+/// Options only the integrators with `restir`'s resampling read ([`OwnSettings::Restir`]).
 const RESTIR_ONLY: &[(&str, &str)] = &[
     ("restir_candidates", "--restir-candidates"),
     ("restir_target", "--restir-target"),
@@ -54,6 +55,12 @@ const RESTIR_ONLY: &[(&str, &str)] = &[
     ("restir_radius", "--restir-radius"),
     ("restir_mis", "--restir-mis"),
     ("restir_m_cap", "--restir-m-cap"),
+];
+
+/// The flags of each integrator's own settings (the integrator table's `settings`).
+const OWN_FLAGS: &[(OwnSettings, &[(&str, &str)])] = &[
+    (OwnSettings::PathDepth, PATH_ONLY),
+    (OwnSettings::Restir, RESTIR_ONLY),
 ];
 
 /// Options `--integrator direct` does not read.
@@ -69,14 +76,13 @@ const TRANSMITTANCE_ONLY: &[(&str, &str)] =
 pub fn check(args: &RenderOptions, given: &[String]) -> Result<()> {
     let given = |id: &str| given.iter().any(|g| g == id);
     let lit = args.integrator.is_some_and(Integrator::is_lit);
-    if args.integrator != Some(Integrator::Path) {
-        if let Some((_, flag)) = PATH_ONLY.iter().find(|(id, _)| given(id)) {
-            bail!("{flag} only applies to --integrator path; add it or drop {flag}");
+    for (settings, flags) in OWN_FLAGS {
+        if args.own_settings() == *settings {
+            continue;
         }
-    }
-    if args.integrator != Some(Integrator::Restir) {
-        if let Some((_, flag)) = RESTIR_ONLY.iter().find(|(id, _)| given(id)) {
-            bail!("{flag} only applies to --integrator restir; add it or drop {flag}");
+        if let Some((_, flag)) = flags.iter().find(|(id, _)| given(id)) {
+            let names = engine::integrators::reading(*settings);
+            bail!("{flag} only applies to --integrator {names}; add it or drop {flag}");
         }
     }
     if lit {

@@ -367,3 +367,36 @@ pub fn parse_sun(s: &str) -> Result<engine::lighting::SunSpec, String> {
         radius_deg,
     })
 }
+
+/// `--integrator`'s parser: the names of the integrator table (`engine::integrators`), which
+/// clap lists as the flag's possible values in `--help` and in its errors.
+#[derive(Clone, Copy, Debug)]
+pub struct IntegratorParser;
+
+impl clap::builder::TypedValueParser for IntegratorParser {
+    type Value = shared::params::Integrator;
+
+    fn parse_ref(
+        &self,
+        cmd: &clap::Command,
+        arg: Option<&clap::Arg>,
+        value: &std::ffi::OsStr,
+    ) -> Result<Self::Value, clap::Error> {
+        clap::builder::PossibleValuesParser::new(self.possible_values().into_iter().flatten())
+            .parse_ref(cmd, arg, value)
+            .map(|name| {
+                engine::integrators::integrators()
+                    .find(|i| i.unit().name == name)
+                    .expect("a possible value is an integrator's name")
+            })
+    }
+
+    fn possible_values(
+        &self,
+    ) -> Option<Box<dyn Iterator<Item = clap::builder::PossibleValue> + '_>> {
+        Some(Box::new(
+            engine::integrators::integrators()
+                .map(|i| clap::builder::PossibleValue::new(i.unit().name)),
+        ))
+    }
+}

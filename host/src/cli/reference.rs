@@ -80,7 +80,7 @@ fn argument(out: &mut String, a: &Arg) {
         .or(a.get_help())
         .map(|h| one_line(&h.to_string()))
         .unwrap_or_default();
-    if !help.is_empty() && !help.ends_with(['.', ')', ']']) {
+    if !help.is_empty() && !help.ends_with(['.', ']']) {
         help.push('.');
     }
     let _ = write!(out, "- `{head}`: {help}");

@@ -142,10 +142,9 @@ pub struct RenderArgs {
     /// Render radiance with this integrator instead of primary-ray transmittance: `direct`
     /// (RGB direct illumination from --env, --sun and --light, shadow rays by --estimator),
     /// `path` (RGB multiple scattering, the same lights and shadow rays), `restir` (`direct` with
-    /// the point lights resampled from --restir-candidates draws by power), or
-    /// single scattering from point lights: free-flight, equiangular, mis-jackknife, mis-naive,
-    /// combined-jackknife, combined-naive, miller, mis-power (docs/guide/integrators.md).
-    #[arg(long, value_parser = engine::integrators::parse_integrator)]
+    /// the point lights resampled from --restir-candidates draws by power), or one of the
+    /// single-scattering integrators lit by point lights (docs/guide/integrators.md)
+    #[arg(long, value_parser = super::parsers::IntegratorParser)]
     pub integrator: Option<shared::params::Integrator>,
     /// A point light "x,y,z,intensity" in world units (repeat for more; default: two lights
     /// inside the volume; with `direct`, `path`, `restir`: none, and a --light replaces the

@@ -5,6 +5,7 @@
 //! direct illumination from an environment map, a sun and point lights in RGB (`direct`), and
 //! multiple scattering (`path`).
 
+pub mod budget;
 mod context;
 pub mod direct;
 mod equiangular;
@@ -16,6 +17,7 @@ pub mod restir;
 pub mod restir_reuse;
 pub mod stages;
 mod strategy;
+pub mod unit;
 mod weights;
 
 use crate::geometry::{to_index_space, Ray};

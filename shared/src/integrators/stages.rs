@@ -10,7 +10,7 @@ use super::restir::{
     stage_count as restir_stage_count, stage_kind as restir_stage_kind, RestirState,
     KIND_CANDIDATE, KIND_QUERY, KIND_RESOLVE, KIND_REUSE, KIND_START,
 };
-use crate::params::{Integrator, RenderParams};
+use crate::params::RenderParams;
 
 /// The kind of wavefront stage `stage` of `direct` and `path`: 0 starts the sample, 1 is any
 /// later stage (the stage specialization constant of `direct_cs` and `path_cs`).
@@ -51,17 +51,6 @@ pub enum Wavefront {
 }
 
 impl Wavefront {
-    /// The wavefront of `integrator` (None: it renders a whole sample per invocation).
-    #[inline]
-    pub fn of(integrator: Integrator) -> Option<Self> {
-        match integrator {
-            Integrator::Direct => Some(Wavefront::Direct),
-            Integrator::Path => Some(Wavefront::Path),
-            Integrator::Restir => Some(Wavefront::Restir),
-            _ => None,
-        }
-    }
-
     /// Bytes of one sample's state.
     #[inline]
     pub fn state_bytes(self) -> u32 {
@@ -184,8 +173,6 @@ mod tests {
             assert_eq!(wave.kind(&params, 0), 0);
             assert_eq!(wave.kind(&params, 1), 1);
         }
-        assert_eq!(Wavefront::of(Integrator::Path), Some(Wavefront::Path));
-        assert_eq!(Wavefront::of(Integrator::MisJackknife), None);
         assert_eq!(
             Wavefront::Restir.state_bytes() as usize,
             core::mem::size_of::<RestirState>()

@@ -18,7 +18,9 @@ use crate::integrators::restir::{
 };
 use crate::integrators::restir_reuse::reuse;
 use crate::integrators::restir_reuse::store_reuse;
-use crate::params::{Config, RenderParams};
+use crate::integrators::stages::Wavefront;
+use crate::integrators::unit::Family;
+use crate::params::{Config, Integrator, RenderParams};
 use crate::rgb::Rgb;
 use crate::rng::HashRng;
 use crate::sampling::lighting::Scene;
@@ -165,6 +167,34 @@ pub fn render_pixel_pass(
         transmittance_pixel_pass(vol, params, id, s_begin, s_end, prev)
     } else {
         scattering_pixel_pass(vol, params, lights, id, s_begin, s_end, prev)
+    }
+}
+
+/// Adds samples s_begin..s_end of pixel `id` to `prev` by `params`' integrator, every stage of a
+/// sample in one call: the CPU backend's pass for every family (a GPU runs a lit integrator's
+/// stages as dispatches, and transmittance and single scattering as [`render_pixel_pass`]).
+pub fn cpu_pixel_pass(
+    vol: &VolumeView<impl Texels>,
+    params: &RenderParams,
+    scene: &Scene,
+    id: u32,
+    s_begin: u32,
+    s_end: u32,
+    prev: PixelSums,
+) -> PixelSums {
+    match Integrator::from_u32(params.integrator).family() {
+        Family::Lit(Wavefront::Direct) => {
+            direct_pixel_pass(vol, params, scene, id, s_begin, s_end, prev)
+        }
+        Family::Lit(Wavefront::Path) => {
+            path_pixel_pass(vol, params, scene, id, s_begin, s_end, prev)
+        }
+        Family::Lit(Wavefront::Restir) => {
+            restir_pixel_pass(vol, params, scene, id, s_begin, s_end, prev)
+        }
+        Family::Transmittance | Family::SingleScattering => {
+            render_pixel_pass(vol, params, scene.points, id, s_begin, s_end, prev)
+        }
     }
 }
 
