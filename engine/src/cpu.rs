@@ -75,7 +75,7 @@ impl RenderBackend for CpuVolume<'_> {
         let view = self.view();
         let scene = lights.view();
         let wave = Integrator::from_u32(params.integrator).wavefront();
-        if wave == Some(Wavefront::Restir) && params.restir_passes > 0 {
+        if wave == Some(Wavefront::Restir) && params.restir.passes > 0 {
             return Ok(restir_wave(&view, params, &scene, bar));
         }
         let count = params.width * params.height;

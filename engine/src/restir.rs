@@ -188,15 +188,15 @@ impl RestirOptions {
 
     /// Writes the options into the render parameters.
     pub fn apply(&self, params: &mut RenderParams) {
-        params.restir_candidates = self.candidates;
-        params.restir_target = self.target as u32;
-        params.restir_n = self.n;
-        params.restir_floor = self.floor;
-        params.restir_passes = self.passes;
-        params.restir_neighbours = self.neighbours;
-        params.restir_radius = self.radius;
-        params.restir_mis = self.mis as u32;
-        params.restir_m_cap = self.m_cap;
+        params.restir.candidates = self.candidates;
+        params.restir.target = self.target as u32;
+        params.restir.n = self.n;
+        params.restir.floor = self.floor;
+        params.restir.passes = self.passes;
+        params.restir.neighbours = self.neighbours;
+        params.restir.radius = self.radius;
+        params.restir.mis = self.mis as u32;
+        params.restir.m_cap = self.m_cap;
     }
 
     /// The JSON record.

@@ -754,7 +754,7 @@ fn bias_variance(
     let reference: f64 = ref_m.iter().map(|(_, v)| v / ref_params.spp as f64).sum();
     // Spatial reuse passes make neighbouring pixels' estimates correlated.
     let restir = Integrator::from_u32(params.integrator).unit().settings == OwnSettings::Restir;
-    let correlated = restir && params.restir_passes > 0;
+    let correlated = restir && params.restir.passes > 0;
     let own = if correlated {
         let sd: f64 = m.iter().map(|(_, v)| (v / params.spp as f64).sqrt()).sum();
         sd * sd
@@ -804,7 +804,10 @@ mod tests {
         let r = shared::params::RenderParams { spp: 2, ..p };
         assert_eq!(bias_variance(&m, &reference, &p, &r), 13.0 + 8.0);
         let reused = shared::params::RenderParams {
-            restir_passes: 1,
+            restir: shared::params::RestirParams {
+                passes: 1,
+                ..p.restir
+            },
             ..p
         };
         assert_eq!(bias_variance(&m, &reference, &reused, &r), 25.0 + 8.0);

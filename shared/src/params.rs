@@ -203,6 +203,30 @@ pub enum TransmittanceHat {
     Ratio = 1,
 }
 
+/// `restir`'s settings in [`RenderParams`] (read only by `--integrator restir`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RestirParams {
+    /// Light candidates per camera sample, M (streaming RIS, GRIS Sec. 6.2).
+    pub candidates: u32,
+    /// [`RestirTarget`] as u32: the transmittance factor of the target p̂.
+    pub target: u32,
+    /// Samples per optical depth estimate of the target's T̂ (jackknife: m N lookups).
+    pub n: u32,
+    /// The target's floor on T̂ (defensive: p̂ > 0 wherever the integrand is).
+    pub floor: f32,
+    /// Spatial reuse passes over the image (0: none), each a dispatch.
+    pub passes: u32,
+    /// Neighbours per pixel and reuse pass, k.
+    pub neighbours: u32,
+    /// Neighbours lie within this many pixels in x and y (a (2r + 1)^2 window).
+    pub radius: u32,
+    /// [`RestirMis`] as u32.
+    pub mis: u32,
+    /// Cap on a reused reservoir's confidence M (0: none; GRIS Sec. 6.4).
+    pub m_cap: u32,
+}
+
 /// Everything a render kernel needs besides the volume buffers.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -249,24 +273,8 @@ pub struct RenderParams {
     pub rr_depth: u32,
     /// `path`: most vertices (scattering events) of a path, at least 1.
     pub max_depth: u32,
-    /// `restir`: light candidates per camera sample, M (streaming RIS, GRIS Sec. 6.2).
-    pub restir_candidates: u32,
-    /// `restir`: [`RestirTarget`] as u32: the transmittance factor of the target p̂.
-    pub restir_target: u32,
-    /// `restir`: samples per optical depth estimate of the target's T̂ (jackknife: m N lookups).
-    pub restir_n: u32,
-    /// `restir`: the target's floor on T̂ (defensive: p̂ > 0 wherever the integrand is).
-    pub restir_floor: f32,
-    /// `restir`: spatial reuse passes over the image (0: none), each a dispatch.
-    pub restir_passes: u32,
-    /// `restir`: neighbours per pixel and reuse pass, k.
-    pub restir_neighbours: u32,
-    /// `restir`: neighbours lie within this many pixels in x and y (a (2r + 1)^2 window).
-    pub restir_radius: u32,
-    /// `restir`: [`RestirMis`] as u32.
-    pub restir_mis: u32,
-    /// `restir`: cap on a reused reservoir's confidence M (0: none; GRIS Sec. 6.4).
-    pub restir_m_cap: u32,
+    /// `restir`'s resampling settings.
+    pub restir: RestirParams,
 }
 
 use crate::spec::or_keep;

@@ -122,9 +122,9 @@ fn every_integrator_is_bit_identical_and_finite_at_every_density() {
                     p.integrator = integrator as u32;
                     p.t_hat = t_hat as u32;
                     // restir: three candidates with jackknife targets (the others ignore it).
-                    p.restir_candidates = 3;
-                    p.restir_n = 4;
-                    p.restir_floor = 0.05;
+                    p.restir.candidates = 3;
+                    p.restir.n = 4;
+                    p.restir.floor = 0.05;
                     let what = format!("{integrator:?} {t_hat:?} {lookup:?} scale {scale:e}");
                     if t_hat == TransmittanceHat::Ratio && !reads_t_hat(integrator) {
                         // The same image as with the jackknife's T̂, on the CPU (the GPU's is

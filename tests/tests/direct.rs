@@ -381,10 +381,13 @@ fn single_scattering_against_quadrature(
         integrator: integrator as u32,
         hg_g: g as f32,
         light_count: points.len() as u32,
-        restir_candidates: candidates,
-        restir_target: shared::params::RestirTarget::Jackknife as u32,
-        restir_n: 4,
-        restir_floor: 0.05,
+        restir: shared::params::RestirParams {
+            candidates,
+            target: shared::params::RestirTarget::Jackknife as u32,
+            n: 4,
+            floor: 0.05,
+            ..Default::default()
+        },
         rr_depth: 5,
         max_depth: 1,
         ..Default::default()

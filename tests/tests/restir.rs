@@ -18,7 +18,9 @@ use integration_tests::{assert_bytes_equal, camera_params, gpu, lumpy_blobs};
 use shared::integrators::restir::{p_hat, stage_count, Reservoir, RestirState};
 use shared::integrators::restir_reuse::{neighbour, NO_NEIGHBOUR};
 use shared::kernels::render::restir_step;
-use shared::params::{Config, Estimator, Integrator, RenderParams, RestirMis, RestirTarget};
+use shared::params::{
+    Config, Estimator, Integrator, RenderParams, RestirMis, RestirParams, RestirTarget,
+};
 use shared::volume::grid::Lookup;
 
 fn packed(vol: &DenseVolume) -> PackedVolume {
@@ -43,10 +45,13 @@ fn params(
         pixel_jitter: 1,
         integrator: Integrator::Restir as u32,
         hg_g: 0.3,
-        restir_candidates: m,
-        restir_target: target as u32,
-        restir_n: 4,
-        restir_floor: 0.05,
+        restir: RestirParams {
+            candidates: m,
+            target: target as u32,
+            n: 4,
+            floor: 0.05,
+            ..Default::default()
+        },
         ..camera_params(vol, w, h)
     }
 }
@@ -86,11 +91,14 @@ fn with_reuse(
     m_cap: u32,
 ) -> RenderParams {
     RenderParams {
-        restir_passes: passes,
-        restir_neighbours: 3,
-        restir_radius: radius,
-        restir_mis: mis as u32,
-        restir_m_cap: m_cap,
+        restir: RestirParams {
+            passes,
+            neighbours: 3,
+            radius,
+            mis: mis as u32,
+            m_cap,
+            ..p.restir
+        },
         ..p
     }
 }
@@ -242,7 +250,7 @@ fn spatial_reuse_agrees_with_direct_in_expectation() {
 fn agrees_with_direct(vol: &DenseVolume, r: &RenderParams, what: &str) {
     let packed = packed(vol);
     let (spp, r) = (r.spp, *r);
-    let correlated = r.restir_passes > 0;
+    let correlated = r.restir.passes > 0;
     let d = RenderParams {
         integrator: Integrator::Direct as u32,
         seed: 6,
@@ -338,10 +346,13 @@ fn target_is_positive_bounded_and_a_fixed_function() {
         4,
         RestirTarget::Jackknife,
     );
-    p.restir_n = 1;
+    p.restir.n = 1;
     let cfg = Config::decode(&p, &view.desc);
     let unshadowed = RenderParams {
-        restir_target: RestirTarget::Unshadowed as u32,
+        restir: RestirParams {
+            target: RestirTarget::Unshadowed as u32,
+            ..p.restir
+        },
         ..p
     };
     let (mut floored, mut between) = (0, 0);
@@ -457,7 +468,10 @@ fn neighbours_stay_in_their_window() {
         width: 9,
         height: 7,
         seed: 3,
-        restir_radius: 2,
+        restir: RestirParams {
+            radius: 2,
+            ..Default::default()
+        },
         ..Default::default()
     };
     for id in [0u32, 31, 62] {
@@ -502,10 +516,10 @@ fn a_neighbours_target_re_evaluated_is_the_one_it_stored() {
                 let mut st = RestirState::default();
                 let mut sums = Default::default();
                 // The start and the candidates only.
-                for stage in 0..=p.restir_candidates {
+                for stage in 0..=p.restir.candidates {
                     (st, sums) = restir_step(&view, &p, &scene, id, s, stage, st, sums);
                 }
-                assert!(stage_count(&p) > p.restir_candidates + 1);
+                assert!(stage_count(&p) > p.restir.candidates + 1);
                 if st.found == 0 || !(st.reservoir.w_sum > 0.0) {
                     continue;
                 }

@@ -409,12 +409,12 @@ fn tile_pixels(
     let tile = (gpu.max_buffer_bytes() / per_pixel / 64 * 64)
         .max(64)
         .min(u64::from(count)) as u32;
-    if wave == Some(Wavefront::Restir) && params.restir_passes > 0 && tile < count {
+    if wave == Some(Wavefront::Restir) && params.restir.passes > 0 && tile < count {
         anyhow::bail!(
             "--restir-passes {} needs every pixel's state in one GPU buffer: {count} pixels of \
              {state_size} bytes exceed the device's largest buffer ({} bytes); lower the \
              resolution or use --restir-passes 0",
-            params.restir_passes,
+            params.restir.passes,
             gpu.max_buffer_bytes()
         );
     }

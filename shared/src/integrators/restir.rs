@@ -112,14 +112,14 @@ impl RestirState {
 /// The stages of one sample: start, M candidates, P reuse passes, resolve, four estimates.
 #[inline]
 pub fn stage_count(params: &RenderParams) -> u32 {
-    params.restir_candidates + params.restir_passes + 6
+    params.restir.candidates + params.restir.passes + 6
 }
 
 /// Whether stage `stage` is a reuse pass (stages M + 1 ..= M + P), which reads the other
 /// pixels' states ([`super::restir_reuse::reuse`]; [`restir_stage`] leaves it alone).
 #[inline]
 pub fn is_reuse_stage(params: &RenderParams, stage: u32) -> bool {
-    stage > params.restir_candidates && stage <= params.restir_candidates + params.restir_passes
+    stage > params.restir.candidates && stage <= params.restir.candidates + params.restir.passes
 }
 
 /// Stage kinds of a sample, in stage order (the value of the wavefront kernel's stage
@@ -137,8 +137,8 @@ pub const KIND_QUERY: u32 = 4;
 /// The kind of stage `stage` (one of the `KIND_*` constants).
 #[inline]
 pub fn stage_kind(params: &RenderParams, stage: u32) -> u32 {
-    let m = params.restir_candidates;
-    let p = params.restir_passes;
+    let m = params.restir.candidates;
+    let p = params.restir.passes;
     if stage == 0 {
         KIND_START
     } else if stage <= m {
@@ -155,7 +155,7 @@ pub fn stage_kind(params: &RenderParams, stage: u32) -> u32 {
 /// The reuse pass of reuse stage `stage` (0-based).
 #[inline]
 pub fn reuse_pass(params: &RenderParams, stage: u32) -> u32 {
-    stage - params.restir_candidates - 1
+    stage - params.restir.candidates - 1
 }
 
 /// Radiance along one camera ray (RGB), its tally and the generator: every stage in one call
@@ -182,9 +182,9 @@ pub fn restir_radiance(
         id,
         sample,
         st,
-        params.restir_candidates,
+        params.restir.candidates,
     );
-    let mut stage = params.restir_candidates + 1;
+    let mut stage = params.restir.candidates + 1;
     while stage < stage_count(params) {
         st = restir_stage(vol, cfg, params, scene, id, sample, st, stage);
         stage += 1;
@@ -266,7 +266,7 @@ pub fn query_stage(
     st: RestirState,
     stage: u32,
 ) -> RestirState {
-    let first = params.restir_candidates + params.restir_passes + 2;
+    let first = params.restir.candidates + params.restir.passes + 2;
     estimate_query(vol, cfg, params, scene, st, stage - first)
 }
 
@@ -317,7 +317,7 @@ pub fn stream_candidates(
         rng = next;
         let (k, inv_pmf) = sample_power(scene.points, scene.point_count, u0, u1);
         let (p_hat, tally) = p_hat(vol, cfg, params, scene, id, sample, st.x, st.wo, k);
-        let w = p_hat * inv_pmf / params.restir_candidates as f32;
+        let w = p_hat * inv_pmf / params.restir.candidates as f32;
         r = r.update(k, w, p_hat, u2);
         lookups += tally.lookups;
         i += 1;
@@ -345,7 +345,7 @@ pub fn p_hat(
     k: u32,
 ) -> (f32, Tally) {
     let (w, dist, f) = unshadowed(&scene.points[k as usize], x, wo, params.hg_g);
-    let target = RestirTarget::from_u32(params.restir_target);
+    let target = RestirTarget::from_u32(params.restir.target);
     if target == RestirTarget::Unshadowed || !(dist > 0.0) {
         return (f, Tally::default());
     }
@@ -361,7 +361,7 @@ pub fn p_hat(
         ..*cfg
     };
     let small = RenderParams {
-        n: params.restir_n,
+        n: params.restir.n,
         ..*params
     };
     let toward = ShadowQuery {
@@ -374,10 +374,10 @@ pub fn p_hat(
     let (t_hat, tally, _) = shadow_pair_or_ratio(vol, &est, &small, &toward, rng);
     let clamped = if t_hat > 1.0 {
         1.0
-    } else if t_hat > params.restir_floor {
+    } else if t_hat > params.restir.floor {
         t_hat
     } else {
-        params.restir_floor
+        params.restir.floor
     };
     (f * clamped, tally)
 }
@@ -386,7 +386,7 @@ pub fn p_hat(
 /// query, with weight albedo tint I phase / d^2 W (its T to come), from the reservoir of the last
 /// reuse pass.
 pub fn resolve_stage(scene: &Scene, params: &RenderParams, st: RestirState) -> RestirState {
-    let kept = st.input(params.restir_passes);
+    let kept = st.input(params.restir.passes);
     let big_w = kept.contribution_weight();
     if st.found == 0 || !(big_w > 0.0) {
         return st;

@@ -53,11 +53,11 @@ pub fn neighbour(params: &RenderParams, id: u32, sample: u32, pass: u32, n: u32)
     let rng = HashRng::for_sample(id, sample, key);
     let (a, rng) = rng.next_u32();
     let (b, _) = rng.next_u32();
-    let side = 2 * params.restir_radius + 1;
+    let side = 2 * params.restir.radius + 1;
     let (x, y) = (id % params.width, id / params.width);
     // x + a % side - r in [0, width), written without negative intermediates.
     let (qx, qy) = (x + a % side, y + b % side);
-    let r = params.restir_radius;
+    let r = params.restir.radius;
     if qx < r || qy < r || qx - r >= params.width || qy - r >= params.height {
         return NO_NEIGHBOUR;
     }
@@ -112,8 +112,8 @@ fn neighbour_input(states: &[RestirState], base: u32, q: u32, pass: u32) -> Opti
 /// The reservoir's confidence M after a reuse, capped at `restir_m_cap` (0: no cap).
 #[inline]
 pub fn capped_m(params: &RenderParams, m: u32) -> u32 {
-    if params.restir_m_cap > 0 && m > params.restir_m_cap {
-        params.restir_m_cap
+    if params.restir.m_cap > 0 && m > params.restir.m_cap {
+        params.restir.m_cap
     } else {
         m
     }
@@ -139,8 +139,8 @@ pub fn reuse(
     if st.found == 0 || scene.point_count == 0 {
         return with_output(st, pass, own);
     }
-    let k = params.restir_neighbours;
-    let balance = RestirMis::from_u32(params.restir_mis) == RestirMis::Balance;
+    let k = params.restir.neighbours;
+    let balance = RestirMis::from_u32(params.restir.mis) == RestirMis::Balance;
     // The valid inputs' count and confidences.
     let c_c = own.m as f32;
     let (mut k_eff, mut c_total, mut m_total) = (0u32, c_c, own.m);

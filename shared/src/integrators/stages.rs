@@ -137,8 +137,11 @@ mod tests {
     fn each_wavefront_states_its_stages_once() {
         let params = RenderParams {
             max_depth: 3,
-            restir_candidates: 2,
-            restir_passes: 1,
+            restir: crate::params::RestirParams {
+                candidates: 2,
+                passes: 1,
+                ..Default::default()
+            },
             ..RenderParams::default()
         };
         assert_eq!(modes(Wavefront::Direct, &params), [0, 1, 2, 3]);
