@@ -1,9 +1,10 @@
 #!/usr/bin/env python3
 """Prints the `host eval` tables (markdown) of docs/results/transmittance.md (transmittance evals)
-and docs/results/scattering.md (integrator evals) from eval JSON files written by `host eval`.
+docs/results/scattering.md (integrator evals) and docs/results/direct.md (lit integrator evals) from eval JSON files written by `host eval`.
 
 Usage: scripts/eval_tables.py docs/results/eval_cloud.json [more.json ...]
-Transmittance evals (key `estimators`) and integrator evals (key `integrators`) are both accepted.
+Transmittance evals (key `estimators`), single-scattering integrator evals (key `integrators`) and
+lit integrator evals (key `entries`: docs/results/direct.md) are accepted.
 """
 import json
 import sys
@@ -45,6 +46,26 @@ def integrator_table(d):
     return "\n".join([head] + rows)
 
 
+def lit_table(d):
+    """The shadow-ray table of docs/results/direct.md: one row per entry of a lit integrator's
+    eval (`host eval --integrators direct|path`); ms per spp from the entry's time, std^2 x ms the
+    equal-time figure of merit."""
+    head = (
+        "| shadow rays | SMAPE | mean bias +- s.e. | mean std | lookups / camera ray | ms / spp | std^2 x ms | capped rays | jackknife outside rays |\n"
+        "|---|---|---|---|---|---|---|---|---|"
+    )
+    rows = []
+    for e in d["entries"]:
+        ms = e["elapsed_ms"] / e.get("spp", d["spp"])
+        rows.append(
+            f"| `{e['name']}` | {e['smape']:.4f} | {e['mean_bias']:+.5f} +- {e['mean_bias_se']:.5f} | "
+            f"{e['mean_std']:.4f} | {e['lookups_per_ray']:.2f} | {ms:.1f} | "
+            f"{e['mean_std'] ** 2 * ms:.2f} | {e.get('capped_rays', 0)} | "
+            f"{e.get('jackknife_outside_rays', 0)} |"
+        )
+    return "\n".join([head] + rows)
+
+
 def main():
     if len(sys.argv) < 2:
         sys.exit(__doc__)
@@ -58,6 +79,8 @@ def main():
             print(transmittance_table(d))
         elif "integrators" in d:
             print(integrator_table(d))
+        elif "entries" in d:
+            print(lit_table(d))
         else:
             sys.exit(f"error: {path}: neither a transmittance nor an integrator eval")
         print()

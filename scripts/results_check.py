@@ -8,6 +8,7 @@ Usage: scripts/results_check.py   (run by scripts/test.sh; exits 1 naming each m
 Pages and generators:
   docs/results/transmittance.md  scripts/eval_tables.py docs/results/eval_{cloud,explosion,constant}.json
   docs/results/scattering.md     scripts/eval_tables.py docs/results/eval_integrators_cloud.json
+  docs/results/direct.md         scripts/eval_tables.py docs/results/eval_{direct,path}_cloud.json
   docs/results/adaptive.md       scripts/adaptive_table.py (its f32 nearest rows appear in the
                                  page's first adaptive table without the lookup and format columns)
 """
@@ -49,6 +50,12 @@ checks = [
     (
         "scattering.md",
         ["scripts/eval_tables.py", "docs/results/eval_integrators_cloud.json"],
+        lambda r: r,
+    ),
+    (
+        "direct.md",
+        ["scripts/eval_tables.py"]
+        + [f"docs/results/eval_{i}_cloud.json" for i in ("direct", "path")],
         lambda r: r,
     ),
     ("adaptive.md", ["scripts/adaptive_table.py"], condensed_adaptive),
