@@ -467,6 +467,8 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
         out: PathBuf::from("unused.exr"),
         json: None,
         quiet: args.quiet,
+        scene_record: Default::default(),
+        scene_file: None,
     };
     let lights = direct_lights(&render, vol)?;
     if let Some(map) = entries

@@ -3,6 +3,7 @@
 
 pub mod lights;
 pub mod options;
+pub mod scene_record;
 pub mod summary;
 
 pub use lights::{direct_lights, lights_or_default};

@@ -55,6 +55,11 @@ pub struct RenderOptions {
     pub json: Option<PathBuf>,
     /// No progress bar or info lines.
     pub quiet: bool,
+    /// The scene as the command line resolved it (recorded in the JSON summary as `scene`;
+    /// empty: not recorded).
+    pub scene_record: super::scene_record::SceneRecord,
+    /// The scene file this render was read from (an input: never written).
+    pub scene_file: Option<PathBuf>,
 }
 
 impl RenderOptions {
@@ -98,6 +103,9 @@ pub fn plan_render_outputs(args: &RenderOptions) -> Result<std::path::PathBuf> {
     if let Some(crate::lighting::EnvSource::File(env)) = &args.env {
         crate::lighting::env::check_path(env)?;
         plan.input("--env", env);
+    }
+    if let Some(scene) = &args.scene_file {
+        plan.input("--scene", scene);
     }
     if let Some(json) = &args.json {
         plan.file("--json", json);

@@ -118,6 +118,9 @@ pub struct RenderSummary {
     /// The host version and the command line, to reproduce the image.
     pub host_version: String,
     pub command_line: Vec<String>,
+    /// The resolved scene by flag name (`host render --scene THIS.json` renders it again).
+    #[serde(skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub scene: super::scene_record::SceneRecord,
 }
 
 /// The camera of a render, as resolved.
@@ -380,6 +383,7 @@ pub(super) fn summarize(r: &Rendered) -> Result<RenderSummary> {
         prepare_ms: r.load_ms,
         host_version: env!("CARGO_PKG_VERSION").into(),
         command_line: std::env::args().collect(),
+        scene: args.scene_record.clone(),
     })
 }
 

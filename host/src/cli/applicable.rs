@@ -70,6 +70,21 @@ const NOT_DIRECT: &[(&str, &str)] = &[("t_hat", "--t-hat")];
 const TRANSMITTANCE_ONLY: &[(&str, &str)] =
     &[("estimator", "--estimator"), ("f_delta", "--f-delta")];
 
+/// Whether the flag of clap id `id` applies to some renders only (an integrator, estimator or
+/// shadows of its own): a resolved scene leaves out such a flag's default.
+pub fn restricted(id: &str) -> bool {
+    let tables = [
+        INTEGRATOR_ONLY,
+        DIRECT_ONLY,
+        MSM_ONLY,
+        PATH_ONLY,
+        RESTIR_ONLY,
+        NOT_DIRECT,
+        TRANSMITTANCE_ONLY,
+    ];
+    id == "ratio_roulette" || tables.iter().any(|t| t.iter().any(|(i, _)| *i == id))
+}
+
 /// Refuses flag combinations whose flags would be ignored, so no output is mislabelled: each
 /// flag the user typed (`given`: clap ids) must be one that `args`' integrator, estimator and
 /// shadows read.

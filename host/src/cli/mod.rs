@@ -10,6 +10,7 @@ pub mod reference;
 pub mod render;
 pub mod report;
 pub mod restir;
+pub mod scene_file;
 pub mod study;
 
 pub use bench::BenchArgs;
@@ -56,7 +57,14 @@ pub enum Command {
 /// Parses the command line like `Cli::parse`, recording which render flags the user gave.
 pub fn parse() -> Result<Cli, clap::Error> {
     use clap::{CommandFactory, FromArgMatches};
-    let matches = Cli::command().try_get_matches()?;
+    let argv = scene_file::expand(std::env::args_os().collect()).map_err(|e| {
+        clap::Error::raw(clap::error::ErrorKind::ValueValidation, format!("{e:#}\n"))
+    })?;
+    // A flag given twice keeps its last value: a scene file's settings come first.
+    let matches = Cli::command()
+        .args_override_self(true)
+        .mut_subcommand("render", |c| c.args_override_self(true))
+        .try_get_matches_from(argv)?;
     let mut cli = Cli::from_arg_matches(&matches)?;
     let (render, sub) = match &mut cli.command {
         Some(Command::Render(args)) => (args, matches.subcommand_matches("render")),
@@ -71,6 +79,7 @@ pub fn parse() -> Result<Cli, clap::Error> {
             })
             .map(|id| id.as_str().to_owned())
             .collect();
+        render.record = scene_file::record(m);
     }
     Ok(cli)
 }
@@ -106,6 +115,20 @@ pub const OUR_CRATES: [&str; 9] = [
 
 /// `host render`: the flags the user gave must apply, then the library renders.
 fn render(args: &RenderArgs) -> Result<()> {
+    if let Some(path) = &args.write_scene {
+        let mut plan = engine::output::OutputPlan::new();
+        if let Some(scene) = &args.scene_file {
+            plan.input("--scene", scene);
+        }
+        plan.file("--write-scene", path).check()?;
+        engine::output::write_text(path, &scene_file::to_toml(&args.record))?;
+        println!(
+            "wrote the scene to {} (render it with `host render {}`)",
+            path.display(),
+            path.display()
+        );
+        return Ok(());
+    }
     let options = args.options();
     applicable::check(&options, &args.given)?;
     engine::render_job::run_render(&options).map(|_| ())

@@ -238,9 +238,21 @@ pub struct RenderArgs {
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
+    /// A scene to render: a TOML file whose keys are these flags without the dashes, or the
+    /// JSON summary of an earlier render (its `scene`); the flags given here override it.
+    /// `host render FILE` is the same (docs/guide/rendering.md, Scene files).
+    #[arg(long = "scene", id = "scene_file", value_name = "FILE")]
+    pub scene_file: Option<PathBuf>,
+    /// Write the resolved scene of this command line (a --scene file's settings, then the flags
+    /// given) to FILE as TOML, and exit without rendering.
+    #[arg(long, value_name = "FILE")]
+    pub write_scene: Option<PathBuf>,
     /// Ids of the flags given on the command line (filled by [`parse`], not a flag).
     #[arg(skip)]
     pub given: Vec<String>,
+    /// The resolved scene (filled by [`parse`], not a flag).
+    #[arg(skip)]
+    pub record: engine::render_job::scene_record::SceneRecord,
 }
 
 impl RenderArgs {
@@ -282,6 +294,8 @@ impl RenderArgs {
             out: self.out.clone(),
             json: self.json.clone(),
             quiet: self.quiet,
+            scene_record: self.record.clone(),
+            scene_file: self.scene_file.clone(),
         }
     }
 }

@@ -1,0 +1,285 @@
+//! Scene files (`host render SCENE`, `--scene`, `--write-scene`) and the `scene` of a render's
+//! JSON summary: the same flags through a scene file or a summary give the same bytes, the flags
+//! given override the file, and a bad file is refused naming its key and line.
+
+use std::path::Path;
+use std::process::Command;
+
+fn host() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_host"))
+}
+
+/// A small, fast render on the CPU (procedural 16^3 cloud, 8 x 6 pixels, 1 spp).
+const SMALL: &[&str] = &[
+    "--backend",
+    "cpu",
+    "--resolution",
+    "16",
+    "--width",
+    "8",
+    "--height",
+    "6",
+    "--spp",
+    "1",
+    "--quiet",
+];
+
+/// Runs `host` in `dir`, panicking with its output on failure.
+fn run(dir: &Path, args: &[&str]) {
+    let out = host().current_dir(dir).args(args).output().unwrap();
+    assert!(
+        out.status.success(),
+        "host {args:?}\n{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// Runs `host` in `dir`, expecting failure; returns stderr.
+fn refused(dir: &Path, args: &[&str]) -> String {
+    let out = host().current_dir(dir).args(args).output().unwrap();
+    assert!(!out.status.success(), "host {args:?} should fail");
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+fn bytes(p: &Path) -> Vec<u8> {
+    std::fs::read(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+}
+
+/// Each integrator, and transmittance with each estimator family: flags -> EXR equals flags ->
+/// `--write-scene` -> `host render SCENE` -> EXR, and equals `--scene THE.json` of the first
+/// render, byte for byte.
+#[test]
+fn flags_scene_files_and_summaries_render_the_same_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut cases: Vec<Vec<&str>> = [
+        "jackknife",
+        "jackknife-adaptive",
+        "naive-m1",
+        "biased-rm",
+        "unbiased-rm",
+        "track-length",
+        "ratio",
+        "regular",
+    ]
+    .iter()
+    .map(|e| vec!["--estimator", *e])
+    .collect();
+    for i in [
+        "free-flight",
+        "equiangular",
+        "mis-jackknife",
+        "mis-naive",
+        "combined-jackknife",
+        "combined-naive",
+        "miller",
+        "mis-power",
+        "direct",
+        "path",
+        "restir",
+    ] {
+        cases.push(vec!["--integrator", i]);
+    }
+    cases.push(vec![
+        "--integrator",
+        "path",
+        "--max-depth",
+        "3",
+        "--light",
+        "0,0,0,4",
+    ]);
+    cases.push(vec![
+        "--integrator",
+        "restir",
+        "--restir-candidates",
+        "3",
+        "--restir-passes",
+        "1",
+    ]);
+    for (k, case) in cases.iter().enumerate() {
+        let flags: Vec<&str> = SMALL.iter().chain(case.iter()).copied().collect();
+        let (a, a_json) = (format!("a{k}.exr"), format!("a{k}.json"));
+        let scene = format!("s{k}.toml");
+        let mut first = flags.clone();
+        first.extend(["--out", &a, "--json", &a_json]);
+        run(d, &first);
+        let mut write = flags.clone();
+        write.extend(["--write-scene", &scene]);
+        run(d, &write);
+        let b = format!("b{k}.exr");
+        run(d, &["render", &scene, "--out", &b]);
+        let c = format!("c{k}.exr");
+        run(
+            d,
+            &[
+                "render", "--scene", &a_json, "--out", &c, "--json", "c.json",
+            ],
+        );
+        let reference = bytes(&d.join(&a));
+        assert!(
+            reference == bytes(&d.join(&b)),
+            "{case:?}: scene file differs"
+        );
+        assert!(
+            reference == bytes(&d.join(&c)),
+            "{case:?}: JSON summary differs"
+        );
+    }
+}
+
+/// The flags given override the file's settings; a flag given several times (`--light`)
+/// replaces the file's list instead of adding to it.
+#[test]
+fn flags_override_the_scene_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("s.toml"),
+        "backend = \"cpu\"\nresolution = 16\nwidth = 8\nheight = 6\nspp = 3\n\
+         integrator = \"mis-jackknife\"\nlight = [[0, 0, 0, 5], [1, 1, 1, 2]]\n",
+    )
+    .unwrap();
+    run(
+        d,
+        &[
+            "render",
+            "s.toml",
+            "--spp",
+            "1",
+            "--light",
+            "0.5,0,0,3",
+            "--json",
+            "o.json",
+            "-q",
+        ],
+    );
+    let j: serde_json::Value = serde_json::from_slice(&bytes(&d.join("o.json"))).unwrap();
+    assert_eq!(j["spp"], 1);
+    assert_eq!(j["scene"]["spp"], 1);
+    assert_eq!(j["scene"]["width"], 8);
+    assert_eq!(
+        j["integrator"]["lights"],
+        serde_json::json!([[0.5, 0.0, 0.0, 3.0]])
+    );
+}
+
+/// An input path relative to the scene file resolves against the file's folder (run from
+/// another folder), and gives the bytes of the same render with the absolute path.
+#[test]
+fn relative_inputs_resolve_against_the_scene_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir(d.join("scenes")).unwrap();
+    let env = d.join("scenes").join("sky.hdr");
+    let mut img = image::Rgb32FImage::new(8, 4);
+    for (x, y, p) in img.enumerate_pixels_mut() {
+        *p = image::Rgb([0.2 + 0.1 * x as f32, 0.5, 0.1 * y as f32]);
+    }
+    image::DynamicImage::ImageRgb32F(img).save(&env).unwrap();
+    let mut toml = String::new();
+    for pair in SMALL.chunks(2).filter(|p| p.len() == 2) {
+        let key = pair[0].trim_start_matches("--");
+        let v = pair[1];
+        let quoted = if v.parse::<f64>().is_ok() {
+            v.to_owned()
+        } else {
+            format!("{v:?}")
+        };
+        toml.push_str(&format!("{key} = {quoted}\n"));
+    }
+    toml.push_str("integrator = \"direct\"\nenv = \"sky.hdr\"\n");
+    std::fs::write(d.join("scenes").join("s.toml"), toml).unwrap();
+    run(d, &["render", "scenes/s.toml", "--out", "rel.exr", "-q"]);
+    let mut abs: Vec<&str> = SMALL.to_vec();
+    let env_s = env.display().to_string();
+    abs.extend([
+        "--integrator",
+        "direct",
+        "--env",
+        &env_s,
+        "--out",
+        "abs.exr",
+    ]);
+    run(d, &abs);
+    assert!(bytes(&d.join("rel.exr")) == bytes(&d.join("abs.exr")));
+}
+
+/// Bad scene files are refused before any work, naming the file, the key and its line.
+#[test]
+fn bad_scene_files_name_the_key_and_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let cases: &[(&str, &[&str])] = &[
+        ("spp = \n", &["bad.toml", "line 1", "TOML"]),
+        (
+            "spp = 2\ndensty-scale = 3\n",
+            &[
+                "bad.toml:2",
+                "key `densty-scale`",
+                "unknown key",
+                "density-scale",
+            ],
+        ),
+        (
+            "width = 8\nspp = \"abc\"\n",
+            &["bad.toml:2", "key `spp`", "abc"],
+        ),
+        (
+            "quiet = 3\n",
+            &["bad.toml:1", "key `quiet`", "true or false"],
+        ),
+        ("[restir]\ncandidates = 3\n", &["key `restir`", "restir-"]),
+        (
+            "camera = [1, [2], 3]\n",
+            &["bad.toml:1", "key `camera`", "list inside a list"],
+        ),
+        ("volume = \"/dev/zero\"\n", &["/dev/zero"]),
+        ("out = \"/dev/full\"\nbackend = \"cpu\"\n", &["/dev/full"]),
+        (
+            "scene = \"other.toml\"\n",
+            &["bad.toml:1", "key `scene`", "unknown key"],
+        ),
+    ];
+    for (text, words) in cases {
+        std::fs::write(d.join("bad.toml"), text).unwrap();
+        let err = refused(d, &["render", "bad.toml"]);
+        for w in *words {
+            assert!(err.contains(w), "{text:?}: {w:?} not in {err}");
+        }
+        assert!(
+            !d.join("out/render.exr").exists(),
+            "{text:?} wrote an image"
+        );
+    }
+    let err = refused(d, &["render", "--scene", "missing.toml"]);
+    assert!(
+        err.contains("missing.toml") && err.contains("cannot read"),
+        "{err}"
+    );
+    std::fs::write(d.join("old.json"), "{\"spp\": 1}").unwrap();
+    let err = refused(d, &["render", "--scene", "old.json"]);
+    assert!(err.contains("no `scene`"), "{err}");
+}
+
+/// A render never writes onto its scene file, and `--write-scene` never onto its input.
+#[test]
+fn outputs_never_replace_the_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut first: Vec<&str> = SMALL.to_vec();
+    first.extend(["--out", "a.exr", "--json", "a.json"]);
+    run(d, &first);
+    let before = bytes(&d.join("a.json"));
+    let err = refused(d, &["render", "--scene", "a.json"]);
+    assert!(
+        err.contains("--json a.json would overwrite the input --scene"),
+        "{err}"
+    );
+    let err = refused(
+        d,
+        &["render", "--scene", "a.json", "--write-scene", "a.json"],
+    );
+    assert!(err.contains("overwrite"), "{err}");
+    assert!(before == bytes(&d.join("a.json")));
+}
