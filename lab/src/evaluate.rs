@@ -469,6 +469,7 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
         quiet: args.quiet,
         scene_record: Default::default(),
         scene_file: None,
+        layers: Vec::new(),
     };
     let lights = direct_lights(&render, vol)?;
     if let Some(map) = entries

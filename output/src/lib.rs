@@ -379,6 +379,65 @@ pub fn progress(len: u64, what: &str, quiet: bool) -> indicatif::ProgressBar {
     bar
 }
 
+/// Writes a linear RGB image as the layer `name` of an OpenEXR file, followed by one
+/// single-channel layer (channel `Y`) per entry of `layers` (name, row-major values): f32,
+/// ZIP-compressed scan lines in increasing order, written on one thread so equal images give
+/// equal bytes. Without `layers` the file is [`write_exr_rgb`]'s.
+pub fn write_exr_layers(
+    path: &Path,
+    w: u32,
+    h: u32,
+    name: &str,
+    rgb: &[[f32; 3]],
+    layers: &[(String, Vec<f32>)],
+) -> Result<()> {
+    use exr::prelude::*;
+    if layers.is_empty() {
+        return write_exr_layer(path, w, h, name, |k| (rgb[k][0], rgb[k][1], rgb[k][2]));
+    }
+    let encoding = Encoding {
+        compression: Compression::ZIP16,
+        blocks: Blocks::ScanLines,
+        line_order: LineOrder::Increasing,
+    };
+    let size = (w as usize, h as usize);
+    let channel = |c: usize| -> Vec<f32> { rgb.iter().map(|p| p[c]).collect() };
+    let main = AnyChannels::sort(SmallVec::from_vec(vec![
+        AnyChannel::new("R", FlatSamples::F32(channel(0))),
+        AnyChannel::new("G", FlatSamples::F32(channel(1))),
+        AnyChannel::new("B", FlatSamples::F32(channel(2))),
+    ]));
+    let mut all = vec![Layer::new(
+        size,
+        LayerAttributes::named(name),
+        encoding,
+        main,
+    )];
+    for (layer, values) in layers {
+        let y = AnyChannels::sort(SmallVec::from_vec(vec![AnyChannel::new(
+            "Y",
+            FlatSamples::F32(values.clone()),
+        )]));
+        all.push(Layer::new(
+            size,
+            LayerAttributes::named(layer.as_str()),
+            encoding,
+            y,
+        ));
+    }
+    let image = Image::from_layers(
+        ImageAttributes::new(IntegerBounds::from_dimensions(size)),
+        all,
+    );
+    write_atomically(path, |tmp| {
+        image
+            .write()
+            .non_parallel()
+            .to_file(tmp)
+            .with_context(|| format!("writing {}", path.display()))
+    })
+}
+
 /// Writes a linear RGB OpenEXR image (row-major texels).
 pub fn write_exr_rgb(path: &Path, w: u32, h: u32, rgb: &[[f32; 3]]) -> Result<()> {
     write_exr_layer(path, w, h, "radiance", |k| {

@@ -1,6 +1,7 @@
 //! `host render` as a library call: checks, loads, packs, renders, writes the images and the
 //! JSON summary.
 
+pub mod layers;
 pub mod lights;
 pub mod options;
 pub mod scene_record;
@@ -247,16 +248,28 @@ fn write_images(
 ) -> Result<f64> {
     let t: Vec<f32> = pixels.iter().map(|p| p.t_mean).collect();
     let mean = t.iter().map(|&v| v as f64).sum::<f64>() / t.len() as f64;
+    let extra: Vec<(String, Vec<f32>)> = args
+        .layers
+        .iter()
+        .map(|l| (l.name().to_owned(), l.values(pixels, args.spp)))
+        .collect();
     if direct {
         let rgb: Vec<[f32; 3]> = pixels
             .iter()
             .map(|p| [p.rgb_mean.r, p.rgb_mean.g, p.rgb_mean.b])
             .collect();
-        crate::output::write_exr_rgb(&args.out, args.width, args.height, &rgb)?;
+        let (w, h) = (args.width, args.height);
+        crate::output::write_exr_layers(&args.out, w, h, "radiance", &rgb, &extra)?;
         crate::output::write_png_rgb_exposed(png, args.width, args.height, &rgb, args.exposure)?;
         return Ok(mean);
     }
-    write_exr(&args.out, args.width, args.height, &t)?;
+    if extra.is_empty() {
+        write_exr(&args.out, args.width, args.height, &t)?;
+    } else {
+        let rgb: Vec<[f32; 3]> = t.iter().map(|&v| [v, v, v]).collect();
+        let (w, h) = (args.width, args.height);
+        crate::output::write_exr_layers(&args.out, w, h, "transmittance", &rgb, &extra)?;
+    }
     let preview: Vec<f32> = if args.integrator.is_some() {
         // Radiance: exposure, then Reinhard x / (1 + x) so highlights do not clip.
         t.iter()

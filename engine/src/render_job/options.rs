@@ -58,6 +58,8 @@ pub struct RenderOptions {
     /// The scene as the command line resolved it (recorded in the JSON summary as `scene`;
     /// empty: not recorded).
     pub scene_record: super::scene_record::SceneRecord,
+    /// Extra EXR layers beside the image (`--layers`).
+    pub layers: Vec<super::layers::Layer>,
     /// The scene file this render was read from (an input: never written).
     pub scene_file: Option<PathBuf>,
 }
@@ -79,6 +81,7 @@ pub fn check_render_flags(args: &RenderOptions) -> Result<()> {
         args.restir.check_image(args.width, args.height)?;
     }
     args.shadows.check()?;
+    super::layers::check(&args.layers, args.spp)?;
     let is_exr = args
         .out
         .extension()

@@ -3,6 +3,7 @@
 
 use engine::backend::BackendChoice;
 use engine::render::UpAxis;
+use engine::render_job::layers::Layer;
 use engine::shadow_map::{MsmStorage, ShadowKind};
 use jackknife::SupervoxelFormat;
 use lab::bench::BenchBackend;
@@ -29,6 +30,19 @@ macro_rules! value_enum {
             }
         }
     };
+}
+
+value_enum! {
+    /// An extra EXR layer of `host render --layers`.
+    LayerArg => Layer {
+        /// Standard error of the pixel's mean.
+        #[value(name = "stderr")]
+        StdErr,
+        /// Samples per pixel.
+        Samples,
+        /// Mean lookups per sample.
+        Lookups,
+    }
 }
 
 value_enum! {

@@ -238,6 +238,11 @@ pub struct RenderArgs {
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Extra layers of the EXR beside the image, comma-separated: stderr (the standard error of
+    /// the pixel's mean, of the luminance for RGB; needs --spp 2 or more), samples (per pixel),
+    /// lookups (mean high-resolution lookups per sample); all linear, one channel `Y` each.
+    #[arg(long, value_enum, value_delimiter = ',')]
+    pub layers: Vec<super::parsers::LayerArg>,
     /// A scene to render: a TOML file whose keys are these flags without the dashes, or the
     /// JSON summary of an earlier render (its `scene`); the flags given here override it.
     /// `host render FILE` is the same (docs/guide/rendering.md, Scene files).
@@ -296,6 +301,7 @@ impl RenderArgs {
             quiet: self.quiet,
             scene_record: self.record.clone(),
             scene_file: self.scene_file.clone(),
+            layers: self.layers.iter().map(|&l| l.into()).collect(),
         }
     }
 }

@@ -1,0 +1,147 @@
+//! `host render --layers`: the extra EXR layers beside the image, checked against renders that
+//! give the same quantities another way.
+
+use std::path::Path;
+use std::process::Command;
+
+fn host() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_host"))
+}
+
+const SMALL: &[&str] = &[
+    "render",
+    "--backend",
+    "cpu",
+    "--resolution",
+    "32",
+    "--width",
+    "16",
+    "--height",
+    "12",
+    "--quiet",
+];
+
+fn run(dir: &Path, args: &[&str]) -> std::process::Output {
+    let mut all: Vec<&str> = SMALL.to_vec();
+    all.extend(args);
+    host().current_dir(dir).args(&all).output().unwrap()
+}
+
+/// Every layer of an EXR by name, each as its channels (name, f32 values).
+fn layers(path: &Path) -> Vec<(String, Vec<(String, Vec<f32>)>)> {
+    use exr::prelude::*;
+    let image = read_all_flat_layers_from_file(path).unwrap();
+    image
+        .layer_data
+        .iter()
+        .map(|l| {
+            let name = l
+                .attributes
+                .layer_name
+                .as_ref()
+                .map(|n| n.to_string())
+                .unwrap_or_default();
+            let channels = l
+                .channel_data
+                .list
+                .iter()
+                .map(|c| {
+                    let v = match &c.sample_data {
+                        FlatSamples::F32(v) => v.clone(),
+                        other => panic!("{name}: not f32: {other:?}"),
+                    };
+                    (c.name.to_string(), v)
+                })
+                .collect();
+            (name, channels)
+        })
+        .collect()
+}
+
+fn channel<'a>(all: &'a [(String, Vec<(String, Vec<f32>)>)], layer: &str, ch: &str) -> &'a [f32] {
+    let l = all
+        .iter()
+        .find(|(n, _)| n == layer)
+        .unwrap_or_else(|| panic!("no layer {layer}"));
+    &l.1.iter().find(|(n, _)| n == ch).unwrap().1
+}
+
+/// At 2 spp the standard error of a pixel's mean m of samples x0, x1 is |x0 - m|: the layer
+/// agrees with a 1-spp render (sample 0) and the 2-spp mean to f32 rounding of the moments; the
+/// image layer equals the render without layers; `samples` is the spp; `lookups` is the JSON's
+/// mean when averaged. Transmittance (jackknife, track-length) and single scattering.
+#[test]
+fn layers_agree_with_the_renders_they_summarize() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for case in [
+        &["--estimator", "jackknife"][..],
+        &["--estimator", "track-length"],
+        &["--integrator", "mis-jackknife"],
+    ] {
+        let with = |spp: &str, out: &str, layers: bool| {
+            let mut a: Vec<&str> = case.to_vec();
+            a.extend(["--spp", spp, "--out", out]);
+            if layers {
+                a.extend(["--layers", "stderr,samples,lookups", "--json", "l.json"]);
+            }
+            let o = run(d, &a);
+            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        };
+        with("1", "one.exr", false);
+        with("2", "two.exr", false);
+        with("2", "layered.exr", true);
+        let (one, two, layered) = (
+            layers(&d.join("one.exr")),
+            layers(&d.join("two.exr")),
+            layers(&d.join("layered.exr")),
+        );
+        let main = &layered[0].0;
+        assert_eq!(
+            channel(&layered, main, "R"),
+            channel(&two, main, "R"),
+            "{case:?}"
+        );
+        let (x0, m) = (channel(&one, main, "R"), channel(&two, main, "R"));
+        let se = channel(&layered, "stderr", "Y");
+        let spread = (0..se.len())
+            .filter(|&k| (x0[k] - m[k]).abs() > 1e-3)
+            .count();
+        assert!(
+            spread >= 5,
+            "{case:?}: only {spread} pixels differ between samples"
+        );
+        for k in 0..se.len() {
+            let want = (x0[k] as f64 - m[k] as f64).abs();
+            assert!(
+                ((se[k] as f64).powi(2) - want * want).abs() <= 1e-5 * (1.0 + want * want),
+                "{case:?} pixel {k}: stderr {} but |x0 - m| = {want}",
+                se[k]
+            );
+        }
+        assert!(channel(&layered, "samples", "Y").iter().all(|&s| s == 2.0));
+        let lookups = channel(&layered, "lookups", "Y");
+        let mean = lookups.iter().map(|&v| v as f64).sum::<f64>() / lookups.len() as f64;
+        let j: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(d.join("l.json")).unwrap()).unwrap();
+        let reported = j["mean_samples_per_ray"].as_f64().unwrap();
+        assert!(
+            (mean - reported).abs() <= 1e-4 * (1.0 + reported),
+            "{mean} vs {reported}"
+        );
+    }
+}
+
+/// A standard error of one sample is refused before any work.
+#[test]
+fn stderr_of_one_sample_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = run(dir.path(), &["--spp", "1", "--layers", "stderr"]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("--layers stderr needs at least 2 samples"),
+        "{err}"
+    );
+    assert!(!dir.path().join("out/render.exr").exists());
+}
