@@ -27,8 +27,11 @@ fn run(dir: &Path, args: &[&str]) -> std::process::Output {
     host().current_dir(dir).args(&all).output().unwrap()
 }
 
-/// Every layer of an EXR by name, each as its channels (name, f32 values).
-fn layers(path: &Path) -> Vec<(String, Vec<(String, Vec<f32>)>)> {
+/// A layer's channels: (name, f32 values).
+type Channels = Vec<(String, Vec<f32>)>;
+
+/// Every layer of an EXR by name, each with its channels.
+fn layers(path: &Path) -> Vec<(String, Channels)> {
     use exr::prelude::*;
     let image = read_all_flat_layers_from_file(path).unwrap();
     image
@@ -58,7 +61,7 @@ fn layers(path: &Path) -> Vec<(String, Vec<(String, Vec<f32>)>)> {
         .collect()
 }
 
-fn channel<'a>(all: &'a [(String, Vec<(String, Vec<f32>)>)], layer: &str, ch: &str) -> &'a [f32] {
+fn channel<'a>(all: &'a [(String, Channels)], layer: &str, ch: &str) -> &'a [f32] {
     let l = all
         .iter()
         .find(|(n, _)| n == layer)
