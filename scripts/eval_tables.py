@@ -4,7 +4,8 @@ docs/results/scattering.md (integrator evals) and docs/results/direct.md (lit in
 
 Usage: scripts/eval_tables.py docs/results/eval_cloud.json [more.json ...]
 Transmittance evals (key `estimators`), single-scattering integrator evals (key `integrators`) and
-lit integrator evals (key `entries`: docs/results/direct.md) are accepted.
+lit integrator evals (key `entries`: docs/results/direct.md; with moment shadow maps,
+docs/results/shadows.md) are accepted.
 """
 import json
 import sys
@@ -66,6 +67,40 @@ def lit_table(d):
     return "\n".join([head] + rows)
 
 
+def msm_table(d):
+    """The table of docs/results/shadows.md: a lit eval whose entries carry `paired_rms` (moment
+    shadow maps beside shadow rays). Render ms per spp excludes a map's build; the RMSE columns
+    are sqrt(std^2 / n + b^2) with n the samples that fit the time of 1 (or 64) jackknife samples
+    and b the paired RMS of a map (0 for shadow rays)."""
+    head = (
+        "| shadows toward the sun | SMAPE | mean bias +- s.e. | paired RMS | mean std | lookups / camera ray | render ms / spp | map build ms | map size | RMSE, 1-spp jackknife time | RMSE, 64-spp jackknife time |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|"
+    )
+
+    def render_ms(e):
+        m = e.get("shadow_map")
+        build = m["build_ms"] if m else 0.0
+        return (e["elapsed_ms"] - build) / e.get("spp", d["spp"])
+
+    jk = next(e for e in d["entries"] if e["name"].endswith("/jackknife"))
+    rows = []
+    for e in d["entries"]:
+        m = e.get("shadow_map")
+        ms = render_ms(e)
+        b = e["paired_rms"] if m else 0.0
+        rmse = [
+            (e["mean_std"] ** 2 / (k * render_ms(jk) / ms) + b * b) ** 0.5 for k in (1, 64)
+        ]
+        build = f"{m['build_ms']:.0f}" if m else "-"
+        size = f"{m['bytes'] // 1024} KiB" if m else "-"
+        rows.append(
+            f"| `{e['name']}` | {e['smape']:.4f} | {e['mean_bias']:+.5f} +- {e['mean_bias_se']:.5f} | "
+            f"{e['paired_rms']:.5f} | {e['mean_std']:.4f} | {e['lookups_per_ray']:.2f} | {ms:.2f} | "
+            f"{build} | {size} | {rmse[0]:.4f} | {rmse[1]:.5f} |"
+        )
+    return "\n".join([head] + rows)
+
+
 def main():
     if len(sys.argv) < 2:
         sys.exit(__doc__)
@@ -79,6 +114,8 @@ def main():
             print(transmittance_table(d))
         elif "integrators" in d:
             print(integrator_table(d))
+        elif "entries" in d and all("paired_rms" in e for e in d["entries"]):
+            print(msm_table(d))
         elif "entries" in d:
             print(lit_table(d))
         else:

@@ -9,6 +9,7 @@ Pages and generators:
   docs/results/transmittance.md  scripts/eval_tables.py docs/results/eval_{cloud,explosion,constant}.json
   docs/results/scattering.md     scripts/eval_tables.py docs/results/eval_integrators_cloud.json
   docs/results/direct.md         scripts/eval_tables.py docs/results/eval_{direct,path}_cloud.json
+  docs/results/shadows.md        scripts/eval_tables.py docs/results/eval_msm_{cloud,explosion,constant}.json
   docs/results/adaptive.md       scripts/adaptive_table.py (its f32 nearest rows appear in the
                                  page's first adaptive table without the lookup and format columns)
 """
@@ -56,6 +57,12 @@ checks = [
         "direct.md",
         ["scripts/eval_tables.py"]
         + [f"docs/results/eval_{i}_cloud.json" for i in ("direct", "path")],
+        lambda r: r,
+    ),
+    (
+        "shadows.md",
+        ["scripts/eval_tables.py"]
+        + [f"docs/results/eval_msm_{v}.json" for v in ("cloud", "explosion", "constant")],
         lambda r: r,
     ),
     ("adaptive.md", ["scripts/adaptive_table.py"], condensed_adaptive),
