@@ -10,6 +10,7 @@ Pages and generators:
   docs/results/scattering.md     scripts/eval_tables.py docs/results/eval_integrators_cloud.json
   docs/results/direct.md         scripts/eval_tables.py docs/results/eval_{direct,path}_cloud.json
   docs/results/shadows.md        scripts/eval_tables.py docs/results/eval_msm_{cloud,explosion,constant}.json
+  docs/results/restir.md         scripts/restir_tables.py (the two CPU tables)
   docs/results/adaptive.md       scripts/adaptive_table.py (its f32 nearest rows appear in the
                                  page's first adaptive table without the lookup and format columns)
 """
@@ -65,6 +66,7 @@ checks = [
         + [f"docs/results/eval_msm_{v}.json" for v in ("cloud", "explosion", "constant")],
         lambda r: r,
     ),
+    ("restir.md", ["scripts/restir_tables.py"], lambda r: r),
     ("adaptive.md", ["scripts/adaptive_table.py"], condensed_adaptive),
 ]
 
