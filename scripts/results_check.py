@@ -11,6 +11,7 @@ Pages and generators:
   docs/results/direct.md         scripts/eval_tables.py docs/results/eval_{direct,path}_cloud.json
   docs/results/shadows.md        scripts/eval_tables.py docs/results/eval_msm_{cloud,explosion,constant}.json
   docs/results/restir.md         scripts/restir_tables.py (the two CPU tables)
+  docs/results/performance.md    scripts/bench_tables.py (the default bench, its goals, the H200)
   docs/results/adaptive.md       scripts/adaptive_table.py (its f32 nearest rows appear in the
                                  page's first adaptive table without the lookup and format columns)
 """
@@ -67,6 +68,7 @@ checks = [
         lambda r: r,
     ),
     ("restir.md", ["scripts/restir_tables.py"], lambda r: r),
+    ("performance.md", ["scripts/bench_tables.py"], lambda r: r),
     ("adaptive.md", ["scripts/adaptive_table.py"], condensed_adaptive),
 ]
 
