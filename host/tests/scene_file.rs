@@ -283,3 +283,73 @@ fn outputs_never_replace_the_scene() {
     assert!(err.contains("overwrite"), "{err}");
     assert!(before == bytes(&d.join("a.json")));
 }
+
+/// `host eval --scene` takes the keys it has flags for (the same images as those flags) and
+/// notes the `host render` keys it does not use; `host bench --scene` runs the scene's size.
+#[test]
+fn eval_and_bench_take_the_keys_they_have() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("s.toml"),
+        "volume = \"cloud\"\nresolution = 16\nwidth = 12\nheight = 10\nspp = 8\nbackend = \"cpu\"\n\
+         estimator = \"ratio\"\nout = \"x.exr\"\n",
+    )
+    .unwrap();
+    let common = ["--estimators", "jackknife", "--reference-spp", "16", "-q"];
+    let mut a = vec!["eval", "--scene", "s.toml", "--out-dir", "a"];
+    a.extend(common);
+    let out = host().current_dir(d).args(&a).output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("no flags for the scene keys estimator, out"),
+        "{err}"
+    );
+    let mut b = vec!["eval", "--out-dir", "b"];
+    b.extend([
+        "--volume",
+        "cloud",
+        "--resolution",
+        "16",
+        "--width",
+        "12",
+        "--height",
+        "10",
+        "--spp",
+        "8",
+        "--backend",
+        "cpu",
+    ]);
+    b.extend(common);
+    run(d, &b);
+    for f in ["jackknife_mean.exr", "reference.exr"] {
+        assert!(
+            bytes(&d.join("a").join(f)) == bytes(&d.join("b").join(f)),
+            "{f}"
+        );
+    }
+    run(
+        d,
+        &[
+            "bench",
+            "--scene",
+            "s.toml",
+            "--estimators",
+            "jackknife",
+            "--reps",
+            "1",
+            "--json",
+            "b.json",
+        ],
+    );
+    let j: serde_json::Value = serde_json::from_slice(&bytes(&d.join("b.json"))).unwrap();
+    assert_eq!(
+        (j["width"].clone(), j["height"].clone()),
+        (12.into(), 10.into())
+    );
+}

@@ -11,6 +11,11 @@ use std::path::PathBuf;
 pub struct BenchArgs {
     #[command(flatten)]
     pub scene: SceneArgs,
+    /// A scene file (as `host render --scene`): its keys that are flags of this command apply
+    /// (the volume, camera, image size, ...), the other `host render` keys are ignored with a
+    /// note; the flags given here override it.
+    #[arg(long = "scene", id = "scene_file", value_name = "FILE")]
+    pub scene_file: Option<PathBuf>,
     /// How the high-resolution volume is read.
     #[arg(long, value_enum, default_value_t = LookupArg::Stochastic)]
     pub lookup: LookupArg,

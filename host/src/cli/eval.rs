@@ -16,6 +16,11 @@ use std::path::PathBuf;
 pub struct EvalArgs {
     #[command(flatten)]
     pub scene: SceneArgs,
+    /// A scene file (as `host render --scene`): its keys that are flags of this command apply
+    /// (the volume, camera, image size, ...), the other `host render` keys are ignored with a
+    /// note; the flags given here override it.
+    #[arg(long = "scene", id = "scene_file", value_name = "FILE")]
+    pub scene_file: Option<PathBuf>,
     /// Lookups: nearest (reference = regular tracking, exact), stochastic or trilinear (reference
     /// = ratio tracking at --reference-spp, unbiased but noisy).
     #[arg(long, value_enum, default_value_t = LookupArg::Nearest)]

@@ -64,6 +64,8 @@ pub fn parse() -> Result<Cli, clap::Error> {
     let matches = Cli::command()
         .args_override_self(true)
         .mut_subcommand("render", |c| c.args_override_self(true))
+        .mut_subcommand("eval", |c| c.args_override_self(true))
+        .mut_subcommand("bench", |c| c.args_override_self(true))
         .try_get_matches_from(argv)?;
     let mut cli = Cli::from_arg_matches(&matches)?;
     let (render, sub) = match &mut cli.command {

@@ -1,4 +1,5 @@
-//! Scene files: `host render SCENE` and `host render --scene SCENE`. A scene file is a TOML
+//! Scene files: `host render SCENE` and `host render --scene SCENE` (and `host eval` / `host
+//! bench --scene SCENE`, which take the keys they have flags for). A scene file is a TOML
 //! table whose keys are `host render`'s flags without the leading dashes (`density-scale`,
 //! `integrator`, `light`, ...) and whose values are the flags' values: a number, a string, `true`
 //! for a switch, an array for a comma list (`camera = [128, 128, 608]`) or, for a flag given
@@ -20,8 +21,8 @@ use std::path::{Path, PathBuf};
 /// Argument ids of `host render` that are not settings of the scene.
 const NOT_SETTINGS: &[&str] = &["help", "version", "scene_file", "write_scene"];
 
-/// Subcommands other than `render` (their flags have no scene file).
-const OTHER_COMMANDS: &[&str] = &["probe", "eval", "study", "bench", "report", "help"];
+/// Subcommands without scene files.
+const NO_SCENE: &[&str] = &["probe", "study", "report", "help"];
 
 /// Keys whose text values are input files (unless one of the listed names).
 const INPUT_PATHS: &[(&str, &[&str])] = &[
@@ -41,6 +42,16 @@ fn render_command() -> Command {
     <super::render::RenderArgs as clap::Args>::augment_args(Command::new("render"))
 }
 
+/// The flags of the subcommand that reads a scene file: `render` (also the default), `eval`,
+/// `bench`.
+fn command_of(name: &str) -> Command {
+    match name {
+        "eval" => <super::eval::EvalArgs as clap::Args>::augment_args(Command::new("eval")),
+        "bench" => <super::bench::BenchArgs as clap::Args>::augment_args(Command::new("bench")),
+        _ => render_command(),
+    }
+}
+
 /// The command line with a scene file's settings inserted before the flags given, so that they
 /// override the file's (the command accepts a flag twice and keeps the last). Unchanged when no
 /// scene file is named; `host render SCENE` is read as `host render --scene SCENE`.
@@ -50,12 +61,14 @@ pub fn expand(args: Vec<OsString>) -> Result<Vec<OsString>> {
         .and_then(|a| a.to_str())
         .unwrap_or("")
         .to_owned();
-    if OTHER_COMMANDS.contains(&first.as_str()) {
+    if NO_SCENE.contains(&first.as_str()) {
         return Ok(args);
     }
     let mut args = args;
-    let start = if first == "render" { 2 } else { 1 };
-    if start == 2 {
+    let named = ["render", "eval", "bench"].contains(&first.as_str());
+    let start = if named { 2 } else { 1 };
+    let name = if named { first.as_str() } else { "render" };
+    if name == "render" && start == 2 {
         if let Some(a) = args.get(2).and_then(|a| a.to_str()) {
             if !a.starts_with('-') {
                 args.insert(2, "--scene".into());
@@ -81,11 +94,18 @@ pub fn expand(args: Vec<OsString>) -> Result<Vec<OsString>> {
         _ => bail!("--scene: give one scene file (got {})", files.len()),
     };
     let settings = load(&file)?;
-    let cmd = render_command();
+    let cmd = command_of(name);
+    let render = render_command();
     let given = given_keys(&cmd, user);
     let mut tokens = Vec::new();
+    let mut unused = Vec::new();
     for s in &settings {
-        let arg = arg_of(&cmd, &file, s)?;
+        let Some(arg) = find(&cmd, &s.key) else {
+            // A key of `host render` that this command has no flag for.
+            arg_of(&render, &file, s)?;
+            unused.push(s.key.as_str());
+            continue;
+        };
         if given.iter().any(|g| g == s.key.as_str()) {
             continue;
         }
@@ -93,6 +113,13 @@ pub fn expand(args: Vec<OsString>) -> Result<Vec<OsString>> {
         let t = tokens_of(arg, &value).map_err(|e| at(&file, s, &e))?;
         check_value(&cmd, &t).map_err(|e| at(&file, s, &e))?;
         tokens.extend(t);
+    }
+    if !unused.is_empty() {
+        eprintln!(
+            "note: host {name} has no flags for the scene keys {} of {}; they are not used",
+            unused.join(", "),
+            file.display()
+        );
     }
     let mut out: Vec<OsString> = args[..start].to_vec();
     out.extend(tokens.into_iter().map(OsString::from));
@@ -203,12 +230,15 @@ fn from_json(file: &Path, text: &str) -> Result<Vec<Setting>> {
         .collect())
 }
 
-/// The flag a setting names, refusing keys that are no flag of `host render`.
+/// The flag of `cmd` that key `key` names (None for the ids that are no setting).
+fn find<'a>(cmd: &'a Command, key: &str) -> Option<&'a clap::Arg> {
+    cmd.get_arguments()
+        .find(|a| a.get_long() == Some(key) && !NOT_SETTINGS.contains(&a.get_id().as_str()))
+}
+
+/// The flag a setting names, refusing keys that are no flag of `cmd`.
 fn arg_of<'a>(cmd: &'a Command, file: &Path, s: &Setting) -> Result<&'a clap::Arg> {
-    let found = cmd.get_arguments().find(|a| {
-        a.get_long() == Some(s.key.as_str()) && !NOT_SETTINGS.contains(&a.get_id().as_str())
-    });
-    found.ok_or_else(|| {
+    find(cmd, &s.key).ok_or_else(|| {
         let mut close: Vec<&str> = cmd
             .get_arguments()
             .filter(|a| !NOT_SETTINGS.contains(&a.get_id().as_str()))
@@ -342,7 +372,7 @@ fn list_text(v: &SceneValue) -> Result<String, String> {
 
 /// Parses one setting's tokens alone, so that a wrong value is reported at its key and line.
 fn check_value(cmd: &Command, tokens: &[String]) -> Result<(), String> {
-    let argv = std::iter::once("render".to_owned()).chain(tokens.iter().cloned());
+    let argv = std::iter::once(cmd.get_name().to_owned()).chain(tokens.iter().cloned());
     match cmd.clone().try_get_matches_from(argv) {
         Ok(_) => Ok(()),
         Err(e) => {
