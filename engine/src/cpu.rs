@@ -9,8 +9,8 @@ use rayon::prelude::*;
 use shared::integrators::restir::{stage_count, RestirState};
 use shared::integrators::stages::Wavefront;
 use shared::kernels::render::{
-    cpu_pixel_pass, is_reuse_stage, restir_reuse_step, restir_step, restir_store_reuse,
-    tile_order_pixel, PixelSums,
+    cpu_pixel_pass, is_reuse_stage, restir_reuse_step, restir_store_reuse, restir_wave_step,
+    tile_order_pixel, PixelSums, StageAt,
 };
 use shared::kernels::shadow_map::{msm_raw_texel, msm_store_texel, MsmPass};
 use shared::params::Integrator;
@@ -141,7 +141,10 @@ fn restir_wave(
             if is_reuse_stage(params, stage) {
                 let next: Vec<RestirState> = (0..count as u32)
                     .into_par_iter()
-                    .map(|id| restir_reuse_step(view, params, scene, id, s, stage, &states, 0))
+                    .map(|id| {
+                        let at = StageAt::restir(params, id, s, stage);
+                        restir_reuse_step(view, params, scene, at, &states, 0)
+                    })
                     .collect();
                 states
                     .par_iter_mut()
@@ -159,7 +162,8 @@ fn restir_wave(
                 .enumerate()
                 .for_each(|(id, (st, acc))| {
                     for t in stage..end {
-                        (*st, *acc) = restir_step(view, params, scene, id as u32, s, t, *st, *acc);
+                        let at = StageAt::restir(params, id as u32, s, t);
+                        (*st, *acc) = restir_wave_step(view, params, scene, at, *st, *acc);
                     }
                 });
             stage = end;

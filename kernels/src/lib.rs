@@ -29,7 +29,7 @@ use shared::integrators::path::PathState;
 use shared::integrators::restir::RestirState;
 use shared::kernels::launch::Launch;
 use shared::kernels::probe::{self, DepthPair, MathValues, RngDraws, TransmittancePair};
-use shared::kernels::render::{self, PathPass, PixelSums, RenderPass};
+use shared::kernels::render::{self, PathPass, PixelSums, RenderPass, StageAt};
 use shared::kernels::shadow_map::{self, MsmPass};
 use shared::params::{RenderParams, UNSPECIALIZED};
 use shared::sampling::lighting::{Lighting, Scene};
@@ -316,36 +316,23 @@ macro_rules! wave_kernel {
                 } else {
                     stage_kind
                 };
+                let at = StageAt {
+                    id: i as u32,
+                    sample: pass.sample,
+                    stage: pass.mode,
+                    kind,
+                };
                 #[allow(unused_mut)]
                 let mut whole = true;
                 $(
                     if $is_reuse(kind) {
                         whole = false;
-                        let st = $reuse(
-                            &vol,
-                            p,
-                            &scene,
-                            i as u32,
-                            pass.sample,
-                            pass.mode,
-                            states,
-                            pass.sums_base,
-                        );
+                        let st = $reuse(&vol, p, &scene, at, states, pass.sums_base);
                         $store(&mut states[slot], &st, p, pass.mode);
                     }
                 )?
                 if whole {
-                    let (st, s) = $step(
-                        &vol,
-                        p,
-                        &scene,
-                        i as u32,
-                        pass.sample,
-                        pass.mode,
-                        kind,
-                        states[slot],
-                        sums[slot],
-                    );
+                    let (st, s) = $step(&vol, p, &scene, at, states[slot], sums[slot]);
                     states[slot] = st;
                     sums[slot] = s;
                 }

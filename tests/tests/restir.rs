@@ -17,7 +17,7 @@ use engine::Backend;
 use integration_tests::{assert_bytes_equal, camera_params, gpu, lumpy_blobs};
 use shared::integrators::restir::{p_hat, stage_count, Reservoir, RestirState};
 use shared::integrators::restir_reuse::{neighbour, NO_NEIGHBOUR};
-use shared::kernels::render::restir_step;
+use shared::kernels::render::{restir_wave_step, StageAt};
 use shared::params::{
     Config, Estimator, Integrator, RenderParams, RestirMis, RestirParams, RestirTarget,
 };
@@ -517,7 +517,8 @@ fn a_neighbours_target_re_evaluated_is_the_one_it_stored() {
                 let mut sums = Default::default();
                 // The start and the candidates only.
                 for stage in 0..=p.restir.candidates {
-                    (st, sums) = restir_step(&view, &p, &scene, id, s, stage, st, sums);
+                    let at = StageAt::restir(&p, id, s, stage);
+                    (st, sums) = restir_wave_step(&view, &p, &scene, at, st, sums);
                 }
                 assert!(stage_count(&p) > p.restir.candidates + 1);
                 if st.found == 0 || !(st.reservoir.w_sum > 0.0) {

@@ -250,7 +250,7 @@ pub fn scattering_pixel_pass(
 }
 
 /// [`render_pixel_pass`] of the `direct` integrator on the CPU (the GPU runs the same stages as
-/// dispatches, [`direct_step`]): RGB radiance, its luminance's moments.
+/// dispatches, [`direct_wave_step`]): RGB radiance, its luminance's moments.
 pub fn direct_pixel_pass(
     vol: &VolumeView<impl Texels>,
     params: &RenderParams,
@@ -314,88 +314,53 @@ pub struct PathPass {
     pub _pad: u32,
 }
 
-/// One step of the wavefront `path` render of pixel `id` (`path_cs`): start sample `sample`'s
-/// path at the camera (`start`), or advance it by one vertex; a path that ends adds its
-/// radiance to the pixel's sums. Returns the new state and sums.
-#[allow(clippy::too_many_arguments)]
-pub fn path_step(
-    vol: &VolumeView<impl Texels>,
-    params: &RenderParams,
-    scene: &Scene,
-    id: u32,
-    sample: u32,
-    start: bool,
-    st: PathState,
-    sums: PixelSums,
-) -> (PathState, PixelSums) {
-    if start {
-        let (world, rng) = camera_ray(params, id, sample);
-        return (path_start(&world, rng), sums_before(sample, sums));
-    }
-    if st.alive == 0 {
-        return (st, sums);
-    }
-    let cfg = Config::decode(params, &vol.desc);
-    let next = path_bounce(vol, &cfg, params, scene, st);
-    if next.alive != 0 {
-        return (next, sums);
-    }
-    let l = next.radiance;
-    (next, sums.add(l, l.luminance(), next.tally()))
+/// Where one invocation of a wavefront kernel stands: its pixel `id` (row-major), the sample,
+/// the stage (the push mode) and the stage's kind (the kernels' specialization constant 2).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct StageAt {
+    pub id: u32,
+    pub sample: u32,
+    pub stage: u32,
+    pub kind: u32,
 }
 
-/// One stage of the wavefront `direct` render of pixel `id` (`direct_cs`): stage 0 starts
-/// sample `sample` at the camera ([`direct_start`]), stages 1 to 3 estimate one query each; after
-/// stage 3 the radiance is added to the pixel's sums. Returns the new state and sums.
-#[allow(clippy::too_many_arguments)]
-pub fn direct_step(
-    vol: &VolumeView<impl Texels>,
-    params: &RenderParams,
-    scene: &Scene,
-    id: u32,
-    sample: u32,
-    stage: u32,
-    st: DirectState,
-    sums: PixelSums,
-) -> (DirectState, PixelSums) {
-    direct_wave_step(
-        vol,
-        params,
-        scene,
-        id,
-        sample,
-        stage,
-        wave_kind(params, stage),
-        st,
-        sums,
-    )
+impl StageAt {
+    /// Stage `stage` of `restir`'s sample `sample` of pixel `id`, with its kind
+    /// ([`restir_stage_kind`]).
+    #[inline]
+    pub fn restir(params: &RenderParams, id: u32, sample: u32, stage: u32) -> Self {
+        StageAt {
+            id,
+            sample,
+            stage,
+            kind: restir_stage_kind(params, stage),
+        }
+    }
 }
 
 pub use crate::integrators::stages::wave_kind;
 
-/// [`direct_step`] with the stage's [`wave_kind`] given (`direct_cs`).
-#[allow(clippy::too_many_arguments)]
+/// One stage of the wavefront `direct` render (`direct_cs`): kind 0 starts the sample at the
+/// camera ([`direct_start`]), stages 1 to 3 estimate one query each; after stage 3 the radiance
+/// is added to the pixel's sums. Returns the new state and sums.
 pub fn direct_wave_step(
     vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     scene: &Scene,
-    id: u32,
-    sample: u32,
-    stage: u32,
-    kind: u32,
+    at: StageAt,
     st: DirectState,
     sums: PixelSums,
 ) -> (DirectState, PixelSums) {
     let cfg = Config::decode(params, &vol.desc);
-    if kind == 0 {
-        let (world, rng) = camera_ray(params, id, sample);
+    if at.kind == 0 {
+        let (world, rng) = camera_ray(params, at.id, at.sample);
         return (
             direct_start(vol, &cfg, params, scene, &world, rng),
-            sums_before(sample, sums),
+            sums_before(at.sample, sums),
         );
     }
-    let next = direct_estimate(vol, &cfg, params, scene, st, stage - 1);
-    if stage < 3 {
+    let next = direct_estimate(vol, &cfg, params, scene, st, at.stage - 1);
+    if at.stage < 3 {
         return (next, sums);
     }
     let l = next.total;
@@ -403,7 +368,7 @@ pub fn direct_wave_step(
 }
 
 /// [`render_pixel_pass`] of the `restir` integrator on the CPU (the GPU runs the same stages as
-/// dispatches, [`restir_step`]).
+/// dispatches, [`restir_wave_step`]).
 pub fn restir_pixel_pass(
     vol: &VolumeView<impl Texels>,
     params: &RenderParams,
@@ -419,47 +384,27 @@ pub fn restir_pixel_pass(
     })
 }
 
-/// One stage of the wavefront `restir` render of pixel `id` (on the GPU `restir_*_cs`, one
-/// kernel per kind): stage 0 starts sample `sample` at the camera, then the candidates, the
-/// resolve and the four estimates ([`restir_stage`]); after the last the radiance is added to the
-/// pixel's sums.
-#[allow(clippy::too_many_arguments)]
-pub fn restir_step(
-    vol: &VolumeView<impl Texels>,
-    params: &RenderParams,
-    scene: &Scene,
-    id: u32,
-    sample: u32,
-    stage: u32,
-    st: RestirState,
-    sums: PixelSums,
-) -> (RestirState, PixelSums) {
-    let kind = restir_stage_kind(params, stage);
-    restir_wave_step(vol, params, scene, id, sample, stage, kind, st, sums)
-}
-
-/// [`restir_step`] with the stage's kind ([`restir_stage_kind`]) given. The GPU runs each kind
-/// as its own kernel (`restir_start_cs`, `restir_candidate_cs`, `restir_reuse_cs`,
-/// `restir_resolve_cs`, `restir_query_cs`), each calling only its kind's step below, so that a
-/// module holds one kind's code (one module of every kind took lavapipe 110-240 s per pipeline).
-#[allow(clippy::too_many_arguments)]
+/// One stage of the wavefront `restir` render (on the GPU `restir_*_cs`, one kernel per kind,
+/// each calling only its kind's step below, so that a module holds one kind's code: one module
+/// of every kind took lavapipe 110-240 s per pipeline): stage 0 starts the sample at the camera,
+/// then the candidates, the resolve and the four estimates ([`restir_stage`]); after the last
+/// the radiance is added to the pixel's sums. The CPU calls it with [`StageAt::restir`].
 pub fn restir_wave_step(
     vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     scene: &Scene,
-    id: u32,
-    sample: u32,
-    stage: u32,
-    kind: u32,
+    at: StageAt,
     st: RestirState,
     sums: PixelSums,
 ) -> (RestirState, PixelSums) {
-    if kind == KIND_START {
-        return restir_start_step(vol, params, scene, id, sample, stage, kind, st, sums);
+    if at.kind == KIND_START {
+        return restir_start_step(vol, params, scene, at, st, sums);
     }
     let cfg = Config::decode(params, &vol.desc);
-    let next = restir_stage_of_kind(vol, &cfg, params, scene, id, sample, st, stage, kind);
-    restir_finish(params, stage, next, sums)
+    let next = restir_stage_of_kind(
+        vol, &cfg, params, scene, at.id, at.sample, st, at.stage, at.kind,
+    );
+    restir_finish(params, at.stage, next, sums)
 }
 
 /// After stage `stage` left `next`: the pixel's sums, with the sample's radiance added after the
@@ -478,116 +423,95 @@ fn restir_finish(
     (next, sums.add(l, l.luminance(), next.direct.tally()))
 }
 
-/// A `restir` start stage ([`restir_wave_step`]'s signature; `restir_start_cs`): sample
-/// `sample`'s camera ray, scattering vertex and `direct`'s light and phase samples.
-#[allow(clippy::too_many_arguments)]
+/// A `restir` start stage (`restir_start_cs`): the sample's camera ray, scattering vertex and
+/// `direct`'s light and phase samples.
 pub fn restir_start_step(
     vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     scene: &Scene,
-    id: u32,
-    sample: u32,
-    _stage: u32,
-    _kind: u32,
+    at: StageAt,
     _st: RestirState,
     sums: PixelSums,
 ) -> (RestirState, PixelSums) {
     let cfg = Config::decode(params, &vol.desc);
-    let (world, rng) = camera_ray(params, id, sample);
+    let (world, rng) = camera_ray(params, at.id, at.sample);
     (
         restir_start(vol, &cfg, params, scene, &world, rng),
-        sums_before(sample, sums),
+        sums_before(at.sample, sums),
     )
 }
 
 /// A `restir` candidate stage (`restir_candidate_cs`).
-#[allow(clippy::too_many_arguments)]
 pub fn restir_candidate_step(
     vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     scene: &Scene,
-    id: u32,
-    sample: u32,
-    stage: u32,
-    _kind: u32,
+    at: StageAt,
     st: RestirState,
     sums: PixelSums,
 ) -> (RestirState, PixelSums) {
     let cfg = Config::decode(params, &vol.desc);
-    let next = candidate_stage(vol, &cfg, params, scene, id, sample, st);
-    restir_finish(params, stage, next, sums)
+    let next = candidate_stage(vol, &cfg, params, scene, at.id, at.sample, st);
+    restir_finish(params, at.stage, next, sums)
 }
 
 /// A `restir` resolve stage (`restir_resolve_cs`).
-#[allow(clippy::too_many_arguments)]
 pub fn restir_resolve_step(
     _vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     scene: &Scene,
-    _id: u32,
-    _sample: u32,
-    stage: u32,
-    _kind: u32,
+    at: StageAt,
     st: RestirState,
     sums: PixelSums,
 ) -> (RestirState, PixelSums) {
     let next = resolve_stage(scene, params, st);
-    restir_finish(params, stage, next, sums)
+    restir_finish(params, at.stage, next, sums)
 }
 
 /// A `restir` transmittance-query stage (`restir_query_cs`).
-#[allow(clippy::too_many_arguments)]
 pub fn restir_query_step(
     vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     scene: &Scene,
-    _id: u32,
-    _sample: u32,
-    stage: u32,
-    _kind: u32,
+    at: StageAt,
     st: RestirState,
     sums: PixelSums,
 ) -> (RestirState, PixelSums) {
     let cfg = Config::decode(params, &vol.desc);
-    let next = query_stage(vol, &cfg, params, scene, st, stage);
-    restir_finish(params, stage, next, sums)
+    let next = query_stage(vol, &cfg, params, scene, st, at.stage);
+    restir_finish(params, at.stage, next, sums)
 }
 
 /// What `restir_reuse_cs` does in a stage that is not a reuse stage (the host never dispatches
 /// it so): leaves the state and sums as they are.
-#[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn restir_unchanged_step(
     _vol: &VolumeView<impl Texels>,
     _params: &RenderParams,
     _scene: &Scene,
-    _id: u32,
-    _sample: u32,
-    _stage: u32,
-    _kind: u32,
+    _at: StageAt,
     st: RestirState,
     sums: PixelSums,
 ) -> (RestirState, PixelSums) {
     (st, sums)
 }
 
-/// One reuse stage of the wavefront `restir` render of pixel `id` (`restir_reuse_cs`, when
-/// [`is_reuse_stage`]): its new state from every pixel's (`states[j - base]` is pixel j's);
-/// [`store_reuse`] writes what changed.
-#[allow(clippy::too_many_arguments)]
+/// One reuse stage of the wavefront `restir` render (`restir_reuse_cs`, when
+/// [`is_reuse_stage`]): the pixel's new state from every pixel's (`states[j - base]` is pixel
+/// j's); [`store_reuse`] writes what changed.
 pub fn restir_reuse_step(
     vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     scene: &Scene,
-    id: u32,
-    sample: u32,
-    stage: u32,
+    at: StageAt,
     states: &[RestirState],
     base: u32,
 ) -> RestirState {
     let cfg = Config::decode(params, &vol.desc);
-    let pass = reuse_pass(params, stage);
-    reuse(vol, &cfg, params, scene, id, sample, pass, states, base)
+    let pass = reuse_pass(params, at.stage);
+    reuse(
+        vol, &cfg, params, scene, at.id, at.sample, pass, states, base,
+    )
 }
 
 /// Stores what reuse stage `stage` changed in pixel state `dst` (its output reservoir and
@@ -602,23 +526,32 @@ pub fn restir_store_reuse(
     store_reuse(dst, src, reuse_pass(params, stage));
 }
 
-/// [`path_step`] with the wavefront's stage and its [`wave_kind`] (0: start, else bounce), the
-/// signature the wavefront kernels share with [`direct_wave_step`].
-#[allow(clippy::too_many_arguments)]
+/// One step of the wavefront `path` render (`path_cs`): kind 0 starts the sample's path at the
+/// camera, any other kind advances it by one vertex (every bounce is the same step); a path that
+/// ends adds its radiance to the pixel's sums. Returns the new state and sums.
 #[inline]
 pub fn path_wave_step(
     vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     scene: &Scene,
-    id: u32,
-    sample: u32,
-    stage: u32,
-    kind: u32,
+    at: StageAt,
     st: PathState,
     sums: PixelSums,
 ) -> (PathState, PixelSums) {
-    let _ = stage; // every bounce is the same step
-    path_step(vol, params, scene, id, sample, kind == 0, st, sums)
+    if at.kind == 0 {
+        let (world, rng) = camera_ray(params, at.id, at.sample);
+        return (path_start(&world, rng), sums_before(at.sample, sums));
+    }
+    if st.alive == 0 {
+        return (st, sums);
+    }
+    let cfg = Config::decode(params, &vol.desc);
+    let next = path_bounce(vol, &cfg, params, scene, st);
+    if next.alive != 0 {
+        return (next, sums);
+    }
+    let l = next.radiance;
+    (next, sums.add(l, l.luminance(), next.tally()))
 }
 
 /// [`render_pixel_pass`] of the `path` integrator on the CPU: each sample's whole path, the same
