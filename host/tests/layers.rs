@@ -148,3 +148,52 @@ fn stderr_of_one_sample_is_refused() {
     );
     assert!(!dir.path().join("out/render.exr").exists());
 }
+
+/// The `camera-transmittance` layer is the camera rays' transmittance: for an integrator render the
+/// same values as a transmittance render of the same rays and estimator, for a transmittance
+/// render the image itself.
+#[test]
+fn transmittance_layer_is_the_camera_rays_transmittance() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let ok = |o: std::process::Output| {
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    ok(run(d, &["--spp", "2", "--out", "t.exr"]));
+    ok(run(
+        d,
+        &[
+            "--spp",
+            "2",
+            "--out",
+            "tl.exr",
+            "--layers",
+            "camera-transmittance",
+        ],
+    ));
+    let t = layers(&d.join("t.exr"));
+    let image = channel(&t, "transmittance", "R");
+    let tl = layers(&d.join("tl.exr"));
+    assert_eq!(channel(&tl, "camera-transmittance", "Y"), image);
+    for integrator in ["direct", "mis-jackknife"] {
+        let out = format!("{integrator}.exr");
+        let args = [
+            "--spp",
+            "2",
+            "--integrator",
+            integrator,
+            "--layers",
+            "camera-transmittance",
+        ];
+        let mut a = args.to_vec();
+        a.extend(["--out", out.as_str()]);
+        ok(run(d, &a));
+        let l = layers(&d.join(&out));
+        assert_eq!(
+            channel(&l, "camera-transmittance", "Y"),
+            image,
+            "{integrator}"
+        );
+        assert!(image.iter().any(|&v| v < 0.9), "the volume is in view");
+    }
+}

@@ -13,6 +13,11 @@ pub enum Layer {
     Samples,
     /// Mean high-resolution lookups per sample.
     Lookups,
+    /// Transmittance of the pixel's camera rays through the volume (1 - alpha), by the render's
+    /// estimator: the image itself for a transmittance render; for an integrator render, a
+    /// second render of the same camera rays (same seed, same pixel jitter) without the
+    /// integrator.
+    CameraTransmittance,
 }
 
 impl Layer {
@@ -22,11 +27,16 @@ impl Layer {
             Layer::StdErr => "stderr",
             Layer::Samples => "samples",
             Layer::Lookups => "lookups",
+            Layer::CameraTransmittance => "camera-transmittance",
         }
     }
 
-    /// The layer's values, row-major.
-    pub fn values(self, pixels: &[PixelOut], spp: u32) -> Vec<f32> {
+    /// The layer's values, row-major; `camera` is the camera rays' transmittance render of an
+    /// integrator render (None: `pixels` is a transmittance render).
+    pub fn values(self, pixels: &[PixelOut], spp: u32, camera: Option<&[PixelOut]>) -> Vec<f32> {
+        if self == Layer::CameraTransmittance {
+            return camera.unwrap_or(pixels).iter().map(|p| p.t_mean).collect();
+        }
         pixels
             .iter()
             .map(|p| match self {
@@ -37,6 +47,7 @@ impl Layer {
                 }
                 Layer::Samples => spp as f32,
                 Layer::Lookups => (p.samples as f64 / spp.max(1) as f64) as f32,
+                Layer::CameraTransmittance => p.t_mean,
             })
             .collect()
     }

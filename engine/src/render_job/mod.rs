@@ -65,7 +65,8 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
     let flags = RayFlags::of(&pixels, args.spp);
     flags.warn(&params);
     crate::diagnostics::check_finite(&pixels, args.width)?;
-    let mean = write_images(args, &png, &pixels, direct)?;
+    let camera = camera_transmittance(args, &backend, &resident, &params, &lights)?;
+    let mean = write_images(args, &png, &pixels, camera.as_deref(), direct)?;
     let rays = pixels.len() as f64 * args.spp as f64;
     let samples: f64 = pixels.iter().map(|p| p.samples as f64).sum();
     let summary = summary::summarize(&summary::Rendered {
@@ -240,10 +241,31 @@ fn build_shadows(
 
 /// Writes the EXR (linear) and its PNG preview; returns the image's mean (T, or L's luminance
 /// channel for integrators).
+/// The transmittance of an integrator render's camera rays (`--layers transmittance`): the
+/// same rays (seed, pixel jitter) rendered without the integrator, by the render's estimator.
+fn camera_transmittance(
+    args: &RenderOptions,
+    backend: &Backend,
+    resident: &Resident,
+    params: &RenderParams,
+    lights: &SceneLights,
+) -> Result<Option<Vec<PixelOut>>> {
+    if args.integrator.is_none() || !args.layers.contains(&layers::Layer::CameraTransmittance) {
+        return Ok(None);
+    }
+    let mut p = *params;
+    p.integrator = Integrator::Transmittance as u32;
+    p.light_count = 0;
+    let (pixels, _, _) =
+        backend.timed(|| crate::render::render_resident_lit(resident, &p, lights, false))?;
+    Ok(Some(pixels))
+}
+
 fn write_images(
     args: &RenderOptions,
     png: &Path,
     pixels: &[PixelOut],
+    camera: Option<&[PixelOut]>,
     direct: bool,
 ) -> Result<f64> {
     let t: Vec<f32> = pixels.iter().map(|p| p.t_mean).collect();
@@ -251,7 +273,7 @@ fn write_images(
     let extra: Vec<(String, Vec<f32>)> = args
         .layers
         .iter()
-        .map(|l| (l.name().to_owned(), l.values(pixels, args.spp)))
+        .map(|l| (l.name().to_owned(), l.values(pixels, args.spp, camera)))
         .collect();
     if direct {
         let rgb: Vec<[f32; 3]> = pixels

@@ -42,6 +42,8 @@ value_enum! {
         Samples,
         /// Mean lookups per sample.
         Lookups,
+        /// The camera rays' transmittance.
+        CameraTransmittance,
     }
 }
 

@@ -240,7 +240,9 @@ pub struct RenderArgs {
     pub quiet: bool,
     /// Extra layers of the EXR beside the image, comma-separated: stderr (the standard error of
     /// the pixel's mean, of the luminance for RGB; needs --spp 2 or more), samples (per pixel),
-    /// lookups (mean high-resolution lookups per sample); all linear, one channel `Y` each.
+    /// lookups (mean high-resolution lookups per sample), camera-transmittance (of the camera rays by
+    /// --estimator, 1 - alpha; with --integrator a second render of the same rays); all linear,
+    /// one channel `Y` each.
     #[arg(long, value_enum, value_delimiter = ',')]
     pub layers: Vec<super::parsers::LayerArg>,
     /// A scene to render: a TOML file whose keys are these flags without the dashes, or the
