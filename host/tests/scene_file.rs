@@ -252,6 +252,13 @@ fn bad_scene_files_name_the_key_and_line() {
             "{text:?} wrote an image"
         );
     }
+    for device in ["/dev/zero", "/dev/null"] {
+        let err = refused(d, &["render", "--scene", device]);
+        assert!(err.contains("not a regular file"), "{device}: {err}");
+    }
+    std::fs::create_dir(d.join("dir.toml")).unwrap();
+    let err = refused(d, &["render", "dir.toml"]);
+    assert!(err.contains("not a regular file"), "{err}");
     let err = refused(d, &["render", "--scene", "missing.toml"]);
     assert!(
         err.contains("missing.toml") && err.contains("cannot read"),

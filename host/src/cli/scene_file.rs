@@ -135,8 +135,27 @@ fn at(file: &Path, s: &Setting, message: &str) -> anyhow::Error {
     }
 }
 
+/// Largest scene file read (a scene is a few hundred bytes; a render's JSON summary a few KB).
+const MAX_SCENE_BYTES: u64 = 16 << 20;
+
 /// The settings of a TOML scene file, or of the `scene` of a JSON summary (`.json`).
 fn load(file: &Path) -> Result<Vec<Setting>> {
+    if let Ok(m) = std::fs::metadata(file) {
+        if !m.is_file() {
+            bail!(
+                "--scene {}: not a regular file (a TOML scene, or the JSON summary of a render)",
+                file.display()
+            );
+        }
+        if m.len() > MAX_SCENE_BYTES {
+            bail!(
+                "--scene {}: {} bytes is not a scene file (at most {} MiB)",
+                file.display(),
+                m.len(),
+                MAX_SCENE_BYTES >> 20
+            );
+        }
+    }
     let text = std::fs::read_to_string(file).with_context(|| {
         format!(
             "--scene {}: cannot read the scene file (a TOML scene, or the JSON summary of a \
