@@ -248,6 +248,29 @@ pub struct Scene {
     pub up: crate::render::UpAxis,
 }
 
+impl Scene {
+    /// Render parameters of this scene's camera for an image of `width` x `height` pixels at
+    /// `spp` samples each with seed `seed`; every other field at its default, for the caller's
+    /// struct update.
+    pub fn params(
+        &self,
+        width: u32,
+        height: u32,
+        spp: u32,
+        seed: u32,
+    ) -> shared::params::RenderParams {
+        shared::params::RenderParams {
+            camera: self.camera,
+            world_to_index: self.world_to_index,
+            width,
+            height,
+            spp,
+            seed,
+            ..Default::default()
+        }
+    }
+}
+
 /// Loads the volume of `--volume` (`check`: see [`load_volume`]), packs it (its pool in pages
 /// of 2^`page_log2` words: see [`Backend::page_log2`]) and sets up the camera for a `w` x `h`
 /// image.

@@ -449,16 +449,10 @@ pub fn run(args: &BenchOptions) -> Result<BenchReport> {
         Some(engine::io::TopologyCheck(&cpu_check(&args.scene))),
     )?;
     let base = RenderParams {
-        camera: scene.camera,
-        world_to_index: scene.world_to_index,
-        width: args.width,
-        height: args.height,
-        spp: args.spp,
-        seed: args.seed,
         n: args.n,
         f_delta: 0.6,
         pixel_jitter: 1,
-        ..Default::default()
+        ..scene.params(args.width, args.height, args.spp, args.seed)
     };
     let rays = f64::from(args.width) * f64::from(args.height) * f64::from(args.spp);
     let steps_per_traversal = engine::traversal::reads_per_ray(&scene.packed, &base);

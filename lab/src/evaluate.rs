@@ -300,17 +300,11 @@ pub fn run_eval(args: &EvalOptions) -> Result<()> {
         tracing::info!("backend: {} ({})", backend.kind(), backend.device());
     }
     let params = RenderParams {
-        camera: scene.camera,
-        world_to_index: scene.world_to_index,
-        width: args.width,
-        height: args.height,
-        spp: args.spp,
-        seed: args.seed,
         n: args.n,
         f_delta: args.f_delta,
         pixel_jitter: 0,
         roulette: args.ratio_roulette as u32,
-        ..Default::default()
+        ..scene.params(args.width, args.height, args.spp, args.seed)
     };
     if let Some(integrators) = &integrators {
         return run_eval_integrators(args, integrators, &json, vol, packed, &backend, params);
@@ -484,19 +478,13 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
         );
     }
     let params = RenderParams {
-        camera: scene.camera,
-        world_to_index: scene.world_to_index,
-        width: args.width,
-        height: args.height,
-        spp: args.spp,
-        seed: args.seed,
         n: args.n,
         f_delta: args.f_delta,
         pixel_jitter: 1,
         rr_depth: args.rr_depth,
         max_depth: args.max_depth,
         hg_g: args.hg_g.unwrap_or(0.0),
-        ..Default::default()
+        ..scene.params(args.width, args.height, args.spp, args.seed)
     };
     let reads_restir = integrators
         .iter()

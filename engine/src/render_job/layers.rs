@@ -34,9 +34,10 @@ impl Layer {
     /// The layer's values, row-major; `camera` is the camera rays' transmittance render of an
     /// integrator render (None: `pixels` is a transmittance render).
     pub fn values(self, pixels: &[PixelOut], spp: u32, camera: Option<&[PixelOut]>) -> Vec<f32> {
-        if self == Layer::CameraTransmittance {
-            return camera.unwrap_or(pixels).iter().map(|p| p.t_mean).collect();
-        }
+        let pixels = match (self, camera) {
+            (Layer::CameraTransmittance, Some(camera)) => camera,
+            _ => pixels,
+        };
         pixels
             .iter()
             .map(|p| match self {

@@ -154,17 +154,11 @@ fn render_params(
     points: &[shared::sampling::lights::PointLight],
 ) -> RenderParams {
     let mut params = RenderParams {
-        camera: scene.camera,
-        world_to_index: scene.world_to_index,
-        width: args.width,
-        height: args.height,
-        spp: args.spp,
-        seed: args.seed,
         n: args.n,
         f_delta: args.f_delta,
         pixel_jitter: 1,
         roulette: args.ratio_roulette as u32,
-        ..Default::default()
+        ..scene.params(args.width, args.height, args.spp, args.seed)
     };
     args.estimator.apply(&mut params);
     if let Some(integrator) = args.integrator {

@@ -324,18 +324,22 @@ fn given_keys(cmd: &Command, user: &[OsString]) -> Vec<String> {
     keys
 }
 
+/// The file an input setting names (`volume`, `env`, unless one of their names such as `cloud`
+/// or `sky`), else None.
+fn input_path<'a>(key: &str, value: &'a SceneValue) -> Option<&'a Path> {
+    let (_, names) = INPUT_PATHS.iter().find(|(k, _)| *k == key)?;
+    match value {
+        SceneValue::Text(t) if !names.contains(&t.as_str()) => Some(Path::new(t)),
+        _ => None,
+    }
+}
+
 /// An input path relative to the scene file, made relative to its folder.
 fn resolve_input(file: &Path, key: &str, value: &SceneValue) -> SceneValue {
-    let names = INPUT_PATHS.iter().find(|(k, _)| *k == key).map(|(_, n)| *n);
-    match (names, value) {
-        (Some(names), SceneValue::Text(t)) if !names.contains(&t.as_str()) => {
-            let p = Path::new(t);
-            if p.is_relative() {
-                let dir = file.parent().unwrap_or(Path::new(""));
-                SceneValue::Text(dir.join(p).display().to_string())
-            } else {
-                value.clone()
-            }
+    match input_path(key, value) {
+        Some(p) if p.is_relative() => {
+            let dir = file.parent().unwrap_or(Path::new(""));
+            SceneValue::Text(dir.join(p).display().to_string())
         }
         _ => value.clone(),
     }
@@ -475,14 +479,8 @@ fn number(s: &str) -> SceneValue {
 
 /// An input path as an absolute one (so a scene renders from any folder).
 fn absolute_input(key: &str, value: SceneValue) -> SceneValue {
-    let names = INPUT_PATHS.iter().find(|(k, _)| *k == key).map(|(_, n)| *n);
-    match (names, &value) {
-        (Some(names), SceneValue::Text(t)) if !names.contains(&t.as_str()) => {
-            match std::path::absolute(t) {
-                Ok(p) => SceneValue::Text(p.display().to_string()),
-                Err(_) => value,
-            }
-        }
+    match input_path(key, &value).map(std::path::absolute) {
+        Some(Ok(p)) => SceneValue::Text(p.display().to_string()),
         _ => value,
     }
 }
