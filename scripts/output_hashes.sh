@@ -59,6 +59,13 @@ for backend in "${backends[@]}"; do
     done
   done
 done
+# More than one 256-sample block: the blocks' exact totals (engine/src/exact.rs), on each backend.
+for backend in "${backends[@]}"; do
+  f="$out/r.exr"
+  "$host" render --backend "$backend" --volume cloud --resolution 48 --width 8 --height 6 \
+    --spp 600 --seed 7 --quiet --out "$f" >/dev/null
+  hash_file "render/cloud/blocks/jackknife-600spp" "$f"
+done
 "$host" eval --backend cpu --volume cloud --resolution 48 --width 16 --height 16 --spp 8 \
   --estimators jackknife,ratio,unbiased-rm --out-dir "$out/eval" --quiet >/dev/null
 for f in "$out"/eval/*.exr; do hash_file "eval/$(basename "$f")" "$f"; done

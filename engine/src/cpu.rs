@@ -76,7 +76,7 @@ impl RenderBackend for CpuVolume<'_> {
         let scene = lights.view();
         let wave = Integrator::from_u32(params.integrator).wavefront();
         if wave == Some(Wavefront::Restir) && params.restir.passes > 0 {
-            return Ok(restir_wave(&view, params, &scene, bar));
+            return Ok(restir_wave(&view, params, &scene, schedule.samples(), bar));
         }
         let count = params.width * params.height;
         let chunk = schedule.chunk;
@@ -121,7 +121,8 @@ impl RenderBackend for CpuVolume<'_> {
     }
 }
 
-/// `restir` with spatial reuse: the GPU's wavefront over the whole image (row-major states).
+/// `restir` with spatial reuse, samples `samples`: the GPU's wavefront over the whole image
+/// (row-major states).
 /// Each reuse stage reads a snapshot of every state and stores what it changed; the stages
 /// between reuse stages run per pixel in one sweep (the same calls in the same order as the
 /// GPU's dispatches, so the same bits, with fewer sweeps over the states).
@@ -129,13 +130,14 @@ fn restir_wave(
     view: &VolumeView,
     params: &RenderParams,
     scene: &Scene,
+    samples: std::ops::Range<u32>,
     bar: Option<&ProgressBar>,
 ) -> Vec<PixelSums> {
     let count = (params.width * params.height) as usize;
     let mut states = vec![RestirState::default(); count];
     let mut sums = vec![PixelSums::default(); count];
     let stages = stage_count(params);
-    for s in 0..params.spp {
+    for s in samples {
         let mut stage = 0;
         while stage < stages {
             if is_reuse_stage(params, stage) {

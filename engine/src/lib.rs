@@ -8,6 +8,7 @@ pub mod bricks;
 pub mod cpu;
 pub mod diagnostics;
 pub mod estimators;
+pub mod exact;
 pub mod gpu;
 pub mod integrators;
 pub mod job;
@@ -20,6 +21,7 @@ pub mod scene;
 pub mod schedule;
 pub mod shadow_map;
 pub mod supervoxel_info;
+pub mod totals;
 pub mod traversal;
 
 pub use backend::{Backend, BackendChoice};

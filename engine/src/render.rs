@@ -4,12 +4,14 @@ use crate::backend::Backend;
 use crate::bricks::PackedVolume;
 use crate::lighting::SceneLights;
 pub use crate::schedule::{RenderBackend, Schedule, LOOP_BUDGET};
+use crate::totals::PixelTotals;
 use crate::volume::{Affine, VolumeData};
 use anyhow::{Context, Result};
+use rayon::prelude::*;
 use shared::camera::Camera;
 use shared::geometry::{Affine3x4, V3};
 pub use shared::integrators::budget::loop_iterations_per_ray;
-use shared::kernels::render::{finish_pixel, PixelOut};
+use shared::kernels::render::{finish_pixel, PixelOut, PixelSums, SAMPLE_BLOCK};
 use shared::params::RenderParams;
 use shared::sampling::lights::PointLight;
 
@@ -356,13 +358,85 @@ pub fn render_resident(
     )
 }
 
-/// [`render_lit`] of a [`Resident`] volume.
+/// [`render_lit`] of a [`Resident`] volume. Renders of more than one sample block add the
+/// blocks' sums exactly ([`render_totals`]); one block's sums are the pixels' sums themselves.
 pub fn render_resident_lit(
     resident: &Resident,
     params: &RenderParams,
     lights: &SceneLights,
     progress: bool,
 ) -> Result<Vec<PixelOut>> {
+    let spp = params.spp;
+    anyhow::ensure!(spp > 0, "--spp must be at least 1");
+    if sample_blocks(0..spp).len() > 1 {
+        let totals = render_totals(resident, params, lights, 0..spp, progress)?;
+        return finish_totals(&totals, spp);
+    }
+    let mut pixels = Vec::new();
+    render_blocks(resident, params, lights, 0..spp, progress, |sums| {
+        pixels = sums.into_iter().map(|s| finish_pixel(s, spp)).collect();
+        Ok(())
+    })?;
+    Ok(pixels)
+}
+
+/// The exact totals of every pixel (row-major) over samples `samples` of `params`' render:
+/// each sample block's sums added without rounding, so that any cut of a render into sample
+/// ranges at block boundaries adds up to the same totals (`host render --samples`, `host merge`).
+pub fn render_totals(
+    resident: &Resident,
+    params: &RenderParams,
+    lights: &SceneLights,
+    samples: std::ops::Range<u32>,
+    progress: bool,
+) -> Result<Vec<PixelTotals>> {
+    let count = params.width as usize * params.height as usize;
+    let mut totals = vec![PixelTotals::default(); count];
+    render_blocks(resident, params, lights, samples, progress, |sums| {
+        totals
+            .par_iter_mut()
+            .zip(&sums)
+            .for_each(|(t, s)| t.add_block(s));
+        Ok(())
+    })?;
+    Ok(totals)
+}
+
+/// The pixels of a render of `spp` samples from their totals.
+pub fn finish_totals(totals: &[PixelTotals], spp: u32) -> Result<Vec<PixelOut>> {
+    totals
+        .par_iter()
+        .map(|t| Ok(finish_pixel(t.to_sums()?, spp)))
+        .collect()
+}
+
+/// Samples `samples` cut at the multiples of [`SAMPLE_BLOCK`]: the blocks whose sums start from
+/// zero.
+pub fn sample_blocks(samples: std::ops::Range<u32>) -> Vec<(u32, u32)> {
+    let mut blocks = Vec::new();
+    let mut s = samples.start;
+    while s < samples.end {
+        let end = (s / SAMPLE_BLOCK + 1)
+            .saturating_mul(SAMPLE_BLOCK)
+            .min(samples.end);
+        blocks.push((s, end));
+        s = end;
+    }
+    blocks
+}
+
+/// Renders samples `samples` of every pixel, block by block ([`sample_blocks`]), and hands
+/// each block's sums (row-major, from zero) to `block` in order. A block runs in passes that
+/// keep one GPU invocation within its loop budget; within a pass, in chunks for the progress
+/// bar.
+fn render_blocks(
+    resident: &Resident,
+    params: &RenderParams,
+    lights: &SceneLights,
+    samples: std::ops::Range<u32>,
+    progress: bool,
+    mut block: impl FnMut(Vec<PixelSums>) -> Result<()>,
+) -> Result<()> {
     let vol = resident.vol;
     // The single-scattering integrators weigh every light per segment; `direct`, `path` and
     // `restir` draw by power from the alias table (any number).
@@ -377,25 +451,39 @@ pub fn render_resident_lit(
         .width
         .checked_mul(params.height)
         .context("image too large")?;
-    anyhow::ensure!(params.spp > 0, "--spp must be at least 1");
+    anyhow::ensure!(
+        samples.start < samples.end && samples.end <= params.spp,
+        "samples {}..{} are not a range within the render's {} samples per pixel",
+        samples.start,
+        samples.end,
+        params.spp
+    );
     let step = spp_per_pass_within(params, &vol.desc, resident.backend.loop_budget())?;
-    let passes: Vec<(u32, u32)> = (0..params.spp)
-        .step_by(step as usize)
-        .map(|s| (s, (s + step).min(params.spp)))
-        .collect();
-    // About 64 progress updates overall; each chunk is a whole number of workgroups.
-    let per_pass = (64 / passes.len() as u32).max(1);
-    let chunk = count.div_ceil(per_pass).next_multiple_of(64).max(64);
-    let bar = crate::output::progress(count as u64 * params.spp as u64, "rendering", !progress);
-    let schedule = Schedule { passes, chunk };
-    let sums = resident
-        .backend
-        .render_sums(params, lights, &schedule, progress.then_some(&bar))?;
-    bar.finish_and_clear();
-    Ok(sums
+    let blocks: Vec<Vec<(u32, u32)>> = sample_blocks(samples.clone())
         .into_iter()
-        .map(|s| finish_pixel(s, params.spp))
-        .collect())
+        .map(|(b0, b1)| {
+            (b0..b1)
+                .step_by(step as usize)
+                .map(|s| (s, (s + step).min(b1)))
+                .collect()
+        })
+        .collect();
+    let pass_count: usize = blocks.iter().map(Vec::len).sum();
+    // About 64 progress updates overall; each chunk is a whole number of workgroups.
+    let per_pass = (64 / pass_count.max(1) as u32).max(1);
+    let chunk = count.div_ceil(per_pass).next_multiple_of(64).max(64);
+    let done = u64::from(count) * u64::from(samples.end - samples.start);
+    let bar = crate::output::progress(done, "rendering", !progress);
+    for passes in blocks {
+        let schedule = Schedule { passes, chunk };
+        let sums =
+            resident
+                .backend
+                .render_sums(params, lights, &schedule, progress.then_some(&bar))?;
+        block(sums)?;
+    }
+    bar.finish_and_clear();
+    Ok(())
 }
 
 /// Bytes a render holds per pixel at its peak, on either backend: the running sums, the
@@ -404,29 +492,47 @@ pub fn render_resident_lit(
 /// 16.8 M pixels, 71 bytes each.
 pub const BYTES_PER_PIXEL: u64 = 80;
 
+/// Bytes a render of more than one sample block also holds per pixel: the exact totals.
+pub const TOTALS_BYTES_PER_PIXEL: u64 = std::mem::size_of::<PixelTotals>() as u64;
+
 /// Refuses a `width` x `height` image (`images` of them held at once: an evaluation keeps its
-/// reference beside each estimate) whose buffers need more than the memory this process may
+/// reference beside each estimate; `totals`: with exact totals, as renders of more than one
+/// sample block and shards keep) whose buffers need more than the memory this process may
 /// still allocate, before any work: an allocation past a limit aborts the process.
-pub fn check_image_memory(width: u32, height: u32, images: u64) -> Result<()> {
-    let need = u64::from(width) * u64::from(height) * BYTES_PER_PIXEL * images;
+pub fn check_image_memory(width: u32, height: u32, images: u64, totals: bool) -> Result<()> {
+    let per_pixel = BYTES_PER_PIXEL + if totals { TOTALS_BYTES_PER_PIXEL } else { 0 };
+    let need = u64::from(width) * u64::from(height) * per_pixel * images;
     if let Some(available) = volume_io::available_memory() {
         let gib = |b: u64| b as f64 / f64::from(1 << 30);
         anyhow::ensure!(
             need <= available,
             "--width {width} --height {height}: the image's buffers need about {:.1} GiB \
-             ({BYTES_PER_PIXEL} bytes per pixel{}), more than the {:.1} GiB of memory available \
+             ({per_pixel} bytes per pixel{}), more than the {:.1} GiB of memory available \
              (the least of free memory, `ulimit -v` and the cgroup's limit); render a smaller \
-             image",
+             image{}",
             gib(need),
             if images > 1 {
                 format!(", {images} images at once")
             } else {
                 String::new()
             },
-            gib(available)
+            gib(available),
+            if totals {
+                format!(
+                    ", or at most {SAMPLE_BLOCK} samples per pixel (more keep exact totals of \
+                     {TOTALS_BYTES_PER_PIXEL} bytes per pixel)"
+                )
+            } else {
+                String::new()
+            }
         );
     }
     Ok(())
+}
+
+/// Whether a render of `spp` samples keeps exact totals (more than one sample block).
+pub fn keeps_totals(spp: u32) -> bool {
+    spp > SAMPLE_BLOCK
 }
 
 #[cfg(test)]

@@ -48,3 +48,13 @@ pub struct Schedule {
     /// longest GPU dispatch.
     pub chunk: u32,
 }
+
+impl Schedule {
+    /// The samples the passes cover (one sample block or part of one: the wavefronts run them
+    /// sample by sample).
+    pub fn samples(&self) -> std::ops::Range<u32> {
+        let start = self.passes.first().map_or(0, |p| p.0);
+        let end = self.passes.last().map_or(0, |p| p.1);
+        start..end
+    }
+}

@@ -197,3 +197,38 @@ fn transmittance_layer_is_the_camera_rays_transmittance() {
         assert!(image.iter().any(|&v| v < 0.9), "the volume is in view");
     }
 }
+
+/// The `albedo` layer is --albedo times the camera rays' opacity (1 - the camera-transmittance
+/// layer), per channel; a transmittance render refuses it.
+#[test]
+fn albedo_layer_is_the_albedo_times_the_opacity() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let o = run(d, &["--spp", "2", "--layers", "albedo"]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("--layers albedo needs --integrator"), "{err}");
+    let o = run(
+        d,
+        &[
+            "--spp",
+            "2",
+            "--integrator",
+            "path",
+            "--albedo",
+            "0.9,0.5,0.25",
+            "--layers",
+            "camera-transmittance,albedo",
+            "--out",
+            "p.exr",
+        ],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let l = layers(&d.join("p.exr"));
+    let t = channel(&l, "camera-transmittance", "Y");
+    for (ch, a) in [("R", 0.9f32), ("G", 0.5), ("B", 0.25)] {
+        let want: Vec<f32> = t.iter().map(|&t| a * (1.0 - t)).collect();
+        assert_eq!(channel(&l, "albedo", ch), want.as_slice(), "{ch}");
+    }
+    assert!(t.iter().any(|&v| v < 0.9), "the volume is in view");
+}

@@ -246,6 +246,8 @@ fn numeric_values(cli: &host::cli::Cli) -> Vec<f64> {
         C::Bench(a) => [a.width, a.height, a.spp, a.n, a.reps, a.warmup]
             .map(f64::from)
             .to_vec(),
+        // `host merge` has no numeric flags.
+        C::Merge(_) => Vec::new(),
         C::Study(s) => {
             let mut v: Vec<f64> = s.threads.iter().map(|&t| t as f64).collect();
             v.extend(match &s.command {

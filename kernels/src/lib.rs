@@ -189,11 +189,7 @@ macro_rules! render_kernel {
                     },
                 };
                 let slot = i - pass.sums_base as usize;
-                let prev = if pass.s_begin == 0 {
-                    PixelSums::default()
-                } else {
-                    sums[slot]
-                };
+                let prev = render::sums_before(pass.s_begin, sums[slot]);
                 let p = params.specialized(integrator, estimator, importance);
                 let ($vol, $p, $lights, $i, $pass, $prev) = (&vol, &p, lights, i as u32, pass, prev);
                 sums[slot] = $call;

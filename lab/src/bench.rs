@@ -427,7 +427,12 @@ fn time_estimator(
 
 /// `host bench`.
 pub fn run(args: &BenchOptions) -> Result<BenchReport> {
-    engine::render::check_image_memory(args.width, args.height, 1)?;
+    engine::render::check_image_memory(
+        args.width,
+        args.height,
+        1,
+        engine::render::keeps_totals(args.spp),
+    )?;
     let lookup = args.lookup;
     let specs = args.estimators.clone();
     if args.sweep {

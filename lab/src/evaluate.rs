@@ -221,7 +221,17 @@ fn eval_setup<'a>(
 
 /// `host eval`: the reference and each estimator on pixel-center rays; JSON + images.
 pub fn run_eval(args: &EvalOptions) -> Result<()> {
-    engine::render::check_image_memory(args.width, args.height, 2)?;
+    // The reference's spp is at most 16 x spp when not given.
+    let most_spp = args
+        .reference_spp
+        .unwrap_or(args.spp.saturating_mul(16))
+        .max(args.spp);
+    engine::render::check_image_memory(
+        args.width,
+        args.height,
+        2,
+        engine::render::keeps_totals(most_spp),
+    )?;
     let lit = args.integrators.iter().filter(|i| i.is_lit()).count();
     if lit > 0 {
         anyhow::ensure!(
@@ -463,6 +473,7 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
         quiet: args.quiet,
         scene_record: Default::default(),
         scene_file: None,
+        merge: Vec::new(),
         layers: Vec::new(),
     };
     let lights = direct_lights(&render, vol)?;

@@ -379,17 +379,26 @@ pub fn progress(len: u64, what: &str, quiet: bool) -> indicatif::ProgressBar {
     bar
 }
 
-/// Writes a linear RGB image as the layer `name` of an OpenEXR file, followed by one
-/// single-channel layer (channel `Y`) per entry of `layers` (name, row-major values): f32,
-/// ZIP-compressed scan lines in increasing order, written on one thread so equal images give
-/// equal bytes. Without `layers` the file is [`write_exr_rgb`]'s.
+/// The values of one extra EXR layer, row-major.
+#[derive(Clone, Debug, PartialEq)]
+pub enum LayerValues {
+    /// One channel, `Y`.
+    Y(Vec<f32>),
+    /// Three channels, `R`, `G`, `B`.
+    Rgb(Vec<[f32; 3]>),
+}
+
+/// Writes a linear RGB image as the layer `name` of an OpenEXR file, followed by one layer per
+/// entry of `layers` (name, values: channel `Y`, or `R`, `G`, `B`): f32, ZIP-compressed scan
+/// lines in increasing order, written on one thread so equal images give equal bytes. Without
+/// `layers` the file is [`write_exr_rgb`]'s.
 pub fn write_exr_layers(
     path: &Path,
     w: u32,
     h: u32,
     name: &str,
     rgb: &[[f32; 3]],
-    layers: &[(String, Vec<f32>)],
+    layers: &[(String, LayerValues)],
 ) -> Result<()> {
     use exr::prelude::*;
     if layers.is_empty() {
@@ -401,12 +410,15 @@ pub fn write_exr_layers(
         line_order: LineOrder::Increasing,
     };
     let size = (w as usize, h as usize);
-    let channel = |c: usize| -> Vec<f32> { rgb.iter().map(|p| p[c]).collect() };
-    let main = AnyChannels::sort(SmallVec::from_vec(vec![
-        AnyChannel::new("R", FlatSamples::F32(channel(0))),
-        AnyChannel::new("G", FlatSamples::F32(channel(1))),
-        AnyChannel::new("B", FlatSamples::F32(channel(2))),
-    ]));
+    let rgb_channels = |rgb: &[[f32; 3]]| {
+        let channel = |c: usize| -> Vec<f32> { rgb.iter().map(|p| p[c]).collect() };
+        AnyChannels::sort(SmallVec::from_vec(vec![
+            AnyChannel::new("R", FlatSamples::F32(channel(0))),
+            AnyChannel::new("G", FlatSamples::F32(channel(1))),
+            AnyChannel::new("B", FlatSamples::F32(channel(2))),
+        ]))
+    };
+    let main = rgb_channels(rgb);
     let mut all = vec![Layer::new(
         size,
         LayerAttributes::named(name),
@@ -414,15 +426,18 @@ pub fn write_exr_layers(
         main,
     )];
     for (layer, values) in layers {
-        let y = AnyChannels::sort(SmallVec::from_vec(vec![AnyChannel::new(
-            "Y",
-            FlatSamples::F32(values.clone()),
-        )]));
+        let channels = match values {
+            LayerValues::Y(y) => AnyChannels::sort(SmallVec::from_vec(vec![AnyChannel::new(
+                "Y",
+                FlatSamples::F32(y.clone()),
+            )])),
+            LayerValues::Rgb(rgb) => rgb_channels(rgb),
+        };
         all.push(Layer::new(
             size,
             LayerAttributes::named(layer.as_str()),
             encoding,
-            y,
+            channels,
         ));
     }
     let image = Image::from_layers(

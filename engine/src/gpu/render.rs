@@ -373,6 +373,7 @@ fn render_tiles(
                 wave,
                 dev.grid,
                 params,
+                schedule.samples(),
                 ids,
                 chunk,
                 &buffers,
@@ -508,15 +509,16 @@ fn wave_specialization(
     spec
 }
 
-/// A wavefront render of one tile: per sample, the stages of `wave` with a barrier after each
-/// (one submission per sample, so the progress bar moves per sample); the sums are read back
-/// after the last sample.
+/// A wavefront render of samples `samples` of one tile: per sample, the stages of `wave` with a
+/// barrier after each (one submission per sample, so the progress bar moves per sample); the
+/// sums are read back after the last sample.
 #[allow(clippy::too_many_arguments)]
 fn render_wave(
     gpu: &Gpu,
     wave: Wavefront,
     grid: GridSpec,
     params: &RenderParams,
+    samples: std::ops::Range<u32>,
     ids: std::ops::Range<u32>,
     chunk: u32,
     buffers: &LitBuffers,
@@ -529,9 +531,9 @@ fn render_wave(
         .collect();
     let mut uploads = Some(uploads);
     let mut readback = Some(bytemuck::cast_slice_mut::<PixelSums, u8>(slice));
-    for s in 0..params.spp {
+    for s in samples.clone() {
         let steps = wave_steps(params.seed, &modes, s, ids.clone(), chunk);
-        let readbacks = if s + 1 == params.spp {
+        let readbacks = if s + 1 == samples.end {
             vec![(
                 buffers.render.sums,
                 readback.take().expect("one readback per tile"),

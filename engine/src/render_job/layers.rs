@@ -1,6 +1,7 @@
 //! The extra layers a render can write into its EXR beside the image (`--layers`): per-pixel
 //! statistics from the sums every sample adds, all linear, one channel each.
 
+use crate::output::LayerValues;
 use shared::kernels::render::PixelOut;
 
 /// One extra EXR layer.
@@ -18,6 +19,10 @@ pub enum Layer {
     /// second render of the same camera rays (same seed, same pixel jitter) without the
     /// integrator.
     CameraTransmittance,
+    /// The medium's albedo seen through the pixel (RGB): the albedo times the camera rays'
+    /// opacity, albedo x (1 - T) with T as in `CameraTransmittance`; with the radiance, the
+    /// colour and albedo inputs of a denoiser. Integrator renders only.
+    Albedo,
 }
 
 impl Layer {
@@ -28,16 +33,41 @@ impl Layer {
             Layer::Samples => "samples",
             Layer::Lookups => "lookups",
             Layer::CameraTransmittance => "camera-transmittance",
+            Layer::Albedo => "albedo",
         }
     }
 
+    /// Whether the layer reads the camera rays' transmittance render of an integrator render.
+    pub fn needs_camera(self) -> bool {
+        matches!(self, Layer::CameraTransmittance | Layer::Albedo)
+    }
+
     /// The layer's values, row-major; `camera` is the camera rays' transmittance render of an
-    /// integrator render (None: `pixels` is a transmittance render).
-    pub fn values(self, pixels: &[PixelOut], spp: u32, camera: Option<&[PixelOut]>) -> Vec<f32> {
-        let pixels = match (self, camera) {
-            (Layer::CameraTransmittance, Some(camera)) => camera,
+    /// integrator render (None: `pixels` is a transmittance render), `albedo` the medium's.
+    pub fn values(
+        self,
+        pixels: &[PixelOut],
+        spp: u32,
+        camera: Option<&[PixelOut]>,
+        albedo: [f32; 3],
+    ) -> LayerValues {
+        let pixels = match (self.needs_camera(), camera) {
+            (true, Some(camera)) => camera,
             _ => pixels,
         };
+        if self == Layer::Albedo {
+            return LayerValues::Rgb(
+                pixels
+                    .iter()
+                    .map(|p| albedo.map(|a| a * (1.0 - p.t_mean)))
+                    .collect(),
+            );
+        }
+        LayerValues::Y(self.scalars(pixels, spp))
+    }
+
+    /// The values of a one-channel layer.
+    fn scalars(self, pixels: &[PixelOut], spp: u32) -> Vec<f32> {
         pixels
             .iter()
             .map(|p| match self {
@@ -48,18 +78,24 @@ impl Layer {
                 }
                 Layer::Samples => spp as f32,
                 Layer::Lookups => (p.samples as f64 / spp.max(1) as f64) as f32,
-                Layer::CameraTransmittance => p.t_mean,
+                Layer::CameraTransmittance | Layer::Albedo => p.t_mean,
             })
             .collect()
     }
 }
 
-/// Refuses layers the render cannot give: a standard error needs two samples per pixel.
-pub fn check(layers: &[Layer], spp: u32) -> anyhow::Result<()> {
+/// Refuses layers the render cannot give: a standard error needs two samples per pixel, an
+/// albedo a medium that scatters (an integrator render).
+pub fn check(layers: &[Layer], spp: u32, integrator: bool) -> anyhow::Result<()> {
     anyhow::ensure!(
         !(layers.contains(&Layer::StdErr) && spp < 2),
         "--layers stderr needs at least 2 samples per pixel (the standard error of one sample \
          is undefined); raise --spp or drop stderr"
+    );
+    anyhow::ensure!(
+        !(layers.contains(&Layer::Albedo) && !integrator),
+        "--layers albedo needs --integrator: a transmittance render has no scattering albedo; \
+         drop albedo or render radiance"
     );
     Ok(())
 }

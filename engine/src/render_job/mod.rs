@@ -3,12 +3,16 @@
 
 pub mod layers;
 pub mod lights;
+pub mod merge;
 pub mod options;
 pub mod scene_record;
+pub mod shard;
 pub mod summary;
 
 pub use lights::{direct_lights, lights_or_default};
-pub use options::{check_render_flags, plan_render_outputs, RenderOptions};
+pub use options::{
+    check_render_flags, plan_render_outputs, plan_shard_output, RenderOptions, ShardOutput,
+};
 pub use summary::{Albedo, CameraSummary, IntegratorSettings, RenderSummary, SunSettings};
 
 use crate::backend::{Backend, BackendChoice};
@@ -26,55 +30,52 @@ use shared::params::{Integrator, RenderParams};
 use std::path::Path;
 use std::time::Instant;
 
-/// `host render`: checks flags and outputs, loads, packs, renders, writes EXR + PNG (+ JSON),
-/// prints a summary.
+/// `host render`: checks flags and outputs, loads, packs, renders (or, with
+/// [`RenderOptions::merge`], adds up shard files), writes EXR + PNG (+ JSON), prints a summary.
 pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
     check_render_flags(args)?;
-    crate::render::check_image_memory(args.width, args.height, 1)?;
+    let merge = !args.merge.is_empty();
+    let totals = crate::render::keeps_totals(args.spp) || merge;
+    crate::render::check_image_memory(args.width, args.height, 1, totals)?;
     let png = plan_render_outputs(args)?;
-    // The backend first: a forced GPU that is missing fails before any loading, and the pool
-    // is laid out in the pages the device binds.
-    let backend = Backend::open(args.backend)?;
-    let t_load = Instant::now();
-    let scene = load_scene(args, &backend)?;
-    let load_ms = t_load.elapsed().as_secs_f64() * 1e3;
-    let job = Job::render(args.integrator, args.width, args.height, args.spp);
-    let backend = backend.fit(args.backend, &scene.packed, &job)?;
-    if !args.quiet {
-        log_scene(args, &scene, &backend, load_ms);
-    }
-    let direct = args.integrator.is_some_and(Integrator::is_lit);
-    let mut lights = render_lights(args, &scene.volume)?;
-    let params = render_params(args, &scene, &lights.points);
-    let per_ray = crate::render::loop_iterations_per_ray(&params, &scene.packed.desc);
-    let backend = fall_back_from_long_rays(args, backend, per_ray, &scene.volume);
-    let resident = Resident::new(&backend, &scene.packed)?;
-    let shadows = if direct {
-        Some(build_shadows(
-            args,
-            &resident,
-            &params,
-            &mut lights,
-            &scene.volume,
-        )?)
+    let mut setup = Setup::new(args)?;
+    let resident = Resident::new(&setup.backend, &setup.scene.packed)?;
+    let shadows = lit_shadows(
+        args,
+        &resident,
+        &setup.params,
+        &mut setup.lights,
+        &setup.scene,
+    )?;
+    let (params, lights, backend) = (&setup.params, &setup.lights, &setup.backend);
+    let (pixels, camera, elapsed_ms, built, shards) = if merge {
+        let m = merge::merge(args, params, lights)?;
+        (
+            m.pixels,
+            m.camera,
+            m.elapsed_ms,
+            Default::default(),
+            Some(m.shards),
+        )
     } else {
-        None
+        let (pixels, elapsed_ms, built) = backend
+            .timed(|| crate::render::render_resident_lit(&resident, params, lights, !args.quiet))?;
+        let camera = camera_transmittance(args, backend, &resident, params, lights)?;
+        (pixels, camera, elapsed_ms, built, None)
     };
-    let (pixels, elapsed_ms, built) = backend
-        .timed(|| crate::render::render_resident_lit(&resident, &params, &lights, !args.quiet))?;
     let flags = RayFlags::of(&pixels, args.spp);
-    flags.warn(&params);
+    flags.warn(params);
     crate::diagnostics::check_finite(&pixels, args.width)?;
-    let camera = camera_transmittance(args, &backend, &resident, &params, &lights)?;
+    let direct = args.integrator.is_some_and(Integrator::is_lit);
     let mean = write_images(args, &png, &pixels, camera.as_deref(), direct)?;
     let rays = pixels.len() as f64 * args.spp as f64;
     let samples: f64 = pixels.iter().map(|p| p.samples as f64).sum();
-    let summary = summary::summarize(&summary::Rendered {
+    let mut summary = summary::summarize(&summary::Rendered {
         args,
-        scene: &scene,
-        params: &params,
-        backend: &backend,
-        lights: &lights,
+        scene: &setup.scene,
+        params,
+        backend,
+        lights,
         shadows,
         png: &png,
         flags,
@@ -82,14 +83,146 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         samples_per_ray: samples / rays,
         elapsed_ms,
         built,
-        load_ms,
-        per_ray,
+        load_ms: setup.load_ms,
+        per_ray: setup.per_ray,
     })?;
+    summary.shards = shards;
     if let Some(path) = &args.json {
         write_json(path, &summary)?;
     }
-    print_line(args, &summary, &scene, built, mean);
+    print_line(args, &summary, &setup.scene, built, mean);
     Ok(summary)
+}
+
+/// `host render --samples A..B --shard FILE`: renders samples A..B of the render `args`
+/// describes and writes their exact per-pixel totals to FILE (no image: `host merge` adds the
+/// shards of a render up into its images).
+pub fn run_shard(args: &RenderOptions, out: &ShardOutput) -> Result<shard::ShardHeader> {
+    check_render_flags(args)?;
+    out.check(args.spp)?;
+    crate::render::check_image_memory(args.width, args.height, 1, true)?;
+    plan_shard_output(args, &out.path)?;
+    let mut setup = Setup::new(args)?;
+    let resident = Resident::new(&setup.backend, &setup.scene.packed)?;
+    lit_shadows(
+        args,
+        &resident,
+        &setup.params,
+        &mut setup.lights,
+        &setup.scene,
+    )?;
+    let (params, lights, backend) = (&setup.params, &setup.lights, &setup.backend);
+    let samples = out.samples.0..out.samples.1;
+    let ((images, names), elapsed_ms, _) = backend.timed(|| {
+        let image =
+            crate::render::render_totals(&resident, params, lights, samples.clone(), !args.quiet)?;
+        let mut images = vec![image];
+        let mut names = vec!["image".to_owned()];
+        if let Some(p) = options::camera_params(args, params) {
+            images.push(crate::render::render_totals(
+                &resident,
+                &p,
+                lights,
+                samples.clone(),
+                false,
+            )?);
+            names.push(layers::Layer::CameraTransmittance.name().to_owned());
+        }
+        Ok((images, names))
+    })?;
+    let header = shard::ShardHeader {
+        scene: args.scene_record.clone(),
+        width: args.width,
+        height: args.height,
+        spp: args.spp,
+        samples: [samples.start, samples.end],
+        sample_block: shared::kernels::render::SAMPLE_BLOCK,
+        images: names,
+        render_fnv1a: shard::render_fnv1a(params, lights),
+        payload_bytes: 0,
+        payload_fnv1a: String::new(),
+        backend: backend.kind().into(),
+        device: backend.device(),
+        elapsed_ms,
+        host_version: env!("CARGO_PKG_VERSION").into(),
+        command_line: std::env::args().collect(),
+    };
+    shard::write(&out.path, &header, &images)?;
+    println!(
+        "shard: samples {}..{} of {} ({}x{}) on {}: {:.1} ms -> {} (merge the shards with `host \
+         merge`)",
+        samples.start,
+        samples.end,
+        args.spp,
+        args.width,
+        args.height,
+        backend.kind(),
+        elapsed_ms,
+        out.path.display()
+    );
+    Ok(header)
+}
+
+/// What every render (a whole one, a shard, a merge) sets up before its pixels: the backend,
+/// the loaded scene, the lights and the kernels' parameters.
+struct Setup {
+    backend: Backend,
+    scene: Scene,
+    lights: SceneLights,
+    params: RenderParams,
+    /// Loop iterations one ray may take.
+    per_ray: u64,
+    load_ms: f64,
+}
+
+impl Setup {
+    /// Opens the backend (the CPU for a merge, which renders nothing but a shadow map), loads
+    /// and packs the volume, fits the backend to the job, builds the lights and parameters.
+    fn new(args: &RenderOptions) -> Result<Setup> {
+        let choice = if args.merge.is_empty() {
+            args.backend
+        } else {
+            BackendChoice::Cpu
+        };
+        // The backend first: a forced GPU that is missing fails before any loading, and the
+        // pool is laid out in the pages the device binds.
+        let backend = Backend::open(choice)?;
+        let t_load = Instant::now();
+        let scene = load_scene(args, &backend)?;
+        let load_ms = t_load.elapsed().as_secs_f64() * 1e3;
+        let job = Job::render(args.integrator, args.width, args.height, args.spp);
+        let backend = backend.fit(choice, &scene.packed, &job)?;
+        if !args.quiet {
+            log_scene(args, &scene, &backend, load_ms);
+        }
+        let lights = render_lights(args, &scene.volume)?;
+        let params = render_params(args, &scene, &lights.points);
+        let per_ray = crate::render::loop_iterations_per_ray(&params, &scene.packed.desc);
+        let backend = fall_back_from_long_rays(args, backend, per_ray, &scene.volume);
+        Ok(Setup {
+            backend,
+            scene,
+            lights,
+            params,
+            per_ray,
+            load_ms,
+        })
+    }
+}
+
+/// The sun's shadow rays or moment shadow map of a `direct`-family render, built into `lights`
+/// (None for other renders).
+fn lit_shadows(
+    args: &RenderOptions,
+    resident: &Resident,
+    params: &RenderParams,
+    lights: &mut SceneLights,
+    scene: &Scene,
+) -> Result<Option<ShadowSummary>> {
+    if !args.integrator.is_some_and(Integrator::is_lit) {
+        return Ok(None);
+    }
+    build_shadows(args, resident, params, lights, &scene.volume).map(Some)
 }
 
 /// Loads and packs `--volume` in the pages `backend` binds, refusing grids it cannot hold
@@ -233,10 +366,9 @@ fn build_shadows(
     Ok(s)
 }
 
-/// Writes the EXR (linear) and its PNG preview; returns the image's mean (T, or L's luminance
-/// channel for integrators).
-/// The transmittance of an integrator render's camera rays (`--layers transmittance`): the
-/// same rays (seed, pixel jitter) rendered without the integrator, by the render's estimator.
+/// The transmittance of an integrator render's camera rays (`--layers camera-transmittance`):
+/// the same rays (seed, pixel jitter) rendered without the integrator, by the render's
+/// estimator.
 fn camera_transmittance(
     args: &RenderOptions,
     backend: &Backend,
@@ -244,17 +376,16 @@ fn camera_transmittance(
     params: &RenderParams,
     lights: &SceneLights,
 ) -> Result<Option<Vec<PixelOut>>> {
-    if args.integrator.is_none() || !args.layers.contains(&layers::Layer::CameraTransmittance) {
+    let Some(p) = options::camera_params(args, params) else {
         return Ok(None);
-    }
-    let mut p = *params;
-    p.integrator = Integrator::Transmittance as u32;
-    p.light_count = 0;
+    };
     let (pixels, _, _) =
         backend.timed(|| crate::render::render_resident_lit(resident, &p, lights, false))?;
     Ok(Some(pixels))
 }
 
+/// Writes the EXR (linear) and its PNG preview; returns the image's mean (T, or L's luminance
+/// channel for integrators).
 fn write_images(
     args: &RenderOptions,
     png: &Path,
@@ -264,10 +395,13 @@ fn write_images(
 ) -> Result<f64> {
     let t: Vec<f32> = pixels.iter().map(|p| p.t_mean).collect();
     let mean = t.iter().map(|&v| v as f64).sum::<f64>() / t.len() as f64;
-    let extra: Vec<(String, Vec<f32>)> = args
+    let extra: Vec<(String, crate::output::LayerValues)> = args
         .layers
         .iter()
-        .map(|l| (l.name().to_owned(), l.values(pixels, args.spp, camera)))
+        .map(|l| {
+            let values = l.values(pixels, args.spp, camera, args.albedo);
+            (l.name().to_owned(), values)
+        })
         .collect();
     if direct {
         let rgb: Vec<[f32; 3]> = pixels

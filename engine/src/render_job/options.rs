@@ -6,7 +6,7 @@ use crate::output::OutputPlan;
 use crate::scene::SceneOptions;
 use anyhow::Result;
 use shared::integrators::unit::OwnSettings;
-use shared::params::{Integrator, TransmittanceHat};
+use shared::params::{Integrator, RenderParams, TransmittanceHat};
 use shared::sampling::lights::PointLight;
 use shared::volume::grid::Lookup;
 use std::path::{Path, PathBuf};
@@ -62,6 +62,40 @@ pub struct RenderOptions {
     pub layers: Vec<super::layers::Layer>,
     /// The scene file this render was read from (an input: never written).
     pub scene_file: Option<PathBuf>,
+    /// `host merge`: shard files whose totals give the pixels instead of rendering them.
+    pub merge: Vec<PathBuf>,
+}
+
+/// `host render --samples A..B --shard FILE`: one sample range of a render, written as exact
+/// totals.
+#[derive(Debug, Clone)]
+pub struct ShardOutput {
+    pub path: PathBuf,
+    /// Samples [start, end) of the render's --spp.
+    pub samples: (u32, u32),
+}
+
+impl ShardOutput {
+    /// Refuses a range outside 0..spp, empty, or not cut at sample blocks (shards cut
+    /// elsewhere could not add up to one render's bytes).
+    pub fn check(&self, spp: u32) -> Result<()> {
+        let (a, b) = self.samples;
+        let block = shared::kernels::render::SAMPLE_BLOCK;
+        anyhow::ensure!(
+            a < b && b <= spp,
+            "--samples {a}..{b}: give a non-empty range within the render's --spp {spp} (A < B <= \
+             {spp})"
+        );
+        anyhow::ensure!(
+            a % block == 0 && (b % block == 0 || b == spp),
+            "--samples {a}..{b}: a shard starts and ends at a multiple of {block} samples (or \
+             ends at --spp {spp}), so that shards add up to the bytes of one render; e.g. \
+             --samples {}..{}",
+            a / block * block,
+            (b.div_ceil(block) * block).min(spp)
+        );
+        Ok(())
+    }
 }
 
 impl RenderOptions {
@@ -81,7 +115,7 @@ pub fn check_render_flags(args: &RenderOptions) -> Result<()> {
         args.restir.check_image(args.width, args.height)?;
     }
     args.shadows.check()?;
-    super::layers::check(&args.layers, args.spp)?;
+    super::layers::check(&args.layers, args.spp, args.integrator.is_some())?;
     let is_exr = args
         .out
         .extension()
@@ -113,6 +147,36 @@ pub fn plan_render_outputs(args: &RenderOptions) -> Result<std::path::PathBuf> {
     if let Some(json) = &args.json {
         plan.file("--json", json);
     }
+    for shard in &args.merge {
+        plan.input("a shard", shard);
+    }
     plan.check()?;
     Ok(png)
+}
+
+/// Checks the output of `host render --shard FILE` up front: not an input, writable.
+pub fn plan_shard_output(args: &RenderOptions, shard: &Path) -> Result<()> {
+    let mut plan = OutputPlan::new();
+    plan.input("--volume", Path::new(&args.scene.volume))
+        .file("--shard", shard);
+    if let Some(crate::lighting::EnvSource::File(env)) = &args.env {
+        crate::lighting::env::check_path(env)?;
+        plan.input("--env", env);
+    }
+    if let Some(scene) = &args.scene_file {
+        plan.input("--scene", scene);
+    }
+    plan.check()
+}
+
+/// The parameters of the camera rays' transmittance render of an integrator render with
+/// `--layers camera-transmittance` or `albedo` (None: no such render).
+pub fn camera_params(args: &RenderOptions, params: &RenderParams) -> Option<RenderParams> {
+    if args.integrator.is_none() || !args.layers.iter().any(|l| l.needs_camera()) {
+        return None;
+    }
+    let mut p = *params;
+    p.integrator = Integrator::Transmittance as u32;
+    p.light_count = 0;
+    Some(p)
 }

@@ -121,6 +121,9 @@ pub struct RenderSummary {
     /// The resolved scene by flag name (`host render --scene THIS.json` renders it again).
     #[serde(skip_serializing_if = "std::collections::BTreeMap::is_empty")]
     pub scene: super::scene_record::SceneRecord,
+    /// The shard files a merged render was added up from (`host merge`), in sample order.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shards: Option<Vec<super::shard::ShardSummary>>,
 }
 
 /// The camera of a render, as resolved.
@@ -384,6 +387,7 @@ pub(super) fn summarize(r: &Rendered) -> Result<RenderSummary> {
         host_version: env!("CARGO_PKG_VERSION").into(),
         command_line: std::env::args().collect(),
         scene: args.scene_record.clone(),
+        shards: None,
     })
 }
 

@@ -4,6 +4,7 @@
 pub mod applicable;
 pub mod bench;
 pub mod eval;
+pub mod merge;
 pub mod parsers;
 pub mod probe;
 pub mod reference;
@@ -15,6 +16,7 @@ pub mod study;
 
 pub use bench::BenchArgs;
 pub use eval::EvalArgs;
+pub use merge::MergeArgs;
 pub use parsers::*;
 pub use probe::ProbeArgs;
 pub use render::{RenderArgs, SceneArgs};
@@ -52,14 +54,23 @@ pub enum Command {
     /// Write a static HTML viewer comparing estimators (side by side, slider, insets, numbers)
     /// from new `host eval` runs or existing eval output directories.
     Report(ReportArgs),
+    /// Add the shard files of a render (`host render --samples A..B --shard FILE`) into its
+    /// images and JSON summary: the bytes one render of all samples gives.
+    Merge(MergeArgs),
 }
 
 /// Parses the command line like `Cli::parse`, recording which render flags the user gave.
 pub fn parse() -> Result<Cli, clap::Error> {
-    use clap::{CommandFactory, FromArgMatches};
     let argv = scene_file::expand(std::env::args_os().collect()).map_err(|e| {
         clap::Error::raw(clap::error::ErrorKind::ValueValidation, format!("{e:#}\n"))
     })?;
+    parse_from(argv)
+}
+
+/// Parses `argv` (a scene file's settings already expanded into it), recording which render
+/// flags it gave.
+fn parse_from(argv: Vec<std::ffi::OsString>) -> Result<Cli, clap::Error> {
+    use clap::{CommandFactory, FromArgMatches};
     // A flag given twice keeps its last value: a scene file's settings come first.
     let matches = Cli::command()
         .args_override_self(true)
@@ -74,14 +85,7 @@ pub fn parse() -> Result<Cli, clap::Error> {
         Some(_) => return Ok(cli),
     };
     if let Some(m) = sub {
-        render.given = m
-            .ids()
-            .filter(|id| {
-                m.value_source(id.as_str()) == Some(clap::parser::ValueSource::CommandLine)
-            })
-            .map(|id| id.as_str().to_owned())
-            .collect();
-        render.record = scene_file::record(m);
+        scene_file::note_given(render, m);
     }
     Ok(cli)
 }
@@ -98,6 +102,7 @@ pub fn run(cli: &Cli) -> Result<()> {
         Some(Command::Study(args)) => studies::run(&args.options()),
         Some(Command::Bench(args)) => lab::bench::run(&args.options()?).map(|_| ()),
         Some(Command::Report(args)) => lab::report::run(&args.options()?),
+        Some(Command::Merge(args)) => merge::run(args),
     }
 }
 
@@ -133,6 +138,14 @@ fn render(args: &RenderArgs) -> Result<()> {
     }
     let options = args.options();
     applicable::check(&options, &args.given)?;
+    if let Some(shard) = args.shard_output() {
+        anyhow::ensure!(
+            !args.given.iter().any(|g| g == "json"),
+            "--json: a shard writes no summary; `host merge` writes the render's JSON when the \
+             shards are added up"
+        );
+        return engine::render_job::run_shard(&options, &shard).map(|_| ());
+    }
     engine::render_job::run_render(&options).map(|_| ())
 }
 

@@ -44,6 +44,8 @@ value_enum! {
         Lookups,
         /// The camera rays' transmittance.
         CameraTransmittance,
+        /// The medium's albedo times the camera rays' opacity (RGB).
+        Albedo,
     }
 }
 
@@ -302,6 +304,25 @@ pub fn parse_vec3(s: &str) -> Result<[f32; 3], String> {
         }
     }
     Ok(v)
+}
+
+/// `A..B`: a range of sample indices (`--samples`), A < B.
+pub fn parse_samples(s: &str) -> Result<(u32, u32), String> {
+    let (a, b) = s
+        .split_once("..")
+        .ok_or_else(|| format!("expected A..B (e.g. 0..256), got {s:?}"))?;
+    let index = |t: &str| {
+        t.trim()
+            .parse::<u32>()
+            .map_err(|_| format!("{t:?} is not a sample index (0 to 2^20) in {s:?}"))
+    };
+    let (a, b) = (index(a)?, index(b)?);
+    if a >= b {
+        return Err(format!(
+            "{s:?} is empty: the first sample must come before the end"
+        ));
+    }
+    Ok((a, b))
 }
 
 /// A value parser of finite f64 numbers in `[lo, hi]`.

@@ -241,8 +241,9 @@ pub struct RenderArgs {
     /// Extra layers of the EXR beside the image, comma-separated: stderr (the standard error of
     /// the pixel's mean, of the luminance for RGB; needs --spp 2 or more), samples (per pixel),
     /// lookups (mean high-resolution lookups per sample), camera-transmittance (of the camera rays by
-    /// --estimator, 1 - alpha; with --integrator a second render of the same rays); all linear,
-    /// one channel `Y` each.
+    /// --estimator, 1 - alpha; with --integrator a second render of the same rays), albedo
+    /// (--integrator only: --albedo times 1 - camera-transmittance, RGB; with the image, a
+    /// denoiser's colour and albedo inputs); all linear, one channel `Y` each but albedo.
     #[arg(long, value_enum, value_delimiter = ',')]
     pub layers: Vec<super::parsers::LayerArg>,
     /// A scene to render: a TOML file whose keys are these flags without the dashes, or the
@@ -254,6 +255,15 @@ pub struct RenderArgs {
     /// given) to FILE as TOML, and exit without rendering.
     #[arg(long, value_name = "FILE")]
     pub write_scene: Option<PathBuf>,
+    /// Render only samples A..B (A included, B not) of the --spp, into the --shard file: a
+    /// shard of a render split over machines. A and B are multiples of 256 (B may be --spp);
+    /// `host merge` adds the shards into the bytes one render gives (docs/guide/scale-out.md).
+    #[arg(long, value_name = "A..B", value_parser = super::parsers::parse_samples, requires = "shard")]
+    pub samples: Option<(u32, u32)>,
+    /// Write the exact per-pixel sums of the samples rendered (all, or --samples) to FILE
+    /// instead of the images: a shard for `host merge`.
+    #[arg(long, value_name = "FILE")]
+    pub shard: Option<PathBuf>,
     /// Ids of the flags given on the command line (filled by [`parse`], not a flag).
     #[arg(skip)]
     pub given: Vec<String>,
@@ -263,6 +273,16 @@ pub struct RenderArgs {
 }
 
 impl RenderArgs {
+    /// The shard this command line writes (`--shard`, with `--samples` or all samples).
+    pub fn shard_output(&self) -> Option<engine::render_job::ShardOutput> {
+        self.shard
+            .as_ref()
+            .map(|path| engine::render_job::ShardOutput {
+                path: path.clone(),
+                samples: self.samples.unwrap_or((0, self.spp)),
+            })
+    }
+
     /// The library's render options.
     pub fn options(&self) -> RenderOptions {
         RenderOptions {
@@ -303,6 +323,7 @@ impl RenderArgs {
             quiet: self.quiet,
             scene_record: self.record.clone(),
             scene_file: self.scene_file.clone(),
+            merge: Vec::new(),
             layers: self.layers.iter().map(|&l| l.into()).collect(),
         }
     }

@@ -19,10 +19,17 @@ use std::ffi::OsString;
 use std::path::{Path, PathBuf};
 
 /// Argument ids of `host render` that are not settings of the scene.
-const NOT_SETTINGS: &[&str] = &["help", "version", "scene_file", "write_scene"];
+const NOT_SETTINGS: &[&str] = &[
+    "help",
+    "version",
+    "scene_file",
+    "write_scene",
+    "samples",
+    "shard",
+];
 
 /// Subcommands without scene files.
-const NO_SCENE: &[&str] = &["probe", "study", "report", "help"];
+const NO_SCENE: &[&str] = &["probe", "study", "report", "merge", "help"];
 
 /// Keys whose text values are input files (unless one of the listed names).
 const INPUT_PATHS: &[(&str, &[&str])] = &[
@@ -343,6 +350,50 @@ fn resolve_input(file: &Path, key: &str, value: &SceneValue) -> SceneValue {
         }
         _ => value.clone(),
     }
+}
+
+/// Fills what the parsed `host render` flags `m` say beyond their values: which flags were
+/// given, and the resolved scene.
+pub fn note_given(render: &mut super::render::RenderArgs, m: &ArgMatches) {
+    render.given = m
+        .ids()
+        .filter(|id| m.value_source(id.as_str()) == Some(clap::parser::ValueSource::CommandLine))
+        .map(|id| id.as_str().to_owned())
+        .collect();
+    render.record = record(m);
+}
+
+/// Parses the `host render` flags `tokens` (a shard's scene, then flags that override it) as
+/// the command line would.
+pub fn parse_render(tokens: Vec<OsString>) -> Result<super::render::RenderArgs, clap::Error> {
+    use clap::FromArgMatches;
+    let argv = std::iter::once(OsString::from("render")).chain(tokens);
+    let m = render_command()
+        .args_override_self(true)
+        .try_get_matches_from(argv)?;
+    let mut render = super::render::RenderArgs::from_arg_matches(&m)?;
+    note_given(&mut render, &m);
+    Ok(render)
+}
+
+/// The `host render` flags of a recorded scene (a shard's), as command-line tokens; `source`
+/// names it in errors (a key this version has no flag for, a value it refuses).
+pub fn record_tokens(rec: &SceneRecord, source: &Path) -> Result<Vec<OsString>> {
+    let cmd = render_command();
+    let mut tokens = Vec::new();
+    for (key, value) in rec {
+        let arg = find(&cmd, key).with_context(|| {
+            format!(
+                "{}: the scene key `{key}` is not a flag of this host version ({}); merge with                  the version that rendered it",
+                source.display(),
+                env!("CARGO_PKG_VERSION")
+            )
+        })?;
+        let t = tokens_of(arg, value)
+            .map_err(|e| anyhow!("{}: scene key `{key}`: {e}", source.display()))?;
+        tokens.extend(t.into_iter().map(OsString::from));
+    }
+    Ok(tokens)
 }
 
 /// A scalar's text as the flag reads it.

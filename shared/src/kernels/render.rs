@@ -80,6 +80,17 @@ pub fn trace_transmittance(
     estimate::transmittance(vol, cfg, params, &ray, t0, t1, rng)
 }
 
+/// Samples per block: a pixel's sums start from zero at every multiple of this sample index,
+/// and a render adds its blocks' sums exactly (the host's exact accumulator), so a render cut
+/// into shards at block boundaries adds up to the bytes of one render. A power of two.
+pub const SAMPLE_BLOCK: u32 = 256;
+
+/// Whether sample `s` is the first of its block (its pixel's sums start from zero there).
+#[inline]
+pub fn starts_block(s: u32) -> bool {
+    s & (SAMPLE_BLOCK - 1) == 0
+}
+
 /// Running sums of one pixel's estimates (accumulated over render passes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -266,11 +277,11 @@ pub fn direct_pixel_pass(
     })
 }
 
-/// The sums of a wavefront pixel when sample `sample` starts: zero at the first sample (the
-/// buffer holds the previous render's), else `sums`.
+/// The sums of a pixel when sample `sample` starts: zero at the first sample of a block (the
+/// buffer holds the previous block's or render's), else `sums`.
 #[inline]
-fn sums_before(sample: u32, sums: PixelSums) -> PixelSums {
-    if sample == 0 {
+pub fn sums_before(sample: u32, sums: PixelSums) -> PixelSums {
+    if starts_block(sample) {
         PixelSums::default()
     } else {
         sums
