@@ -363,12 +363,22 @@ fn probe_dir(what: &str, path: &Path, dir: &Path) -> Result<()> {
         .with_context(|| format!("removing the write probe {}", probe.display()))
 }
 
-/// A progress bar over `len` units on stderr (hidden when `quiet` or when stderr is no terminal).
+/// Seconds between the progress lines of a bar whose stderr is no terminal (a log file).
+pub const PROGRESS_LOG_SECS: u64 = 30;
+
+/// A progress bar over `len` units on stderr (hidden when `quiet`). When stderr is no terminal
+/// (a batch job's log), a line with the percentage, elapsed time and ETA every
+/// [`PROGRESS_LOG_SECS`] seconds instead, none for work that ends sooner.
 pub fn progress(len: u64, what: &str, quiet: bool) -> indicatif::ProgressBar {
     if quiet {
         return indicatif::ProgressBar::hidden();
     }
     let bar = indicatif::ProgressBar::new(len);
+    if !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+        let weak = bar.downgrade();
+        let what = what.to_owned();
+        std::thread::spawn(move || log_progress(&weak, &what));
+    }
     bar.set_style(
         indicatif::ProgressStyle::with_template(&format!(
             "{{spinner}} {what} [{{bar:40}}] {{percent:>3}}% {{elapsed_precise}} eta {{eta}}"
@@ -386,6 +396,29 @@ pub enum LayerValues {
     Y(Vec<f32>),
     /// Three channels, `R`, `G`, `B`.
     Rgb(Vec<[f32; 3]>),
+}
+
+/// The progress lines of a bar on a stderr that is no terminal, until the bar is finished or
+/// dropped.
+fn log_progress(weak: &indicatif::WeakProgressBar, what: &str) {
+    loop {
+        for _ in 0..PROGRESS_LOG_SECS {
+            std::thread::sleep(std::time::Duration::from_secs(1));
+            match weak.upgrade() {
+                Some(bar) if !bar.is_finished() => {}
+                _ => return,
+            }
+        }
+        let Some(bar) = weak.upgrade() else { return };
+        let (pos, len) = (bar.position(), bar.length().unwrap_or(0).max(1));
+        let secs = |d: std::time::Duration| d.as_secs();
+        eprintln!(
+            "{what}: {:.0}% ({pos} of {len}), {} s elapsed, eta {} s",
+            100.0 * pos as f64 / len as f64,
+            secs(bar.elapsed()),
+            secs(bar.eta())
+        );
+    }
 }
 
 /// Writes a linear RGB image as the layer `name` of an OpenEXR file, followed by one layer per

@@ -451,14 +451,24 @@ fn print_line(
             if n == 1 { "" } else { "s" }
         ),
     };
+    let ran = match &summary.shards {
+        Some(shards) => format!(
+            "merged from {} shard{} ({:.1} ms of rendering)",
+            shards.len(),
+            if shards.len() == 1 { "" } else { "s" },
+            summary.elapsed_ms
+        ),
+        None => format!(
+            "on {}: {:.1} ms{compiled}",
+            summary.backend, summary.elapsed_ms
+        ),
+    };
     println!(
-        "{} {}x{} spp {} on {}: {:.1} ms{compiled}, {:.2} samples/ray, mean {} {:.5} -> {} (volume {})",
+        "{} {}x{} spp {} {ran}, {:.2} samples/ray, mean {} {:.5} -> {} (volume {})",
         summary.estimator,
         args.width,
         args.height,
         args.spp,
-        summary.backend,
-        summary.elapsed_ms,
         summary.mean_samples_per_ray,
         if args.integrator.is_some() { "L" } else { "T" },
         mean,
