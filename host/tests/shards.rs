@@ -297,3 +297,98 @@ fn bad_ranges_and_shard_sets_are_refused() {
     );
     assert!(d.join("ok.exr").is_file() && d.join("ok.png").is_file());
 }
+
+/// `host eval --reference-from`: a reference rendered as two shards (`--reference-shard`,
+/// `--reference-samples`) gives every image of the evaluation byte for byte, for a transmittance
+/// evaluation and a `direct` one; shards of another evaluation and eval shards given to
+/// `host merge` are refused.
+#[test]
+fn eval_references_add_up_from_shards() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let cases: [&[&str]; 2] = [
+        &["--lookup", "stochastic", "--spp", "8"],
+        &["--integrators", "direct", "--spp", "4"],
+    ];
+    for (k, case) in cases.iter().enumerate() {
+        let mut flags = vec![
+            "eval",
+            "--backend",
+            "cpu",
+            "--volume",
+            "cloud",
+            "--resolution",
+            "32",
+            "--width",
+            "12",
+            "--height",
+            "10",
+            "--reference-spp",
+            "520",
+            "--estimators",
+            "jackknife",
+            "--quiet",
+        ];
+        flags.extend(case.iter());
+        let (one, two) = (format!("one{k}"), format!("two{k}"));
+        let (s0, s1) = (format!("r{k}_0.shard"), format!("r{k}_1.shard"));
+        let with = |extra: &[&str]| -> Vec<String> {
+            flags
+                .iter()
+                .chain(extra.iter())
+                .map(|s| s.to_string())
+                .collect()
+        };
+        let go = |extra: &[&str]| {
+            let args = with(extra);
+            run(d, &args.iter().map(String::as_str).collect::<Vec<_>>());
+        };
+        go(&["--out-dir", &one]);
+        go(&[
+            "--out-dir",
+            "scratch",
+            "--reference-shard",
+            &s0,
+            "--reference-samples",
+            "0..256",
+        ]);
+        go(&[
+            "--out-dir",
+            "scratch",
+            "--reference-shard",
+            &s1,
+            "--reference-samples",
+            "256..520",
+        ]);
+        go(&["--out-dir", &two, "--reference-from", &s1, &s0]);
+        let mut images = 0;
+        for entry in std::fs::read_dir(d.join(&one)).unwrap() {
+            let name = entry.unwrap().file_name();
+            if name.to_string_lossy().ends_with(".exr") {
+                assert!(
+                    bytes(&d.join(&one).join(&name)) == bytes(&d.join(&two).join(&name)),
+                    "{case:?}: {name:?} differs with the reference from shards"
+                );
+                images += 1;
+            }
+        }
+        assert!(images >= 2, "{case:?}: {images} images");
+        let report: Value =
+            serde_json::from_slice(&bytes(&d.join(&two).join("eval.json"))).unwrap();
+        assert_eq!(report["reference_shards"].as_array().map(Vec::len), Some(2));
+        // Another evaluation's shards (another seed) are refused, naming the reference.
+        let args = with(&[
+            "--seed",
+            "5",
+            "--out-dir",
+            "three",
+            "--reference-from",
+            &s0,
+            &s1,
+        ]);
+        let e = refused(d, &args.iter().map(String::as_str).collect::<Vec<_>>());
+        assert!(e.contains("render the shards with the same flags"), "{e}");
+        let e = refused(d, &["merge", &s0, &s1]);
+        assert!(e.contains("an evaluation's reference"), "{e}");
+    }
+}

@@ -126,6 +126,10 @@ pub struct EvalHeader {
     /// The importance structure the estimators traversed (absent in older reports).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub supervoxels: Option<SupervoxelInfo>,
+    /// The shard files the reference was added up from (`--reference-from`; absent when the
+    /// evaluation rendered it).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub reference_shards: Vec<String>,
 }
 
 /// The whole evaluation, as written to `--json`.
@@ -267,6 +271,8 @@ pub struct EvalSetup<'a> {
     pub progress: bool,
     /// The super-voxel grid, for the report.
     pub supervoxels: Option<SupervoxelInfo>,
+    /// Where the reference comes from (rendered, or shards).
+    pub reference_source: &'a crate::reference::ReferenceSource,
 }
 
 impl EvalSetup<'_> {
@@ -281,6 +287,12 @@ impl EvalSetup<'_> {
             spp: self.params.spp,
             seed: self.params.seed,
             supervoxels: self.supervoxels.clone(),
+            reference_shards: match self.reference_source {
+                crate::reference::ReferenceSource::Shards(paths) => {
+                    paths.iter().map(|p| p.display().to_string()).collect()
+                }
+                _ => Vec::new(),
+            },
         }
     }
 }
@@ -294,8 +306,18 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
     setup.reference.apply(&mut ref_params);
     ref_params.spp = setup.reference_spp;
     step(setup, 0, estimators.len(), "the reference", ref_params.spp);
-    let reference = render(setup.backend, setup.volume, &ref_params, setup.progress)
-        .context("rendering the reference")?;
+    let resident = engine::render::Resident::new(setup.backend, setup.volume)?;
+    let no_lights = engine::lighting::SceneLights::points_only(&[]);
+    let reference = crate::reference::reference_pixels(
+        setup.reference_source,
+        "transmittance reference",
+        &resident,
+        &ref_params,
+        &no_lights,
+        setup.progress,
+        || engine::render::render_resident(&resident, &ref_params, &[], setup.progress),
+    )
+    .context("rendering the reference")?;
     engine::diagnostics::check_finite(&reference, w).context("rendering the reference")?;
     let ref_t: Vec<f32> = reference.iter().map(|p| p.t_mean).collect();
     // The variance of each reference pixel's mean (0 for an exact reference: one deterministic
@@ -541,12 +563,16 @@ pub fn evaluate_integrators(
     ref_params.spp = setup.reference_spp;
     ref_params.seed = setup.params.seed ^ 0x5eed_0001;
     step(setup, 0, integrators.len(), "the reference", ref_params.spp);
-    let reference = engine::render::render_scene(
-        setup.backend,
-        setup.volume,
+    let resident = engine::render::Resident::new(setup.backend, setup.volume)?;
+    let scene_lights = engine::lighting::SceneLights::points_only(lights);
+    let reference = crate::reference::reference_pixels(
+        setup.reference_source,
+        "single-scattering reference",
+        &resident,
         &ref_params,
-        lights,
+        &scene_lights,
         setup.progress,
+        || engine::render::render_resident(&resident, &ref_params, lights, setup.progress),
     )
     .context("rendering the reference")?;
     check_reference_sees_the_volume(&reference)?;

@@ -323,9 +323,23 @@ fn render_one(
 ) -> Result<Rendered> {
     // Without the GPU pipeline builds (a kernel variant compiles on first use): the equal-time
     // calibration and the reported times compare renders, not the driver's compiler.
+    let render = || engine::render::render_resident_lit(resident, params, lights, setup.progress);
     let (pixels, elapsed_ms, built) = setup
         .backend
-        .timed(|| engine::render::render_resident_lit(resident, params, lights, setup.progress))
+        .timed(|| {
+            if !reference {
+                return render();
+            }
+            crate::reference::reference_pixels(
+                setup.reference_source,
+                stem,
+                resident,
+                params,
+                lights,
+                setup.progress,
+                render,
+            )
+        })
         .with_context(|| format!("rendering {stem}"))?;
     engine::diagnostics::check_finite(&pixels, params.width)
         .with_context(|| format!("rendering {stem}"))?;

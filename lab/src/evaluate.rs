@@ -67,6 +67,8 @@ pub struct EvalOptions {
     pub std_scale: f32,
     /// No progress bars or info lines.
     pub quiet: bool,
+    /// Where the reference comes from: rendered, written as a shard, or added up from shards.
+    pub reference_source: crate::reference::ReferenceSource,
 }
 
 impl Default for EvalOptions {
@@ -104,6 +106,7 @@ impl Default for EvalOptions {
             bias_scale: crate::defaults::BIAS_SCALE,
             std_scale: crate::defaults::STD_SCALE,
             quiet: false,
+            reference_source: Default::default(),
         }
     }
 }
@@ -210,6 +213,7 @@ fn eval_setup<'a>(
         bias_scale: args.bias_scale,
         std_scale: args.std_scale,
         progress: !args.quiet,
+        reference_source: &args.reference_source,
         supervoxels: Some(engine::supervoxel_info::SupervoxelInfo::of(
             packed,
             args.scene.supervoxels.mode()?,
@@ -219,8 +223,33 @@ fn eval_setup<'a>(
     })
 }
 
-/// `host eval`: the reference and each estimator on pixel-center rays; JSON + images.
+/// `host eval`: the reference and each estimator on pixel-center rays; JSON + images. With
+/// `--reference-shard`, only the reference's shard.
 pub fn run_eval(args: &EvalOptions) -> Result<()> {
+    use crate::reference::{ReferenceSource, ShardWritten};
+    if args.reference_source != ReferenceSource::Render {
+        let mut lit: Vec<Integrator> = args
+            .integrators
+            .iter()
+            .copied()
+            .filter(|i| i.is_lit())
+            .collect();
+        lit.dedup();
+        anyhow::ensure!(
+            lit.len() <= 1,
+            "--reference-shard and --reference-from take one reference: evaluate one of --integrators {} \
+             per run",
+            names(&lit)
+        );
+    }
+    match evaluate_all(args) {
+        Err(e) if e.downcast_ref::<ShardWritten>().is_some() => Ok(()),
+        other => other,
+    }
+}
+
+/// [`run_eval`] without the reference-source checks.
+fn evaluate_all(args: &EvalOptions) -> Result<()> {
     // The reference's spp is at most 16 x spp when not given.
     let most_spp = args
         .reference_spp

@@ -7,6 +7,7 @@ pub mod eval;
 pub mod eval_direct;
 pub mod evaluate;
 pub mod probe;
+pub mod reference;
 pub mod report;
 
 /// Defaults of the `host eval` options (the CLI shows them as its defaults).

@@ -29,7 +29,7 @@ pub fn merge(
         .iter()
         .map(|p| read_header(p))
         .collect::<Result<Vec<_>>>()?;
-    let order = plan_merge(&paths, &headers)?;
+    let order = plan_merge(&paths, &headers, super::shard::RENDER)?;
     let h = &headers[0];
     ensure!(
         (h.width, h.height, h.spp) == (params.width, params.height, params.spp),

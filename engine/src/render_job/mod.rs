@@ -131,6 +131,7 @@ pub fn run_shard(args: &RenderOptions, out: &ShardOutput) -> Result<shard::Shard
         Ok((images, names))
     })?;
     let header = shard::ShardHeader {
+        kind: shard::RENDER.into(),
         scene: args.scene_record.clone(),
         width: args.width,
         height: args.height,

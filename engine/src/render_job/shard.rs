@@ -21,6 +21,10 @@ const MAX_HEADER_BYTES: u32 = 16 << 20;
 /// What a shard holds beside its totals.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ShardHeader {
+    /// What the shard is of: [`RENDER`] (`host render --shard`), or [`EVAL_REFERENCE`] (`host
+    /// eval --reference-shard`).
+    #[serde(default = "render_kind")]
+    pub kind: String,
     /// The render's resolved scene without the settings that only say how and where it runs
     /// (backend, outputs, progress): the same for every shard of one render.
     pub scene: super::scene_record::SceneRecord,
@@ -49,6 +53,15 @@ pub struct ShardHeader {
     pub elapsed_ms: f64,
     pub host_version: String,
     pub command_line: Vec<String>,
+}
+
+/// [`ShardHeader::kind`] of a shard of `host render`.
+pub const RENDER: &str = "render";
+/// [`ShardHeader::kind`] of a shard of an evaluation's reference.
+pub const EVAL_REFERENCE: &str = "eval-reference";
+
+fn render_kind() -> String {
+    RENDER.to_owned()
 }
 
 /// One image's totals of a shard.
@@ -192,10 +205,24 @@ pub fn read(path: &Path) -> Result<(ShardHeader, Vec<Totals>)> {
     Ok((header, images))
 }
 
-/// Checks that `headers` (of `paths`) are shards of one render whose sample ranges cover its
-/// samples once each; returns their order by first sample.
-pub fn plan_merge(paths: &[&Path], headers: &[ShardHeader]) -> Result<Vec<usize>> {
+/// Checks that `headers` (of `paths`) are shards of `kind` of one render whose sample ranges
+/// cover its samples once each; returns their order by first sample.
+pub fn plan_merge(paths: &[&Path], headers: &[ShardHeader], kind: &str) -> Result<Vec<usize>> {
     ensure!(!headers.is_empty(), "no shard files to merge");
+    for (path, h) in paths.iter().zip(headers) {
+        ensure!(
+            h.kind == kind,
+            "{} is a shard of {} where {} is asked for: {}",
+            path.display(),
+            kind_name(&h.kind),
+            kind_name(kind),
+            if h.kind == EVAL_REFERENCE {
+                "give it to `host eval --reference-from`"
+            } else {
+                "give it to `host merge`"
+            }
+        );
+    }
     let first = &headers[0];
     for (path, h) in paths.iter().zip(headers).skip(1) {
         let same = rendered(&h.scene) == rendered(&first.scene)
@@ -300,6 +327,15 @@ pub struct ShardSummary {
     pub elapsed_ms: f64,
 }
 
+/// A shard kind in words.
+fn kind_name(kind: &str) -> &'static str {
+    if kind == EVAL_REFERENCE {
+        "an evaluation's reference"
+    } else {
+        "a render"
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -307,6 +343,7 @@ mod tests {
 
     fn header(samples: [u32; 2]) -> ShardHeader {
         ShardHeader {
+            kind: RENDER.into(),
             scene: [(
                 "spp".to_owned(),
                 super::super::scene_record::SceneValue::Integer(8),
@@ -366,22 +403,26 @@ mod tests {
     #[test]
     fn merge_plan() {
         let p = [Path::new("x"), Path::new("y"), Path::new("z")];
-        let ok = plan_merge(&p[..2], &[header([4, 8]), header([0, 4])]).unwrap();
+        let ok = plan_merge(&p[..2], &[header([4, 8]), header([0, 4])], RENDER).unwrap();
         assert_eq!(ok, [1, 0]);
-        let e = plan_merge(&p[..1], &[header([0, 4])])
+        let e = plan_merge(&p[..1], &[header([0, 4])], RENDER)
             .unwrap_err()
             .to_string();
         assert!(e.contains("samples 4..8") && e.contains("no shard"), "{e}");
-        let e = plan_merge(&p, &[header([0, 4]), header([0, 4]), header([4, 8])])
-            .unwrap_err()
-            .to_string();
+        let e = plan_merge(
+            &p,
+            &[header([0, 4]), header([0, 4]), header([4, 8])],
+            RENDER,
+        )
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("overlaps"), "{e}");
         let mut other = header([4, 8]);
         other.scene.insert(
             "seed".into(),
             super::super::scene_record::SceneValue::Integer(3),
         );
-        let e = plan_merge(&p[..2], &[header([0, 4]), other])
+        let e = plan_merge(&p[..2], &[header([0, 4]), other], RENDER)
             .unwrap_err()
             .to_string();
         assert!(e.contains("differ in seed"), "{e}");

@@ -126,6 +126,18 @@ pub struct EvalArgs {
     /// No progress bars.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Render only the reference (samples --reference-samples of it, or all) and write its
+    /// exact per-pixel sums to FILE, a shard; evaluate nothing (docs/guide/scale-out.md).
+    #[arg(long, value_name = "FILE", conflicts_with = "reference_from")]
+    pub reference_shard: Option<PathBuf>,
+    /// The samples A..B of the reference that --reference-shard renders: A and B multiples of
+    /// 256, B at most --reference-spp.
+    #[arg(long, value_name = "A..B", value_parser = super::parsers::parse_samples, requires = "reference_shard")]
+    pub reference_samples: Option<(u32, u32)>,
+    /// Take the reference from these shards (--reference-shard of the same evaluation, covering
+    /// its samples once each) instead of rendering it.
+    #[arg(long, value_name = "SHARD", num_args = 1..)]
+    pub reference_from: Vec<PathBuf>,
 }
 
 impl EvalArgs {
@@ -167,6 +179,22 @@ impl EvalArgs {
             bias_scale: self.bias_scale,
             std_scale: self.std_scale,
             quiet: self.quiet,
+            reference_source: self.reference_source(),
         })
+    }
+
+    /// Where the reference comes from (`--reference-shard`, `--reference-from`).
+    fn reference_source(&self) -> lab::reference::ReferenceSource {
+        use lab::reference::ReferenceSource;
+        if let Some(path) = &self.reference_shard {
+            return ReferenceSource::WriteShard {
+                path: path.clone(),
+                samples: self.reference_samples,
+            };
+        }
+        if !self.reference_from.is_empty() {
+            return ReferenceSource::Shards(self.reference_from.clone());
+        }
+        ReferenceSource::Render
     }
 }

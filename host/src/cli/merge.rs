@@ -38,6 +38,11 @@ pub fn run(args: &MergeArgs) -> Result<()> {
         .iter()
         .min_by_key(|(h, _)| h.samples)
         .context("give the shard files to merge")?;
+    anyhow::ensure!(
+        header.kind == engine::render_job::shard::RENDER,
+        "{} is a shard of an evaluation's reference: give it to `host eval --reference-from`",
+        first.display()
+    );
     let mut argv: Vec<OsString> = scene_file::record_tokens(&header.scene, first)?;
     if let Some(out) = &args.out {
         argv.extend(["--out".into(), out.into()]);
