@@ -360,3 +360,81 @@ fn eval_and_bench_take_the_keys_they_have() {
         (12.into(), 10.into())
     );
 }
+
+/// `host report --scene` takes the keys it has flags for, `volume` as its `--volumes`, and not
+/// `out` (a render's image, where the report's --out is a folder): the same images as the flags.
+#[test]
+fn report_takes_the_scene_keys_it_has() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("s.toml"),
+        "volume = \"cloud\"\nresolution = 16\nwidth = 12\nheight = 10\nspp = 8\nbackend = \"cpu\"\n\
+         out = \"x.exr\"\n",
+    )
+    .unwrap();
+    let out = host()
+        .current_dir(d)
+        .args([
+            "report",
+            "--scene",
+            "s.toml",
+            "--out",
+            "a",
+            "--estimators",
+            "jackknife",
+            "-q",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("no flags for the scene keys out"), "{err}");
+    run(
+        d,
+        &[
+            "report",
+            "--volumes",
+            "cloud",
+            "--resolution",
+            "16",
+            "--width",
+            "12",
+            "--height",
+            "10",
+            "--spp",
+            "8",
+            "--backend",
+            "cpu",
+            "--out",
+            "b",
+            "--estimators",
+            "jackknife",
+            "-q",
+        ],
+    );
+    let mut images = Vec::new();
+    let mut stack = vec![d.join("a")];
+    while let Some(dir) = stack.pop() {
+        for e in std::fs::read_dir(&dir).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.extension().is_some_and(|x| x == "exr") {
+                images.push(p.strip_prefix(d.join("a")).unwrap().to_owned());
+            }
+        }
+    }
+    assert!(!images.is_empty(), "the report wrote no images");
+    for rel in images {
+        assert!(
+            bytes(&d.join("a").join(&rel)) == bytes(&d.join("b").join(&rel)),
+            "{}: the scene file's report differs from the flags'",
+            rel.display()
+        );
+    }
+}

@@ -77,6 +77,7 @@ fn parse_from(argv: Vec<std::ffi::OsString>) -> Result<Cli, clap::Error> {
         .mut_subcommand("render", |c| c.args_override_self(true))
         .mut_subcommand("eval", |c| c.args_override_self(true))
         .mut_subcommand("bench", |c| c.args_override_self(true))
+        .mut_subcommand("report", |c| c.args_override_self(true))
         .try_get_matches_from(argv)?;
     let mut cli = Cli::from_arg_matches(&matches)?;
     let (render, sub) = match &mut cli.command {

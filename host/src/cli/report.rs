@@ -13,6 +13,10 @@ pub struct ReportArgs {
     /// Directory for index.html and one subdirectory of images per evaluation.
     #[arg(long, short, default_value = "out/report")]
     pub out: PathBuf,
+    /// A scene file (as `host render --scene`): its keys that are flags of this command apply
+    /// (`volume` as --volumes; not `out`, the image of a render), the flags given override them.
+    #[arg(long = "scene", id = "scene_file", value_name = "FILE")]
+    pub scene_file: Option<PathBuf>,
     /// Comma-separated volumes to evaluate now (embedded names or files; default: cloud unless
     /// --from-eval is given).
     #[arg(long)]

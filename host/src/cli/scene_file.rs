@@ -1,5 +1,5 @@
-//! Scene files: `host render SCENE` and `host render --scene SCENE` (and `host eval` / `host
-//! bench --scene SCENE`, which take the keys they have flags for). A scene file is a TOML
+//! Scene files: `host render SCENE` and `host render --scene SCENE` (and `host eval`, `host
+//! bench` and `host report --scene SCENE`, which take the keys they have flags for). A scene file is a TOML
 //! table whose keys are `host render`'s flags without the leading dashes (`density-scale`,
 //! `integrator`, `light`, ...) and whose values are the flags' values: a number, a string, `true`
 //! for a switch, an array for a comma list (`camera = [128, 128, 608]`) or, for a flag given
@@ -29,7 +29,14 @@ const NOT_SETTINGS: &[&str] = &[
 ];
 
 /// Subcommands without scene files.
-const NO_SCENE: &[&str] = &["probe", "study", "report", "merge", "help"];
+const NO_SCENE: &[&str] = &["probe", "study", "merge", "help"];
+
+/// Scene keys a command reads under another flag: `host report` evaluates a list of volumes.
+const ALIASES: &[(&str, &str, &str)] = &[("report", "volume", "volumes")];
+
+/// Scene keys whose flag of the same name means something else in a command: `host report
+/// --out` is a folder, not the image.
+const FOREIGN: &[(&str, &str)] = &[("report", "out")];
 
 /// Keys whose text values are input files (unless one of the listed names).
 const INPUT_PATHS: &[(&str, &[&str])] = &[
@@ -55,6 +62,7 @@ fn command_of(name: &str) -> Command {
     match name {
         "eval" => <super::eval::EvalArgs as clap::Args>::augment_args(Command::new("eval")),
         "bench" => <super::bench::BenchArgs as clap::Args>::augment_args(Command::new("bench")),
+        "report" => <super::report::ReportArgs as clap::Args>::augment_args(Command::new("report")),
         _ => render_command(),
     }
 }
@@ -72,7 +80,7 @@ pub fn expand(args: Vec<OsString>) -> Result<Vec<OsString>> {
         return Ok(args);
     }
     let mut args = args;
-    let named = ["render", "eval", "bench"].contains(&first.as_str());
+    let named = ["render", "eval", "bench", "report"].contains(&first.as_str());
     let start = if named { 2 } else { 1 };
     let name = if named { first.as_str() } else { "render" };
     if name == "render" && start == 2 {
@@ -107,13 +115,18 @@ pub fn expand(args: Vec<OsString>) -> Result<Vec<OsString>> {
     let mut tokens = Vec::new();
     let mut unused = Vec::new();
     for s in &settings {
-        let Some(arg) = find(&cmd, &s.key) else {
+        let key = ALIASES
+            .iter()
+            .find(|(c, k, _)| *c == name && *k == s.key)
+            .map_or(s.key.as_str(), |(_, _, flag)| *flag);
+        let foreign = FOREIGN.contains(&(name, s.key.as_str()));
+        let Some(arg) = find(&cmd, key).filter(|_| !foreign) else {
             // A key of `host render` that this command has no flag for.
             arg_of(&render, &file, s)?;
             unused.push(s.key.as_str());
             continue;
         };
-        if given.iter().any(|g| g == s.key.as_str()) {
+        if given.iter().any(|g| g == key) {
             continue;
         }
         let value = resolve_input(&file, &s.key, &s.value);
