@@ -38,7 +38,7 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
     let totals = crate::render::keeps_totals(args.spp) || merge;
     crate::render::check_image_memory(args.width, args.height, 1, totals)?;
     let png = plan_render_outputs(args)?;
-    let mut setup = Setup::new(args)?;
+    let mut setup = Setup::new(args, args.spp)?;
     let resident = Resident::new(&setup.backend, &setup.scene.packed)?;
     let shadows = lit_shadows(
         args,
@@ -102,7 +102,8 @@ pub fn run_shard(args: &RenderOptions, out: &ShardOutput) -> Result<shard::Shard
     out.check(args.spp)?;
     crate::render::check_image_memory(args.width, args.height, 1, true)?;
     plan_shard_output(args, &out.path)?;
-    let mut setup = Setup::new(args)?;
+    // `--backend auto` weighs the shard's samples, not the whole render's.
+    let mut setup = Setup::new(args, out.samples.1 - out.samples.0)?;
     let resident = Resident::new(&setup.backend, &setup.scene.packed)?;
     lit_shadows(
         args,
@@ -178,8 +179,9 @@ struct Setup {
 
 impl Setup {
     /// Opens the backend (the CPU for a merge, which renders nothing but a shadow map), loads
-    /// and packs the volume, fits the backend to the job, builds the lights and parameters.
-    fn new(args: &RenderOptions) -> Result<Setup> {
+    /// and packs the volume, fits the backend to a job of `spp` samples per pixel, builds the
+    /// lights and parameters.
+    fn new(args: &RenderOptions, spp: u32) -> Result<Setup> {
         let choice = if args.merge.is_empty() {
             args.backend
         } else {
@@ -191,7 +193,7 @@ impl Setup {
         let t_load = Instant::now();
         let scene = load_scene(args, &backend)?;
         let load_ms = t_load.elapsed().as_secs_f64() * 1e3;
-        let job = Job::render(args.integrator, args.width, args.height, args.spp);
+        let job = Job::render(args.integrator, args.width, args.height, spp);
         let backend = backend.fit(choice, &scene.packed, &job)?;
         if !args.quiet {
             log_scene(args, &scene, &backend, load_ms);
