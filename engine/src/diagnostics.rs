@@ -160,7 +160,9 @@ fn estimator_advice(params: &RenderParams) -> String {
         Family::Transmittance => {}
     }
     match Estimator::from_u32(params.estimator) {
-        Estimator::TrackLength | Estimator::RatioTracking => format!("tracking {tracking}"),
+        Estimator::TrackLength | Estimator::RatioTracking | Estimator::FirstCollision => {
+            format!("tracking {tracking}")
+        }
         Estimator::BiasedRayMarching => format!(
             "ray marching used its cap of {MAX_BIASED_SAMPLES} samples instead of N_CMF's count \
              (more bias); lower --density-scale"

@@ -232,3 +232,111 @@ fn albedo_layer_is_the_albedo_times_the_opacity() {
     }
     assert!(t.iter().any(|&v| v < 0.9), "the volume is in view");
 }
+
+/// The `depth` layer: the camera rays' first collision, in world units. Every pixel's depth
+/// lies between the nearest and the farthest point of the volume's box seen from the camera
+/// (0 where no ray collides), a denser medium brings it closer on average, and the GPU gives
+/// the same bytes.
+#[test]
+fn depth_layer_is_where_camera_rays_first_collide() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let ok = |o: std::process::Output| {
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    let depth_of = |scale: &str, out: &str, extra: &[&str]| {
+        let mut args = vec![
+            "--spp",
+            "64",
+            "--density-scale",
+            scale,
+            "--layers",
+            "depth",
+            "--out",
+            out,
+            "--json",
+            "d.json",
+        ];
+        args.extend(extra);
+        ok(run(d, &args));
+        let l = layers(&d.join(out));
+        channel(&l, "depth", "Y").to_vec()
+    };
+    let thin = depth_of("2", "thin.exr", &[]);
+    let thick = depth_of("20", "thick.exr", &["--integrator", "path"]);
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("d.json")).unwrap()).unwrap();
+    let pos: Vec<f64> = (0..3)
+        .map(|i| summary["camera"]["position"][i].as_f64().unwrap())
+        .collect();
+    let b = &summary["world_bounds"];
+    let (lo, hi): (Vec<f64>, Vec<f64>) = (0..3)
+        .map(|i| (b[0][i].as_f64().unwrap(), b[1][i].as_f64().unwrap()))
+        .unzip();
+    // Distance from the camera to the box, and to its farthest corner.
+    let near = (0..3)
+        .map(|i| (lo[i] - pos[i]).max(pos[i] - hi[i]).max(0.0).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    let far = (0..3)
+        .map(|i| (pos[i] - lo[i]).abs().max((pos[i] - hi[i]).abs()).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    for (name, depth) in [("thin", &thin), ("thick", &thick)] {
+        let hits: Vec<f64> = depth
+            .iter()
+            .filter(|&&v| v != 0.0)
+            .map(|&v| v as f64)
+            .collect();
+        assert!(
+            hits.len() > depth.len() / 4,
+            "{name}: {} pixels collide",
+            hits.len()
+        );
+        for &v in &hits {
+            assert!(
+                v >= near * (1.0 - 1e-5) && v <= far * (1.0 + 1e-5),
+                "{name}: depth {v} outside [{near}, {far}]"
+            );
+        }
+    }
+    let mean = |v: &[f32], w: &[f32]| {
+        let both: Vec<f64> = v
+            .iter()
+            .zip(w)
+            .filter(|(a, b)| **a != 0.0 && **b != 0.0)
+            .map(|(a, _)| *a as f64)
+            .collect();
+        both.iter().sum::<f64>() / both.len() as f64
+    };
+    assert!(
+        mean(&thick, &thin) < mean(&thin, &thick),
+        "a denser medium must collide sooner: {} vs {}",
+        mean(&thick, &thin),
+        mean(&thin, &thick)
+    );
+    // The same bytes on a GPU, when there is one.
+    let gpu = run(
+        d,
+        &[
+            "--backend",
+            "gpu",
+            "--spp",
+            "64",
+            "--density-scale",
+            "2",
+            "--layers",
+            "depth",
+            "--out",
+            "gpu.exr",
+        ],
+    );
+    if gpu.status.success() {
+        assert!(
+            std::fs::read(d.join("gpu.exr")).unwrap() == std::fs::read(d.join("thin.exr")).unwrap(),
+            "the depth layer differs between the GPU and the CPU"
+        );
+    } else {
+        eprintln!("no Vulkan device: the depth layer checked on the CPU only");
+    }
+}

@@ -140,6 +140,7 @@ fn four_shards_merge_into_the_bytes_of_one_render() {
         "--layers",
         "camera-transmittance,stderr",
     ]);
+    cases.push(vec!["--integrator", "path", "--layers", "albedo,depth"]);
     cases.push(vec![
         "--integrator",
         "restir",

@@ -37,6 +37,10 @@ pub enum Estimator {
     TrackLength = 7,
     /// Ratio tracking over per-brick majorants (Russian roulette only with `RenderParams::roulette`).
     RatioTracking = 8,
+    /// Not a transmittance estimator of its own: the camera ray's first collision by delta
+    /// tracking, whose distance the `depth` layer's pass sums ([`crate::kernels::render`]); as
+    /// a transmittance estimate, track-length's. Not in [`Estimator::ALL`].
+    FirstCollision = 9,
 }
 
 impl Estimator {
@@ -65,6 +69,7 @@ impl Estimator {
             6 => Estimator::RegularTracking,
             7 => Estimator::TrackLength,
             8 => Estimator::RatioTracking,
+            9 => Estimator::FirstCollision,
             _ => Estimator::Jackknife,
         }
     }

@@ -23,6 +23,11 @@ pub enum Layer {
     /// opacity, albedo x (1 - T) with T as in `CameraTransmittance`; with the radiance, the
     /// colour and albedo inputs of a denoiser. Integrator renders only.
     Albedo,
+    /// The mean distance from the camera of the camera rays' first collision in the medium
+    /// (world units), over the samples that collide (0 where none does): a pass of delta
+    /// tracking along the same rays; for an integrator render, where a path's first vertex
+    /// lies.
+    Depth,
 }
 
 impl Layer {
@@ -34,6 +39,7 @@ impl Layer {
             Layer::Lookups => "lookups",
             Layer::CameraTransmittance => "camera-transmittance",
             Layer::Albedo => "albedo",
+            Layer::Depth => "depth",
         }
     }
 
@@ -42,18 +48,28 @@ impl Layer {
         matches!(self, Layer::CameraTransmittance | Layer::Albedo)
     }
 
-    /// The layer's values, row-major; `camera` is the camera rays' transmittance render of an
-    /// integrator render (None: `pixels` is a transmittance render), `albedo` the medium's.
-    pub fn values(
-        self,
-        pixels: &[PixelOut],
-        spp: u32,
-        camera: Option<&[PixelOut]>,
-        albedo: [f32; 3],
-    ) -> LayerValues {
-        let pixels = match (self.needs_camera(), camera) {
+    /// The layer's values, row-major, from the render `r`.
+    pub fn values(self, r: &LayerInputs) -> LayerValues {
+        if self == Layer::Depth {
+            let depth = r.depth.unwrap_or(&[]);
+            return LayerValues::Y(
+                depth
+                    .iter()
+                    .map(|p| {
+                        let hit = p.rgb_mean.g;
+                        if hit > 0.0 {
+                            p.rgb_mean.r / hit
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect(),
+            );
+        }
+        let (spp, albedo) = (r.spp, r.albedo);
+        let pixels = match (self.needs_camera(), r.camera) {
             (true, Some(camera)) => camera,
-            _ => pixels,
+            _ => r.pixels,
         };
         if self == Layer::Albedo {
             return LayerValues::Rgb(
@@ -78,10 +94,21 @@ impl Layer {
                 }
                 Layer::Samples => spp as f32,
                 Layer::Lookups => (p.samples as f64 / spp.max(1) as f64) as f32,
-                Layer::CameraTransmittance | Layer::Albedo => p.t_mean,
+                Layer::CameraTransmittance | Layer::Albedo | Layer::Depth => p.t_mean,
             })
             .collect()
     }
+}
+
+/// What the layers are made of: the render's pixels and samples per pixel, the camera rays'
+/// transmittance render of an integrator render (None: `pixels` is a transmittance render), the
+/// first-collision pass (`depth`), and the medium's albedo.
+pub struct LayerInputs<'a> {
+    pub pixels: &'a [PixelOut],
+    pub spp: u32,
+    pub camera: Option<&'a [PixelOut]>,
+    pub depth: Option<&'a [PixelOut]>,
+    pub albedo: [f32; 3],
 }
 
 /// Refuses layers the render cannot give: a standard error needs two samples per pixel, an

@@ -8,10 +8,11 @@ use shared::kernels::render::PixelOut;
 use shared::params::RenderParams;
 use std::path::{Path, PathBuf};
 
-/// A merged render's pixels, its camera rays' transmittance (if asked and held), and its shards.
+/// A merged render's pixels, its extra passes' pixels (by name, those its layers need), and
+/// its shards.
 pub struct Merged {
     pub pixels: Vec<PixelOut>,
-    pub camera: Option<Vec<PixelOut>>,
+    pub extra: Vec<(&'static str, Vec<PixelOut>)>,
     /// The shards' render times added.
     pub elapsed_ms: f64,
     pub shards: Vec<ShardSummary>,
@@ -33,7 +34,8 @@ pub fn merge(
     let h = &headers[0];
     ensure!(
         (h.width, h.height, h.spp) == (params.width, params.height, params.spp),
-        "{}: the shards are {}x{} at {} spp, but the merge asks for {}x{} at {} spp; leave          --width, --height and --spp to the shards",
+        "{}: the shards are {}x{} at {} spp, but the merge asks for {}x{} at {} spp; leave \
+         --width, --height and --spp to the shards",
         paths[0].display(),
         h.width,
         h.height,
@@ -51,13 +53,17 @@ pub fn merge(
         paths[0].display(),
         h.render_fnv1a
     );
-    let camera_wanted = super::options::camera_params(args, params).is_some();
-    let camera_name = super::layers::Layer::CameraTransmittance.name();
-    let camera_at = h.images.iter().position(|n| n == camera_name);
-    ensure!(
-        !camera_wanted || camera_at.is_some(),
-        "--layers camera-transmittance: the shards hold no totals of the camera rays'          transmittance; render them with --layers camera-transmittance, or merge without it"
-    );
+    // The extra passes the merge's layers need, by their images' index in the shards.
+    let mut wanted = Vec::new();
+    for (name, _) in super::options::extra_passes(args, params) {
+        let at = h.images.iter().position(|n| n == name).ok_or_else(|| {
+            anyhow::anyhow!(
+                "--layers {name}: the shards hold no totals of that layer's pass; render them \
+                 with --layers {name}, or merge without it"
+            )
+        })?;
+        wanted.push((name, at));
+    }
     let pixels = h.width as usize * h.height as usize;
     let mut sums = vec![vec![PixelTotals::default(); pixels]; h.images.len()];
     let mut shards = Vec::new();
@@ -79,13 +85,13 @@ pub fn merge(
             elapsed_ms: header.elapsed_ms,
         });
     }
-    let camera = match (camera_wanted, camera_at) {
-        (true, Some(k)) => Some(crate::render::finish_totals(&sums[k], h.spp)?),
-        _ => None,
-    };
+    let extra = wanted
+        .into_iter()
+        .map(|(name, k)| Ok((name, crate::render::finish_totals(&sums[k], h.spp)?)))
+        .collect::<Result<Vec<_>>>()?;
     Ok(Merged {
         pixels: crate::render::finish_totals(&sums[0], h.spp)?,
-        camera,
+        extra,
         elapsed_ms: shards.iter().map(|s| s.elapsed_ms).sum(),
         shards,
     })

@@ -48,11 +48,11 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         &setup.scene,
     )?;
     let (params, lights, backend) = (&setup.params, &setup.lights, &setup.backend);
-    let (pixels, camera, elapsed_ms, built, shards) = if merge {
+    let (pixels, extra, elapsed_ms, built, shards) = if merge {
         let m = merge::merge(args, params, lights)?;
         (
             m.pixels,
-            m.camera,
+            m.extra,
             m.elapsed_ms,
             Default::default(),
             Some(m.shards),
@@ -60,14 +60,14 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
     } else {
         let (pixels, elapsed_ms, built) = backend
             .timed(|| crate::render::render_resident_lit(&resident, params, lights, !args.quiet))?;
-        let camera = camera_transmittance(args, backend, &resident, params, lights)?;
-        (pixels, camera, elapsed_ms, built, None)
+        let extra = extra_renders(args, backend, &resident, params, lights)?;
+        (pixels, extra, elapsed_ms, built, None)
     };
     let flags = RayFlags::of(&pixels, args.spp);
     flags.warn(params);
     crate::diagnostics::check_finite(&pixels, args.width)?;
     let direct = args.integrator.is_some_and(Integrator::is_lit);
-    let mean = write_images(args, &png, &pixels, camera.as_deref(), direct)?;
+    let mean = write_images(args, &png, &pixels, &extra, direct)?;
     let rays = pixels.len() as f64 * args.spp as f64;
     let samples: f64 = pixels.iter().map(|p| p.samples as f64).sum();
     let mut summary = summary::summarize(&summary::Rendered {
@@ -119,7 +119,7 @@ pub fn run_shard(args: &RenderOptions, out: &ShardOutput) -> Result<shard::Shard
             crate::render::render_totals(&resident, params, lights, samples.clone(), !args.quiet)?;
         let mut images = vec![image];
         let mut names = vec!["image".to_owned()];
-        if let Some(p) = options::camera_params(args, params) {
+        for (name, p) in options::extra_passes(args, params) {
             images.push(crate::render::render_totals(
                 &resident,
                 &p,
@@ -127,7 +127,7 @@ pub fn run_shard(args: &RenderOptions, out: &ShardOutput) -> Result<shard::Shard
                 samples.clone(),
                 false,
             )?);
-            names.push(layers::Layer::CameraTransmittance.name().to_owned());
+            names.push(name.to_owned());
         }
         Ok((images, names))
     })?;
@@ -369,22 +369,22 @@ fn build_shadows(
     Ok(s)
 }
 
-/// The transmittance of an integrator render's camera rays (`--layers camera-transmittance`):
-/// the same rays (seed, pixel jitter) rendered without the integrator, by the render's
-/// estimator.
-fn camera_transmittance(
+/// The passes the layers need beyond the image (`options::extra_passes`), by name: the same
+/// camera rays rendered without the integrator, or to their first collision.
+fn extra_renders(
     args: &RenderOptions,
     backend: &Backend,
     resident: &Resident,
     params: &RenderParams,
     lights: &SceneLights,
-) -> Result<Option<Vec<PixelOut>>> {
-    let Some(p) = options::camera_params(args, params) else {
-        return Ok(None);
-    };
-    let (pixels, _, _) =
-        backend.timed(|| crate::render::render_resident_lit(resident, &p, lights, false))?;
-    Ok(Some(pixels))
+) -> Result<Vec<(&'static str, Vec<PixelOut>)>> {
+    let mut out = Vec::new();
+    for (name, p) in options::extra_passes(args, params) {
+        let (pixels, _, _) =
+            backend.timed(|| crate::render::render_resident_lit(resident, &p, lights, false))?;
+        out.push((name, pixels));
+    }
+    Ok(out)
 }
 
 /// Writes the EXR (linear) and its PNG preview; returns the image's mean (T, or L's luminance
@@ -393,16 +393,29 @@ fn write_images(
     args: &RenderOptions,
     png: &Path,
     pixels: &[PixelOut],
-    camera: Option<&[PixelOut]>,
+    extra: &[(&'static str, Vec<PixelOut>)],
     direct: bool,
 ) -> Result<f64> {
+    let pass = |name: &str| {
+        extra
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|(_, p)| p.as_slice())
+    };
+    let inputs = layers::LayerInputs {
+        pixels,
+        spp: args.spp,
+        camera: pass(layers::Layer::CameraTransmittance.name()),
+        depth: pass(layers::Layer::Depth.name()),
+        albedo: args.albedo,
+    };
     let t: Vec<f32> = pixels.iter().map(|p| p.t_mean).collect();
     let mean = t.iter().map(|&v| v as f64).sum::<f64>() / t.len() as f64;
     let extra: Vec<(String, crate::output::LayerValues)> = args
         .layers
         .iter()
         .map(|l| {
-            let values = l.values(pixels, args.spp, camera, args.albedo);
+            let values = l.values(&inputs);
             (l.name().to_owned(), values)
         })
         .collect();

@@ -180,3 +180,29 @@ pub fn camera_params(args: &RenderOptions, params: &RenderParams) -> Option<Rend
     p.light_count = 0;
     Some(p)
 }
+
+/// The passes a render's layers need beyond the image, by name: the camera rays' transmittance
+/// (`camera-transmittance`, `albedo` of an integrator render) and the first collision
+/// (`depth`).
+pub fn extra_passes(
+    args: &RenderOptions,
+    params: &RenderParams,
+) -> Vec<(&'static str, RenderParams)> {
+    use super::layers::Layer;
+    let camera = camera_params(args, params).map(|p| (Layer::CameraTransmittance.name(), p));
+    let depth = depth_params(args, params).map(|p| (Layer::Depth.name(), p));
+    camera.into_iter().chain(depth).collect()
+}
+
+/// The parameters of the first-collision pass of a render with `--layers depth` (None: no such
+/// pass): the same camera rays, delta tracking to their first collision.
+pub fn depth_params(args: &RenderOptions, params: &RenderParams) -> Option<RenderParams> {
+    if !args.layers.contains(&super::layers::Layer::Depth) {
+        return None;
+    }
+    let mut p = *params;
+    p.integrator = Integrator::Transmittance as u32;
+    p.light_count = 0;
+    p.estimator = shared::params::Estimator::FirstCollision as u32;
+    Some(p)
+}

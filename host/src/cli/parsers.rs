@@ -46,6 +46,8 @@ value_enum! {
         CameraTransmittance,
         /// The medium's albedo times the camera rays' opacity (RGB).
         Albedo,
+        /// Mean distance of the camera rays' first collision.
+        Depth,
     }
 }
 

@@ -243,7 +243,9 @@ pub struct RenderArgs {
     /// lookups (mean high-resolution lookups per sample), camera-transmittance (of the camera rays by
     /// --estimator, 1 - alpha; with --integrator a second render of the same rays), albedo
     /// (--integrator only: --albedo times 1 - camera-transmittance, RGB; with the image, a
-    /// denoiser's colour and albedo inputs); all linear, one channel `Y` each but albedo.
+    /// denoiser's colour and albedo inputs), depth (the mean distance from the camera of the
+    /// camera rays' first collision in the medium, 0 where none collides; a pass of delta
+    /// tracking along the same rays); all linear, one channel `Y` each but albedo.
     #[arg(long, value_enum, value_delimiter = ',')]
     pub layers: Vec<super::parsers::LayerArg>,
     /// A scene to render: a TOML file whose keys are these flags without the dashes, or the

@@ -80,7 +80,7 @@ pub fn transmittance(
             let (tau, tally) = regular_tracking_tau(vol, ray, t0, t1);
             (math::exp(-tau), tally, rng)
         }
-        Estimator::TrackLength => {
+        Estimator::TrackLength | Estimator::FirstCollision => {
             track_length_capped(vol, ray, t0, t1, cfg.lookup, cfg.max_collisions, rng)
         }
         Estimator::RatioTracking => ratio_transmittance(vol, cfg, ray, t0, t1, rng),

@@ -26,7 +26,7 @@ pub const RR_THRESHOLD: f32 = 0.05;
 pub const RR_TERMINATE: f32 = 0.75;
 
 /// Salt of the stochastic-lookup jitter key of tracking (Alg. 1 uses another one).
-const JITTER_SALT: u32 = 0x85eb_ca6b;
+pub(crate) const JITTER_SALT: u32 = 0x85eb_ca6b;
 
 /// Exact optical depth of the nearest-neighbour grid over [t0, t1] (already clipped to the grid
 /// box) by a voxel DDA (regular tracking): sum of segment length times voxel extinction, over

@@ -84,6 +84,6 @@ fn estimator_iterations(params: &RenderParams, bricks: u64, voxels: u64, trackin
                 + estimates * (2 * bricks + ITERATIONS_PER_SAMPLE * MAX_UNBIASED_SAMPLES as u64)
                 + SERIES_ITERATIONS
         }
-        E::TrackLength | E::RatioTracking => bricks + tracking,
+        E::TrackLength | E::RatioTracking | E::FirstCollision => bricks + tracking,
     }
 }

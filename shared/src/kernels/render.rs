@@ -20,7 +20,7 @@ use crate::integrators::restir_reuse::reuse;
 use crate::integrators::restir_reuse::store_reuse;
 use crate::integrators::stages::Wavefront;
 use crate::integrators::unit::Family;
-use crate::params::{Config, Integrator, RenderParams};
+use crate::params::{Config, Estimator, Integrator, RenderParams};
 use crate::rgb::Rgb;
 use crate::rng::HashRng;
 use crate::sampling::lighting::Scene;
@@ -239,9 +239,70 @@ pub fn transmittance_pixel_pass(
     prev: PixelSums,
 ) -> PixelSums {
     let cfg = Config::decode(params, &vol.desc);
+    if cfg.estimator == Estimator::FirstCollision {
+        return depth_pixel_pass(vol, &cfg, params, id, s_begin, s_end, prev);
+    }
     sample_loop!(params, id, s_begin, s_end, prev, |world, rng| {
         trace_transmittance(vol, &cfg, params, &world, rng)
     })
+}
+
+/// Adds samples s_begin..s_end of the first collision of pixel `id`'s camera rays (the `depth`
+/// layer's pass): per sample (t, 1, 0) to the RGB sums for a collision at distance t from the
+/// camera (world units), (0, 0, 0) for none; t to the scalar moments.
+fn depth_pixel_pass(
+    vol: &VolumeView<impl Texels>,
+    cfg: &Config,
+    params: &RenderParams,
+    id: u32,
+    s_begin: u32,
+    s_end: u32,
+    prev: PixelSums,
+) -> PixelSums {
+    let mut acc = prev;
+    let mut s = s_begin;
+    while s < s_end {
+        let (world, rng) = camera_ray(params, id, s);
+        let (t, hit, tally) = first_collision(vol, cfg, params, &world, rng);
+        acc = acc.add(Rgb::new(t, hit, 0.0), t, tally);
+        s += 1;
+    }
+    acc
+}
+
+/// The first collision of camera ray `world` by delta tracking (track-length's, with its
+/// collision cap): its distance from the ray's origin and 1, or (0, 0) when the ray leaves the
+/// volume first.
+#[inline]
+pub fn first_collision(
+    vol: &VolumeView<impl Texels>,
+    cfg: &Config,
+    params: &RenderParams,
+    world: &Ray,
+    rng: HashRng,
+) -> (f32, f32, Tally) {
+    let ray = to_index_space(world, &params.world_to_index);
+    let d = &vol.desc.dims;
+    let hi = V3::new(d[0] as f32, d[1] as f32, d[2] as f32);
+    let (t0, t1) = clip_to_box(&ray, hi, 0.0, f32::INFINITY);
+    if !(t0 < t1) {
+        return (0.0, 0.0, Tally::default());
+    }
+    let (flight, _) = crate::estimators::tracking::delta_tracking_capped(
+        vol,
+        &ray,
+        t0,
+        t1,
+        cfg.lookup,
+        crate::estimators::tracking::JITTER_SALT,
+        cfg.max_collisions,
+        rng,
+    );
+    if flight.found {
+        (flight.t, 1.0, flight.tally)
+    } else {
+        (0.0, 0.0, flight.tally)
+    }
 }
 
 /// [`render_pixel_pass`] of a single-scattering image (`scattering_cs`).
