@@ -266,6 +266,8 @@ fn depth_layer_is_where_camera_rays_first_collide() {
     let thick = depth_of("20", "thick.exr", &["--integrator", "path"]);
     let summary: serde_json::Value =
         serde_json::from_slice(&std::fs::read(d.join("d.json")).unwrap()).unwrap();
+    assert_eq!(summary["layer_passes"][0]["name"], "depth");
+    assert_eq!(summary["layer_passes"][0]["capped_rays"], 0);
     let pos: Vec<f64> = (0..3)
         .map(|i| summary["camera"]["position"][i].as_f64().unwrap())
         .collect();

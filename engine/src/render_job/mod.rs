@@ -87,6 +87,7 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         per_ray: setup.per_ray,
     })?;
     summary.shards = shards;
+    summary.layer_passes = layer_pass_flags(args, &extra);
     if let Some(path) = &args.json {
         write_json(path, &summary)?;
     }
@@ -385,6 +386,33 @@ fn extra_renders(
         out.push((name, pixels));
     }
     Ok(out)
+}
+
+/// The rays of the layers' extra passes that a loop bound changed (a tracking collision cap),
+/// each warned about: the same counts on every backend.
+fn layer_pass_flags(
+    args: &RenderOptions,
+    extra: &[(&'static str, Vec<PixelOut>)],
+) -> Vec<summary::LayerPass> {
+    extra
+        .iter()
+        .map(|(name, pixels)| {
+            let flags = RayFlags::of(pixels, args.spp);
+            if flags.capped_rays > 0 {
+                tracing::warn!(
+                    "the {name} layer's pass: {} of {} rays reached a loop bound of their \
+                     estimator, which changed their estimate (the depth pass counts such a ray \
+                     as not colliding); lower --density-scale or use a smaller --brick-size",
+                    flags.capped_rays,
+                    flags.rays
+                );
+            }
+            summary::LayerPass {
+                name: (*name).to_owned(),
+                capped_rays: flags.capped_rays,
+            }
+        })
+        .collect()
 }
 
 /// Writes the EXR (linear) and its PNG preview; returns the image's mean (T, or L's luminance

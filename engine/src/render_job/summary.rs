@@ -124,6 +124,17 @@ pub struct RenderSummary {
     /// The shard files a merged render was added up from (`host merge`), in sample order.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub shards: Option<Vec<super::shard::ShardSummary>>,
+    /// The passes its `--layers` rendered beside the image (`camera-transmittance`, `depth`),
+    /// with their rays that a loop bound changed.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub layer_passes: Vec<LayerPass>,
+}
+
+/// One extra pass of a render's layers in its JSON summary.
+#[derive(serde::Serialize)]
+pub struct LayerPass {
+    pub name: String,
+    pub capped_rays: u64,
 }
 
 /// The camera of a render, as resolved.
@@ -388,6 +399,7 @@ pub(super) fn summarize(r: &Rendered) -> Result<RenderSummary> {
         command_line: std::env::args().collect(),
         scene: args.scene_record.clone(),
         shards: None,
+        layer_passes: Vec::new(),
     })
 }
 

@@ -70,14 +70,26 @@ pub fn trace_transmittance(
     world: &Ray,
     rng: HashRng,
 ) -> (f32, Tally, HashRng) {
-    let ray = to_index_space(world, &params.world_to_index);
-    let d = &vol.desc.dims;
-    let hi = V3::new(d[0] as f32, d[1] as f32, d[2] as f32);
-    let (t0, t1) = clip_to_box(&ray, hi, 0.0, f32::INFINITY);
+    let (ray, t0, t1) = index_segment(vol, params, world);
     if !(t0 < t1) {
         return (1.0, Tally::default(), rng);
     }
     estimate::transmittance(vol, cfg, params, &ray, t0, t1, rng)
+}
+
+/// Camera ray `world` in index space and its segment [t0, t1] inside the grid (empty, t0 >=
+/// t1, when it misses).
+#[inline]
+fn index_segment(
+    vol: &VolumeView<impl Texels>,
+    params: &RenderParams,
+    world: &Ray,
+) -> (Ray, f32, f32) {
+    let ray = to_index_space(world, &params.world_to_index);
+    let d = &vol.desc.dims;
+    let hi = V3::new(d[0] as f32, d[1] as f32, d[2] as f32);
+    let (t0, t1) = clip_to_box(&ray, hi, 0.0, f32::INFINITY);
+    (ray, t0, t1)
 }
 
 /// Samples per block: a pixel's sums start from zero at every multiple of this sample index,
@@ -281,10 +293,7 @@ pub fn first_collision(
     world: &Ray,
     rng: HashRng,
 ) -> (f32, f32, Tally) {
-    let ray = to_index_space(world, &params.world_to_index);
-    let d = &vol.desc.dims;
-    let hi = V3::new(d[0] as f32, d[1] as f32, d[2] as f32);
-    let (t0, t1) = clip_to_box(&ray, hi, 0.0, f32::INFINITY);
+    let (ray, t0, t1) = index_segment(vol, params, world);
     if !(t0 < t1) {
         return (0.0, 0.0, Tally::default());
     }
