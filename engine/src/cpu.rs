@@ -70,17 +70,38 @@ impl RenderBackend for CpuVolume<'_> {
         params: &RenderParams,
         lights: &SceneLights,
         schedule: &Schedule,
+        start: Option<&[PixelSums]>,
         bar: Option<&ProgressBar>,
     ) -> Result<Vec<PixelSums>> {
         let view = self.view();
         let scene = lights.view();
         let wave = Integrator::from_u32(params.integrator).wavefront();
-        if wave == Some(Wavefront::Restir) && params.restir.passes > 0 {
-            return Ok(restir_wave(&view, params, &scene, schedule.samples(), bar));
-        }
         let count = params.width * params.height;
+        if let Some(start) = start {
+            anyhow::ensure!(
+                start.len() == count as usize,
+                "internal: {} starting sums for {count} pixels",
+                start.len()
+            );
+        }
+        if wave == Some(Wavefront::Restir) && params.restir.passes > 0 {
+            return Ok(restir_wave(
+                &view,
+                params,
+                &scene,
+                schedule.samples(),
+                start,
+                bar,
+            ));
+        }
         let chunk = schedule.chunk;
-        let mut sums = vec![PixelSums::default(); count as usize];
+        // Work item k holds pixel tile_order_pixel(k).
+        let mut sums: Vec<PixelSums> = match start {
+            Some(start) => (0..count)
+                .map(|k| start[tile_order_pixel(k, params.width, params.height) as usize])
+                .collect(),
+            None => vec![PixelSums::default(); count as usize],
+        };
         for &(s0, s1) in &schedule.passes {
             for (c, block) in sums.chunks_mut(chunk as usize).enumerate() {
                 let base = c as u32 * chunk;
@@ -131,11 +152,12 @@ fn restir_wave(
     params: &RenderParams,
     scene: &Scene,
     samples: std::ops::Range<u32>,
+    start: Option<&[PixelSums]>,
     bar: Option<&ProgressBar>,
 ) -> Vec<PixelSums> {
     let count = (params.width * params.height) as usize;
     let mut states = vec![RestirState::default(); count];
-    let mut sums = vec![PixelSums::default(); count];
+    let mut sums = start.map_or_else(|| vec![PixelSums::default(); count], <[_]>::to_vec);
     let stages = stage_count(params);
     for s in samples {
         let mut stage = 0;

@@ -14,6 +14,7 @@ pub mod integrators;
 pub mod job;
 pub mod lighting;
 pub mod procedural;
+pub mod progressive;
 pub mod render;
 pub mod render_job;
 pub mod restir;

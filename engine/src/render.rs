@@ -410,6 +410,49 @@ pub fn finish_totals(totals: &[PixelTotals], spp: u32) -> Result<Vec<PixelOut>> 
         .collect()
 }
 
+/// The sums of every pixel (row-major) after samples `samples` of `params`' render, all within
+/// one sample block, continuing from `start`, the sums of the block's samples before
+/// `samples.start` (`None` where `samples.start` starts the block): one frame of a progressive
+/// render ([`crate::progressive::Progressive`]), in the passes [`render_totals`] would run.
+pub fn render_frame(
+    resident: &Resident,
+    params: &RenderParams,
+    lights: &SceneLights,
+    samples: std::ops::Range<u32>,
+    start: Option<&[PixelSums]>,
+) -> Result<Vec<PixelSums>> {
+    anyhow::ensure!(
+        samples.start < samples.end && sample_blocks(samples.clone()).len() == 1,
+        "internal: samples {}..{} are not a range within one sample block",
+        samples.start,
+        samples.end
+    );
+    anyhow::ensure!(
+        start.is_some() != shared::kernels::render::starts_block(samples.start),
+        "internal: samples {}..{} continue sums where a block starts or start none where it \
+         continues",
+        samples.start,
+        samples.end
+    );
+    let step = spp_per_pass_within(params, &resident.vol.desc, resident.backend.loop_budget())?;
+    let passes: Vec<(u32, u32)> = samples
+        .clone()
+        .step_by(step as usize)
+        .map(|s| (s, (s + step).min(samples.end)))
+        .collect();
+    let count = params
+        .width
+        .checked_mul(params.height)
+        .context("image too large")?;
+    // Chunks as a whole render's (each a whole number of workgroups; the longest dispatch).
+    let per_pass = (64 / passes.len().max(1) as u32).max(1);
+    let chunk = count.div_ceil(per_pass).next_multiple_of(64).max(64);
+    let schedule = Schedule { passes, chunk };
+    resident
+        .backend
+        .render_sums(params, lights, &schedule, start, None)
+}
+
 /// Samples `samples` cut at the multiples of [`SAMPLE_BLOCK`]: the blocks whose sums start from
 /// zero.
 pub fn sample_blocks(samples: std::ops::Range<u32>) -> Vec<(u32, u32)> {
@@ -476,10 +519,13 @@ fn render_blocks(
     let bar = crate::output::progress(done, "rendering", !progress);
     for passes in blocks {
         let schedule = Schedule { passes, chunk };
-        let sums =
-            resident
-                .backend
-                .render_sums(params, lights, &schedule, progress.then_some(&bar))?;
+        let sums = resident.backend.render_sums(
+            params,
+            lights,
+            &schedule,
+            None,
+            progress.then_some(&bar),
+        )?;
         block(sums)?;
     }
     bar.finish_and_clear();

@@ -16,12 +16,15 @@ pub const LOOP_BUDGET: u64 = 60_000;
 /// How one backend runs the passes of a render (the CPU loop in `cpu`, the GPU loop in `gpu`).
 pub trait RenderBackend: Sync {
     /// The sums of every pixel (row-major) after `schedule`'s passes, advancing `bar` (if any)
-    /// by the samples done.
+    /// by the samples done. The passes continue from `start` (row-major; `None`: zero sums),
+    /// the sums of the block's earlier samples, where the first pass does not start a sample
+    /// block (the kernels start from zero at a block's first sample).
     fn render_sums(
         &self,
         params: &RenderParams,
         lights: &SceneLights,
         schedule: &Schedule,
+        start: Option<&[PixelSums]>,
         bar: Option<&ProgressBar>,
     ) -> Result<Vec<PixelSums>>;
 

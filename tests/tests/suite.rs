@@ -18,6 +18,7 @@ mod msm_render;
 mod path;
 mod pipeline;
 mod pool;
+mod progressive;
 mod rays;
 mod restir;
 mod skip;

@@ -88,9 +88,10 @@ impl RenderBackend for GpuVolume<'_> {
         params: &RenderParams,
         lights: &SceneLights,
         schedule: &Schedule,
+        start: Option<&[PixelSums]>,
         bar: Option<&ProgressBar>,
     ) -> Result<Vec<PixelSums>> {
-        render_tiles(self, params, lights, schedule, bar)
+        render_tiles(self, params, lights, schedule, start, bar)
     }
 
     /// lavapipe ends any shader loop after 65535 iterations.
@@ -285,10 +286,18 @@ fn render_tiles(
     params: &RenderParams,
     lights: &SceneLights,
     schedule: &Schedule,
+    start: Option<&[PixelSums]>,
     bar: Option<&ProgressBar>,
 ) -> Result<Vec<PixelSums>> {
     let (gpu, passes, chunk) = (dev.gpu, &schedule.passes, schedule.chunk);
     let count = params.width * params.height;
+    if let Some(start) = start {
+        anyhow::ensure!(
+            start.len() == count as usize,
+            "internal: {} starting sums for {count} pixels",
+            start.len()
+        );
+    }
     let p = gpu.buffer(std::mem::size_of::<RenderParams>() as u64)?;
     // Storage buffers may not be empty: without point lights, one zeroed light is bound.
     let points: &[PointLight] = if lights.points.is_empty() {
@@ -350,6 +359,12 @@ fn render_tiles(
     let mut sums = vec![PixelSums::default(); count as usize];
     for (k, tile_start) in (0..count).step_by(tile as usize).enumerate() {
         let ids = tile_start..tile_start.saturating_add(tile).min(count);
+        // The tile's sums continue from `start` (the kernels read them unless a pass starts a
+        // sample block).
+        if let Some(start) = start {
+            let part = &start[ids.start as usize..ids.end as usize];
+            uploads.push((&tiles[k], bytemuck::cast_slice::<PixelSums, u8>(part)));
+        }
         let buffers = RenderBuffers {
             params: &p,
             desc: &dev.desc,
