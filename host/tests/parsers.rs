@@ -225,6 +225,11 @@ fn numeric_values(cli: &host::cli::Cli) -> Vec<f64> {
             v.extend([a.rr_depth, a.max_depth].map(f64::from));
             v
         }
+        C::View(a) => {
+            let mut v: Vec<f64> = [a.max_spp, a.scale].map(f64::from).to_vec();
+            v.extend(a.frame_spp.map(f64::from));
+            v
+        }
         C::Eval(a) => {
             let mut v: Vec<f64> = [a.n, a.width, a.height, a.spp].map(f64::from).to_vec();
             v.extend(a.reference_spp.map(f64::from));

@@ -31,6 +31,17 @@ pub struct DeviceOwner {
     pub(crate) software: bool,
     /// Whether the fallback to non-device-local storage memory was reported.
     storage_fallback_warned: std::sync::atomic::AtomicBool,
+    /// The window's surface where the device was opened for one ([`crate::present`]); the
+    /// device's queue can present to it and `VK_KHR_swapchain` is enabled.
+    pub(crate) surface: Option<(ash::khr::surface::Instance, vk::SurfaceKHR)>,
+}
+
+/// A window to show images in: its raw display and window handles (from winit or any other
+/// windowing library). The window must outlive the [`crate::Gpu`] opened for it.
+#[derive(Clone, Copy, Debug)]
+pub struct Display {
+    pub display: raw_window_handle::RawDisplayHandle,
+    pub window: raw_window_handle::RawWindowHandle,
 }
 
 /// Preference order of device types: a real GPU over a software rasterizer.
@@ -165,6 +176,7 @@ impl DeviceParts {
             description: self.description,
             software: self.software,
             storage_fallback_warned: std::sync::atomic::AtomicBool::new(false),
+            surface: None,
         }
     }
 }
@@ -173,20 +185,62 @@ impl DeviceOwner {
     /// Opens the Vulkan loader, picks a device (a GPU before a CPU implementation such as lavapipe,
     /// or `JK_VULKAN_DEVICE=<index>`), and creates a device with one compute queue.
     pub fn new() -> Result<Self, GpuError> {
+        Self::open(None)
+    }
+
+    /// [`DeviceOwner::new`], with a surface for `display`'s window where given: the instance
+    /// has the window system's surface extensions, the device is one whose compute queue can
+    /// present to the surface, and it has `VK_KHR_swapchain`.
+    pub fn open(display: Option<&Display>) -> Result<Self, GpuError> {
         // SAFETY: loading the system Vulkan loader; its symbols are trusted.
         let entry = unsafe { ash::Entry::load() }.map_err(|e| GpuError::NoLoader(e.to_string()))?;
         let app = vk::ApplicationInfo::default()
             .application_name(c"jackknife")
             .api_version(vk::API_VERSION_1_2);
-        let info = vk::InstanceCreateInfo::default().application_info(&app);
+        let extensions: &[*const std::ffi::c_char] = match display {
+            Some(d) => ash_window::enumerate_required_extensions(d.display)
+                .map_err(|e| GpuError::Vulkan("the window system's surface extensions", e))?,
+            None => &[],
+        };
+        let info = vk::InstanceCreateInfo::default()
+            .application_info(&app)
+            .enabled_extension_names(extensions);
         // SAFETY: valid create info; the instance is destroyed in Drop (or below on error).
         let instance = unsafe { entry.create_instance(&info, None) }.map_err(|e| match e {
             vk::Result::ERROR_INCOMPATIBLE_DRIVER => GpuError::NoDevice,
+            vk::Result::ERROR_EXTENSION_NOT_PRESENT => GpuError::NoPresentation(
+                "the Vulkan driver has no surface extension for this window system".into(),
+            ),
             e => GpuError::Vulkan("vkCreateInstance", e),
         })?;
-        match Self::with_instance(&instance) {
-            Ok(parts) => Ok(parts.into_owner(entry, instance)),
+        let surface = match display {
+            None => None,
+            Some(d) => {
+                // SAFETY: the handles come from a live window that outlives the owner (the
+                // caller's contract, see `Display`); the surface is destroyed in Drop.
+                match unsafe {
+                    ash_window::create_surface(&entry, &instance, d.display, d.window, None)
+                } {
+                    Ok(s) => Some((ash::khr::surface::Instance::new(&entry, &instance), s)),
+                    Err(e) => {
+                        // SAFETY: nothing was created from the instance.
+                        unsafe { instance.destroy_instance(None) };
+                        return Err(GpuError::Vulkan("creating the window's Vulkan surface", e));
+                    }
+                }
+            }
+        };
+        match Self::with_instance(&instance, surface.as_ref()) {
+            Ok(parts) => {
+                let mut owner = parts.into_owner(entry, instance);
+                owner.surface = surface;
+                Ok(owner)
+            }
             Err(e) => {
+                if let Some((loader, s)) = surface {
+                    // SAFETY: no swapchain was created on the surface.
+                    unsafe { loader.destroy_surface(s, None) };
+                }
                 // SAFETY: no child objects were created from this instance. `entry` (the loaded
                 // loader library) is still alive here: destroying the instance after dropping it
                 // called into unmapped code (the segfault of a bad JK_VULKAN_DEVICE).
@@ -198,13 +252,46 @@ impl DeviceOwner {
     }
 
     /// Picks the physical device, checks what the kernels need and creates the logical device.
-    fn with_instance(instance: &ash::Instance) -> Result<DeviceParts, GpuError> {
+    fn with_instance(
+        instance: &ash::Instance,
+        surface: Option<&(ash::khr::surface::Instance, vk::SurfaceKHR)>,
+    ) -> Result<DeviceParts, GpuError> {
         // SAFETY: plain queries on a live instance.
         let devices = unsafe { instance.enumerate_physical_devices() }
             .map_err(|e| GpuError::Vulkan("vkEnumeratePhysicalDevices", e))?;
         if devices.is_empty() {
             return Err(GpuError::NoDevice);
         }
+        // The compute queue family of a device that can present to `surface` (any, without one).
+        let present_family = |d: vk::PhysicalDevice| -> Option<u32> {
+            // SAFETY: queries on a device handle returned by the instance.
+            let families = unsafe { instance.get_physical_device_queue_family_properties(d) };
+            (0..families.len() as u32).find(|&i| {
+                families[i as usize]
+                    .queue_flags
+                    .contains(vk::QueueFlags::COMPUTE)
+                    && surface.is_none_or(|(loader, s)| {
+                        // SAFETY: a live surface of this instance.
+                        unsafe { loader.get_physical_device_surface_support(d, i, *s) }
+                            .unwrap_or(false)
+                    })
+            })
+        };
+        let devices: Vec<vk::PhysicalDevice> = if surface.is_some() {
+            let can = devices
+                .iter()
+                .copied()
+                .filter(|&d| present_family(d).is_some())
+                .collect::<Vec<_>>();
+            if can.is_empty() {
+                return Err(GpuError::NoPresentation(
+                    "no Vulkan device can present to this window".into(),
+                ));
+            }
+            can
+        } else {
+            devices
+        };
         let forced = std::env::var("JK_VULKAN_DEVICE").ok();
         let physical = match forced {
             Some(s) => devices[forced_index(&s, devices.len())?],
@@ -239,11 +326,16 @@ impl DeviceOwner {
         if props.api_version < vk::API_VERSION_1_2 {
             return Err(GpuError::Unsupported(description, "Vulkan 1.2"));
         }
-        let queue_family = families
-            .iter()
-            .position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE))
-            .ok_or_else(|| GpuError::Unsupported(description.clone(), "a compute queue"))?
-            as u32;
+        let queue_family = present_family(physical).ok_or_else(|| {
+            GpuError::Unsupported(
+                description.clone(),
+                if surface.is_some() {
+                    "a compute queue that presents to the window"
+                } else {
+                    "a compute queue"
+                },
+            )
+        })?;
         let timestamp_bits = families[queue_family as usize].timestamp_valid_bits;
 
         let mut have12 = vk::PhysicalDeviceVulkan12Features::default();
@@ -277,9 +369,13 @@ impl DeviceOwner {
         let mut features12 = vk::PhysicalDeviceVulkan12Features::default()
             .vulkan_memory_model(true)
             .uniform_buffer_standard_layout(true);
+        let swapchain = [ash::khr::swapchain::NAME.as_ptr()];
+        let device_extensions: &[*const std::ffi::c_char] =
+            if surface.is_some() { &swapchain } else { &[] };
         let device_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_info)
             .enabled_features(&features)
+            .enabled_extension_names(device_extensions)
             .push_next(&mut features12);
         // SAFETY: features were checked above; the device is destroyed in Drop.
         let device = unsafe { instance.create_device(physical, &device_info, None) }
@@ -345,6 +441,9 @@ impl Drop for DeviceOwner {
         unsafe {
             let _ = self.device.device_wait_idle();
             self.device.destroy_device(None);
+            if let Some((loader, surface)) = self.surface.take() {
+                loader.destroy_surface(surface, None);
+            }
             self.instance.destroy_instance(None);
         }
     }

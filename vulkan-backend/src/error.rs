@@ -25,6 +25,8 @@ pub enum GpuError {
     TooLarge { size: u64, limit: u64 },
     #[error("the GPU was lost (VK_ERROR_DEVICE_LOST) while running {0}; a driver reset or watchdog ended it")]
     DeviceLost(String),
+    #[error("{0}; `host view` needs a Vulkan driver that presents to windows (a GPU driver, or Mesa's lavapipe: `apt-get install mesa-vulkan-drivers`)")]
+    NoPresentation(String),
     #[error("internal: {0}")]
     Internal(String),
 }

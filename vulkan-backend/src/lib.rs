@@ -11,9 +11,10 @@ mod kernels;
 pub mod module_stats;
 mod pipelines;
 mod plan;
+pub mod present;
 mod resources;
 
-pub use device::{pick_memory_type, DeviceOwner, MemoryChoice, MemoryRole};
+pub use device::{pick_memory_type, DeviceOwner, Display, MemoryChoice, MemoryRole};
 pub use error::GpuError;
 pub use kernels::{
     Kernel, KernelDef, LitBuffers, MapBuffers, MsmBuildBuffers, MsmStoreBuffers, PushConstants,
@@ -76,7 +77,11 @@ struct Recording {
 impl Gpu {
     /// Opens the preferred Vulkan device.
     pub fn new() -> Result<Self, GpuError> {
-        let owner = Arc::new(DeviceOwner::new()?);
+        Self::from_owner(Arc::new(DeviceOwner::new()?))
+    }
+
+    /// The device of `owner`, with no pipeline built yet.
+    fn from_owner(owner: Arc<DeviceOwner>) -> Result<Self, GpuError> {
         let submitter = Submitter::new(&owner)?;
         Ok(Gpu {
             owner,

@@ -168,21 +168,21 @@ pub fn run_shard(args: &RenderOptions, out: &ShardOutput) -> Result<shard::Shard
 
 /// What every render (a whole one, a shard, a merge) sets up before its pixels: the backend,
 /// the loaded scene, the lights and the kernels' parameters.
-struct Setup {
-    backend: Backend,
-    scene: Scene,
-    lights: SceneLights,
-    params: RenderParams,
+pub struct Setup {
+    pub backend: Backend,
+    pub scene: Scene,
+    pub lights: SceneLights,
+    pub params: RenderParams,
     /// Loop iterations one ray may take.
-    per_ray: u64,
-    load_ms: f64,
+    pub per_ray: u64,
+    pub load_ms: f64,
 }
 
 impl Setup {
     /// Opens the backend (the CPU for a merge, which renders nothing but a shadow map), loads
     /// and packs the volume, fits the backend to a job of `spp` samples per pixel, builds the
     /// lights and parameters.
-    fn new(args: &RenderOptions, spp: u32) -> Result<Setup> {
+    pub fn new(args: &RenderOptions, spp: u32) -> Result<Setup> {
         let choice = if args.merge.is_empty() {
             args.backend
         } else {
@@ -190,7 +190,17 @@ impl Setup {
         };
         // The backend first: a forced GPU that is missing fails before any loading, and the
         // pool is laid out in the pages the device binds.
-        let backend = Backend::open(choice)?;
+        Self::with_backend(args, Backend::open(choice)?, choice, spp)
+    }
+
+    /// [`Setup::new`] on `backend`, opened for `choice` (`host view` opens its GPU for its
+    /// window).
+    pub fn with_backend(
+        args: &RenderOptions,
+        backend: Backend,
+        choice: BackendChoice,
+        spp: u32,
+    ) -> Result<Setup> {
         let t_load = Instant::now();
         let scene = load_scene(args, &backend)?;
         let load_ms = t_load.elapsed().as_secs_f64() * 1e3;
@@ -216,7 +226,7 @@ impl Setup {
 
 /// The sun's shadow rays or moment shadow map of a `direct`-family render, built into `lights`
 /// (None for other renders).
-fn lit_shadows(
+pub fn lit_shadows(
     args: &RenderOptions,
     resident: &Resident,
     params: &RenderParams,
@@ -271,7 +281,7 @@ fn log_scene(args: &RenderOptions, scene: &Scene, backend: &Backend, load_ms: f6
 
 /// The lights of a render: those of `direct`, `path` and `restir` (resampled points for
 /// `restir`), or the point lights of the single-scattering integrators.
-fn render_lights(args: &RenderOptions, vol: &dyn VolumeData) -> Result<SceneLights> {
+pub fn render_lights(args: &RenderOptions, vol: &dyn VolumeData) -> Result<SceneLights> {
     if args.integrator.is_some_and(Integrator::is_lit) {
         let mut l = direct_lights(args, vol)?;
         if args.integrator.is_some_and(|i| i.unit().resamples_points) {
@@ -285,7 +295,7 @@ fn render_lights(args: &RenderOptions, vol: &dyn VolumeData) -> Result<SceneLigh
 
 /// The kernels' parameters of a render: camera, image, estimator, and the integrator's
 /// settings with the collision cap fitted to a GPU invocation's loop budget.
-fn render_params(
+pub fn render_params(
     args: &RenderOptions,
     scene: &Scene,
     points: &[shared::sampling::lights::PointLight],
@@ -417,7 +427,7 @@ fn layer_pass_flags(
 
 /// Writes the EXR (linear) and its PNG preview; returns the image's mean (T, or L's luminance
 /// channel for integrators).
-fn write_images(
+pub fn write_images(
     args: &RenderOptions,
     png: &Path,
     pixels: &[PixelOut],

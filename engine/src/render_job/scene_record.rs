@@ -18,3 +18,28 @@ pub enum SceneValue {
 
 /// The settings of a render by flag name (without the leading dashes), in name order.
 pub type SceneRecord = BTreeMap<String, SceneValue>;
+
+/// The TOML text of a resolved scene.
+pub fn to_toml(rec: &SceneRecord) -> String {
+    let mut doc = toml_edit::DocumentMut::new();
+    for (k, v) in rec {
+        doc.insert(k, toml_edit::value(to_toml_value(v)));
+    }
+    format!(
+        "# A host render scene: every key is a flag of `host render` without the dashes \
+         (docs/reference/cli.md).\n# Render it with `host render THIS.toml`; flags given there \
+         override these settings.\n{doc}"
+    )
+}
+
+fn to_toml_value(v: &SceneValue) -> toml_edit::Value {
+    match v {
+        SceneValue::Switch(b) => (*b).into(),
+        SceneValue::Integer(i) => (*i).into(),
+        SceneValue::Number(x) => (*x).into(),
+        SceneValue::Text(t) => t.as_str().into(),
+        SceneValue::List(items) => {
+            toml_edit::Value::Array(items.iter().map(to_toml_value).collect())
+        }
+    }
+}

@@ -13,6 +13,7 @@ pub mod report;
 pub mod restir;
 pub mod scene_file;
 pub mod study;
+pub mod view;
 
 pub use bench::BenchArgs;
 pub use eval::EvalArgs;
@@ -54,6 +55,10 @@ pub enum Command {
     /// Write a static HTML viewer comparing estimators (side by side, slider, insets, numbers)
     /// from new `host eval` runs or existing eval output directories.
     Report(ReportArgs),
+    /// An interactive window: the render accumulating sample by sample, the camera on the mouse
+    /// and keys, estimators switched live and side by side; screenshots and scene files that
+    /// `host render` reproduces.
+    View(view::ViewArgs),
     /// Add the shard files of a render (`host render --samples A..B --shard FILE`) into its
     /// images and JSON summary: the bytes one render of all samples gives.
     Merge(MergeArgs),
@@ -78,10 +83,12 @@ fn parse_from(argv: Vec<std::ffi::OsString>) -> Result<Cli, clap::Error> {
         .mut_subcommand("eval", |c| c.args_override_self(true))
         .mut_subcommand("bench", |c| c.args_override_self(true))
         .mut_subcommand("report", |c| c.args_override_self(true))
+        .mut_subcommand("view", |c| c.args_override_self(true))
         .try_get_matches_from(argv)?;
     let mut cli = Cli::from_arg_matches(&matches)?;
     let (render, sub) = match &mut cli.command {
         Some(Command::Render(args)) => (args, matches.subcommand_matches("render")),
+        Some(Command::View(args)) => (&mut args.render, matches.subcommand_matches("view")),
         None => (&mut cli.render, Some(&matches)),
         Some(_) => return Ok(cli),
     };
@@ -104,13 +111,15 @@ pub fn run(cli: &Cli) -> Result<()> {
         Some(Command::Bench(args)) => lab::bench::run(&args.options()?).map(|_| ()),
         Some(Command::Report(args)) => lab::report::run(&args.options()?),
         Some(Command::Merge(args)) => merge::run(args),
+        Some(Command::View(args)) => view(args),
     }
 }
 
 /// The workspace's crates whose events [`init_tracing`] prints (tracing targets are crate paths;
 /// other crates' events are dropped).
-pub const OUR_CRATES: [&str; 9] = [
+pub const OUR_CRATES: [&str; 10] = [
     "host",
+    "viewer",
     "engine",
     "lab",
     "studies",
@@ -148,6 +157,19 @@ fn render(args: &RenderArgs) -> Result<()> {
         return engine::render_job::run_shard(&options, &shard).map(|_| ());
     }
     engine::render_job::run_render(&options).map(|_| ())
+}
+
+/// `host view`: the flags the user gave must apply, then the viewer opens its window.
+fn view(args: &view::ViewArgs) -> Result<()> {
+    let r = &args.render;
+    anyhow::ensure!(
+        r.write_scene.is_none() && r.shard.is_none(),
+        "--write-scene and --shard belong to `host render`; in the viewer, P saves the view's \
+         scene file"
+    );
+    let options = args.options();
+    applicable::check(&options.render, &r.given)?;
+    viewer::run(&options)
 }
 
 /// Prints the library's diagnostics on stderr as before: `warning: <message>` for warnings,

@@ -63,6 +63,7 @@ fn command_of(name: &str) -> Command {
         "eval" => <super::eval::EvalArgs as clap::Args>::augment_args(Command::new("eval")),
         "bench" => <super::bench::BenchArgs as clap::Args>::augment_args(Command::new("bench")),
         "report" => <super::report::ReportArgs as clap::Args>::augment_args(Command::new("report")),
+        "view" => <super::view::ViewArgs as clap::Args>::augment_args(Command::new("view")),
         _ => render_command(),
     }
 }
@@ -80,10 +81,10 @@ pub fn expand(args: Vec<OsString>) -> Result<Vec<OsString>> {
         return Ok(args);
     }
     let mut args = args;
-    let named = ["render", "eval", "bench", "report"].contains(&first.as_str());
+    let named = ["render", "eval", "bench", "report", "view"].contains(&first.as_str());
     let start = if named { 2 } else { 1 };
     let name = if named { first.as_str() } else { "render" };
-    if name == "render" && start == 2 {
+    if (name == "render" || name == "view") && start == 2 {
         if let Some(a) = args.get(2).and_then(|a| a.to_str()) {
             if !a.starts_with('-') {
                 args.insert(2, "--scene".into());
@@ -549,27 +550,4 @@ fn absolute_input(key: &str, value: SceneValue) -> SceneValue {
     }
 }
 
-/// The TOML text of a resolved scene.
-pub fn to_toml(rec: &SceneRecord) -> String {
-    let mut doc = toml_edit::DocumentMut::new();
-    for (k, v) in rec {
-        doc.insert(k, toml_edit::value(to_toml_value(v)));
-    }
-    format!(
-        "# A host render scene: every key is a flag of `host render` without the dashes \
-         (docs/reference/cli.md).\n# Render it with `host render THIS.toml`; flags given there \
-         override these settings.\n{doc}"
-    )
-}
-
-fn to_toml_value(v: &SceneValue) -> toml_edit::Value {
-    match v {
-        SceneValue::Switch(b) => (*b).into(),
-        SceneValue::Integer(i) => (*i).into(),
-        SceneValue::Number(x) => (*x).into(),
-        SceneValue::Text(t) => t.as_str().into(),
-        SceneValue::List(items) => {
-            toml_edit::Value::Array(items.iter().map(to_toml_value).collect())
-        }
-    }
-}
+pub use engine::render_job::scene_record::to_toml;

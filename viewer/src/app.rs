@@ -1,0 +1,409 @@
+//! The window's event loop: input changes the settings (each change starts the samples
+//! anew), and every redraw renders a few more samples and shows them.
+
+use crate::camera::OrbitCamera;
+use crate::hud::{Frame, Tone};
+use crate::session::{Session, Settings};
+use crate::ViewOptions;
+use engine::gpu::present::{Presenter, Shown};
+use engine::gpu::Gpu;
+use std::time::Instant;
+use winit::application::ApplicationHandler;
+use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, ControlFlow};
+use winit::keyboard::{Key, NamedKey};
+use winit::window::{Window, WindowId};
+
+/// Milliseconds a frame aims at: the samples per frame adapt to it (at most [`MAX_FRAME`]).
+const FRAME_MS: f64 = 100.0;
+/// Most samples per pixel in one frame.
+const MAX_FRAME: u32 = 16;
+
+pub struct App<'a> {
+    pub window: &'a Window,
+    pub gpu: &'a Gpu,
+    pub presenter: Presenter,
+    pub session: Session<'a>,
+    pub options: &'a ViewOptions,
+    /// Samples the next frame renders.
+    frame_samples: u32,
+    last_frame_ms: f64,
+    /// Screen pixels per render pixel.
+    cursor: (f64, f64),
+    left: bool,
+    right: bool,
+    /// Dragging the split view's line.
+    dragging_split: bool,
+    /// Column of the split view's line, in render pixels.
+    split_x: u32,
+    hud: bool,
+    /// The last message shown on the HUD (a save, a refused setting).
+    message: String,
+    /// Whether "reached" was printed for the current samples.
+    reported: bool,
+    shift: bool,
+    pub result: anyhow::Result<()>,
+}
+
+impl<'a> App<'a> {
+    pub fn new(
+        window: &'a Window,
+        gpu: &'a Gpu,
+        presenter: Presenter,
+        session: Session<'a>,
+        options: &'a ViewOptions,
+    ) -> Self {
+        let split_x = session.settings.options.width / 2;
+        App {
+            window,
+            gpu,
+            presenter,
+            session,
+            options,
+            frame_samples: options.frame_samples.unwrap_or(1),
+            last_frame_ms: 0.0,
+            cursor: (0.0, 0.0),
+            left: false,
+            right: false,
+            dragging_split: false,
+            split_x,
+            hud: !options.no_hud,
+            message: String::new(),
+            reported: false,
+            shift: false,
+            result: Ok(()),
+        }
+    }
+
+    /// Applies `change` to a copy of the settings; refused settings keep the current ones and
+    /// say why on the HUD and stderr.
+    fn change(&mut self, what: &str, change: impl FnOnce(&mut Settings)) {
+        let mut s = self.session.settings.clone();
+        change(&mut s);
+        match self.session.change(s) {
+            Ok(()) => {
+                self.reported = false;
+                self.message = what.to_owned();
+                println!("view: {what}: restarted");
+            }
+            Err(e) => {
+                self.message = format!("refused: {e:#}");
+                eprintln!("view: {what} refused: {e:#}");
+            }
+        }
+        self.window.request_redraw();
+    }
+
+    fn camera(&mut self, what: &str, f: impl FnOnce(&mut OrbitCamera)) {
+        self.change(what, |s| f(&mut s.camera));
+    }
+
+    /// Renders the next samples and shows the image.
+    fn frame(&mut self) -> anyhow::Result<()> {
+        let spp = self.session.samples();
+        let max = self.options.max_spp;
+        if spp < max {
+            let t = Instant::now();
+            let want = self.frame_samples.min(max - spp);
+            let got = self.session.advance(want)?;
+            self.last_frame_ms = t.elapsed().as_secs_f64() * 1e3;
+            if self.options.frame_samples.is_none() {
+                let per_sample = self.last_frame_ms / f64::from(got.max(1));
+                self.frame_samples = ((FRAME_MS / per_sample.max(1e-3)) as u32).clamp(1, MAX_FRAME);
+            }
+        }
+        let spp = self.session.samples();
+        if spp >= max && !self.reported {
+            self.reported = true;
+            println!("view: reached {spp} spp (--max-spp); idle");
+        }
+        self.show()
+    }
+
+    /// Shows the samples so far (with the HUD).
+    fn show(&mut self) -> anyhow::Result<()> {
+        let spp = self.session.samples();
+        if spp == 0 {
+            return Ok(());
+        }
+        let o = &self.session.settings.options;
+        let (w, h) = (o.width, o.height);
+        let tone = match o.integrator {
+            None => Tone::Transmittance,
+            Some(i) if i.is_lit() => Tone::Rgb(o.exposure),
+            Some(_) => Tone::Reinhard(o.exposure),
+        };
+        let (pixels, split) = self.session.pixels()?;
+        let right = split.as_deref().map(|r| (r, self.split_x.min(w)));
+        let mut frame = Frame::of(w, h, &pixels, right, tone);
+        let flags = Session::flags(&pixels, spp);
+        let samples: f64 = pixels.iter().map(|p| f64::from(p.samples)).sum();
+        let per_ray = samples / (pixels.len() as f64 * f64::from(spp));
+        let mut name = format!("{} N={}", o.estimator.name, o.n);
+        if let Some(s) = self.session.settings.split {
+            name = format!("{name} | {} (right)", s.name);
+        }
+        if let Some(i) = o.integrator {
+            name = format!("{} | {name}", i.unit().name);
+        }
+        let status = format!(
+            "{spp} spp  {:.0} ms/frame  {:.2} lookups/ray  capped {}  outside {}",
+            self.last_frame_ms, per_ray, flags.capped_rays, flags.jackknife_outside_rays
+        );
+        self.window
+            .set_title(&format!("host view: {name} | {status}"));
+        if self.hud {
+            let mut lines = vec![name, status];
+            if !self.message.is_empty() {
+                lines.push(self.message.clone());
+            }
+            frame.text(&lines, if w >= 1000 { 2 } else { 1 });
+        }
+        if self
+            .presenter
+            .present(self.gpu, &frame.rgba, frame.width, frame.height)?
+            == Shown::Stale
+        {
+            let size = self.window.inner_size();
+            self.presenter.resize(size.width, size.height)?;
+        }
+        Ok(())
+    }
+
+    fn screenshot(&mut self) {
+        let spp = self.session.samples();
+        let stem = crate::save::next_stem(&self.options.save_dir);
+        let result = self.session.pixels().and_then(|(pixels, _)| {
+            crate::save::screenshot(&self.session.settings, &pixels, spp, &stem)
+        });
+        match result {
+            Ok(paths) => {
+                let names: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
+                self.message = format!("saved {} ({spp} spp)", names.join(", "));
+                println!(
+                    "view: wrote {} ({spp} spp; `host render {}` renders it again)",
+                    names.join(", "),
+                    paths[2].display()
+                );
+            }
+            Err(e) => {
+                self.message = format!("save failed: {e:#}");
+                eprintln!("view: save failed: {e:#}");
+            }
+        }
+        self.window.request_redraw();
+    }
+
+    fn key(&mut self, key: &Key, event_loop: &ActiveEventLoop) {
+        let step = 0.05;
+        match key {
+            Key::Named(NamedKey::Escape) => event_loop.exit(),
+            Key::Named(NamedKey::Space) => {
+                self.session.restart();
+                self.reported = false;
+                println!("view: restart: restarted");
+                self.window.request_redraw();
+            }
+            Key::Named(NamedKey::ArrowLeft) => self.sun("sun azimuth", -10.0, 0.0),
+            Key::Named(NamedKey::ArrowRight) => self.sun("sun azimuth", 10.0, 0.0),
+            Key::Named(NamedKey::ArrowUp) => self.sun("sun elevation", 0.0, 5.0),
+            Key::Named(NamedKey::ArrowDown) => self.sun("sun elevation", 0.0, -5.0),
+            Key::Character(c) => match c.as_str() {
+                "q" | "Q" => event_loop.exit(),
+                "w" | "W" => self.camera("fly", |c| c.translate(0.0, 0.0, step)),
+                "s" | "S" => self.camera("fly", |c| c.translate(0.0, 0.0, -step)),
+                "a" | "A" => self.camera("fly", |c| c.translate(-step, 0.0, 0.0)),
+                "d" | "D" => self.camera("fly", |c| c.translate(step, 0.0, 0.0)),
+                "r" | "R" => self.camera("fly", |c| c.translate(0.0, step, 0.0)),
+                "f" | "F" => self.camera("fly", |c| c.translate(0.0, -step, 0.0)),
+                "e" => self.estimator(1),
+                "E" => self.estimator(-1),
+                "=" | "+" => self.change("N", |s| s.options.n = (s.options.n + 1).min(4096)),
+                "-" => self.change("N", |s| s.options.n = s.options.n.saturating_sub(1).max(1)),
+                "]" | "[" if self.session.settings.options.integrator.is_none() => {
+                    self.note("exposure applies to integrator renders (--integrator)")
+                }
+                "]" => self.change("exposure", |s| s.options.exposure *= 2f32.sqrt()),
+                "[" => self.change("exposure", |s| s.options.exposure /= 2f32.sqrt()),
+                "." | "," if !self.lit() => {
+                    self.note("the light probe lights direct, path and restir renders only")
+                }
+                "." => self.change("light probe rotation", |s| {
+                    s.options.env_rotate = wrap_degrees(s.options.env_rotate + 15.0)
+                }),
+                "," => self.change("light probe rotation", |s| {
+                    s.options.env_rotate = wrap_degrees(s.options.env_rotate - 15.0)
+                }),
+                "b" | "B" => {
+                    let next = match self.session.settings.split {
+                        Some(_) => None,
+                        None => Some(engine::estimators::by_name("track-length").expect("known")),
+                    };
+                    self.change("split view", |s| s.split = next);
+                }
+                "v" | "V" => {
+                    if let Some(cur) = self.session.settings.split {
+                        let next = cycle(cur, if c.as_str() == "v" { 1 } else { -1 });
+                        self.change("split estimator", |s| s.split = Some(next));
+                    }
+                }
+                "h" | "H" => {
+                    self.hud = !self.hud;
+                    self.window.request_redraw();
+                }
+                "p" | "P" => self.screenshot(),
+                _ => {}
+            },
+            _ => {}
+        }
+    }
+
+    /// Shows `message` on the HUD and stderr (a key that does not apply).
+    fn note(&mut self, message: &str) {
+        self.message = message.to_owned();
+        eprintln!("view: {message}");
+        self.window.request_redraw();
+    }
+
+    /// Whether the render is lit by the light probe and the sun (`direct`, `path`, `restir`).
+    fn lit(&self) -> bool {
+        self.session
+            .settings
+            .options
+            .integrator
+            .is_some_and(shared::params::Integrator::is_lit)
+    }
+
+    fn estimator(&mut self, by: i32) {
+        let next = cycle(self.session.settings.options.estimator, by);
+        self.change("estimator", |s| s.options.estimator = next);
+    }
+
+    /// Turns the sun (where the scene has one) by `azimuth` and `elevation` degrees.
+    fn sun(&mut self, what: &str, azimuth: f32, elevation: f32) {
+        if self.session.settings.options.sun.is_none() || !self.lit() {
+            self.note("no sun in this scene (give --sun with --integrator direct, path or restir)");
+            return;
+        }
+        self.change(what, |s| {
+            if let Some(sun) = &mut s.options.sun {
+                let [x, y, z] = sun.dir;
+                let r = (x * x + y * y + z * z).sqrt();
+                let mut az = z.atan2(x).to_degrees() + azimuth;
+                let el = ((y / r).asin().to_degrees() + elevation).clamp(-89.0, 89.0);
+                az = wrap_degrees(az);
+                let (ae, aa) = (el.to_radians(), az.to_radians());
+                sun.dir = [ae.cos() * aa.cos(), ae.sin(), ae.cos() * aa.sin()];
+            }
+        });
+    }
+
+    /// Render pixels per window pixel: the render fills the window at 1/scale.
+    fn render_size(&self, w: u32, h: u32) -> (u32, u32) {
+        let s = self.options.scale.max(1);
+        ((w / s).max(1), (h / s).max(1))
+    }
+}
+
+/// `deg` in (-360, 360), as `--env-rotate` takes it.
+fn wrap_degrees(deg: f32) -> f32 {
+    deg % 360.0
+}
+
+/// The estimator `by` places after `cur` in the table (wrapping).
+fn cycle(
+    cur: &'static engine::estimators::EstimatorSpec,
+    by: i32,
+) -> &'static engine::estimators::EstimatorSpec {
+    let all = engine::estimators::ESTIMATORS;
+    let i = all.iter().position(|s| s.name == cur.name).unwrap_or(0) as i32;
+    let n = all.len() as i32;
+    &all[((i + by).rem_euclid(n)) as usize]
+}
+
+impl ApplicationHandler for App<'_> {
+    fn resumed(&mut self, _event_loop: &ActiveEventLoop) {
+        self.window.request_redraw();
+    }
+
+    fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
+        match event {
+            WindowEvent::CloseRequested => event_loop.exit(),
+            WindowEvent::Resized(size) => {
+                if let Err(e) = self.presenter.resize(size.width, size.height) {
+                    self.result = Err(e.into());
+                    event_loop.exit();
+                    return;
+                }
+                if size.width > 0 && size.height > 0 {
+                    let (w, h) = self.render_size(size.width, size.height);
+                    let o = &self.session.settings.options;
+                    if (w, h) != (o.width, o.height) {
+                        self.split_x = w / 2;
+                        self.change("window size", |s| {
+                            s.options.width = w;
+                            s.options.height = h;
+                        });
+                    }
+                }
+            }
+            WindowEvent::ModifiersChanged(m) => self.shift = m.state().shift_key(),
+            WindowEvent::KeyboardInput { event, .. } => {
+                if event.state == ElementState::Pressed {
+                    self.key(&event.logical_key, event_loop);
+                }
+            }
+            WindowEvent::MouseInput { state, button, .. } => {
+                let down = state == ElementState::Pressed;
+                match button {
+                    MouseButton::Left => {
+                        self.left = down;
+                        let s = self.options.scale.max(1) as f64;
+                        self.dragging_split = down
+                            && self.session.settings.split.is_some()
+                            && (self.cursor.0 / s - f64::from(self.split_x)).abs() < 6.0;
+                    }
+                    MouseButton::Right | MouseButton::Middle => self.right = down,
+                    _ => {}
+                }
+            }
+            WindowEvent::CursorMoved { position, .. } => {
+                let (dx, dy) = (position.x - self.cursor.0, position.y - self.cursor.1);
+                self.cursor = (position.x, position.y);
+                let h = f64::from(self.window.inner_size().height.max(1));
+                if self.dragging_split {
+                    let s = self.options.scale.max(1) as f64;
+                    self.split_x = (position.x / s).max(0.0) as u32;
+                    self.window.request_redraw();
+                } else if self.left && !self.shift {
+                    self.camera("orbit", |c| c.orbit(dx * 0.01, dy * 0.01));
+                } else if self.right || (self.left && self.shift) {
+                    self.camera("pan", |c| c.translate(-dx / h, dy / h, 0.0));
+                }
+            }
+            WindowEvent::MouseWheel { delta, .. } => {
+                let lines = match delta {
+                    MouseScrollDelta::LineDelta(_, y) => f64::from(y),
+                    MouseScrollDelta::PixelDelta(p) => p.y / 40.0,
+                };
+                self.camera("dolly", |c| c.dolly(0.9f64.powf(lines)));
+            }
+            WindowEvent::RedrawRequested => {
+                if let Err(e) = self.frame() {
+                    self.result = Err(e);
+                    event_loop.exit();
+                }
+            }
+            _ => {}
+        }
+    }
+
+    fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
+        if self.session.samples() < self.options.max_spp {
+            event_loop.set_control_flow(ControlFlow::Poll);
+            self.window.request_redraw();
+        } else {
+            event_loop.set_control_flow(ControlFlow::Wait);
+        }
+    }
+}

@@ -1,0 +1,92 @@
+//! Saving what the viewer shows: the view as a scene file that `host render` reproduces, and a
+//! screenshot (EXR + PNG, written as `host render` writes its images) of the samples so far.
+
+use crate::session::{with_camera, Settings};
+use anyhow::Result;
+use engine::render_job::scene_record::{SceneRecord, SceneValue};
+use shared::kernels::render::PixelOut;
+use std::path::{Path, PathBuf};
+
+/// `settings`' scene at `spp` samples per pixel: the scene the viewer was started with, its
+/// camera, estimator, N, exposure, light probe rotation and sun replaced by the current ones.
+pub fn record(settings: &Settings, spp: u32) -> SceneRecord {
+    let o = with_camera(&settings.options, &settings.camera);
+    let mut rec = o.scene_record.clone();
+    let list = |v: [f32; 3]| SceneValue::List(v.iter().map(|&x| number(x)).collect());
+    rec.insert("camera".into(), list(settings.camera.eye));
+    rec.insert("look-at".into(), list(settings.camera.target));
+    rec.insert("fov".into(), number(settings.camera.fov_deg));
+    rec.insert(
+        "estimator".into(),
+        SceneValue::Text(o.estimator.name.to_owned()),
+    );
+    rec.insert("n".into(), SceneValue::Integer(o.n.into()));
+    // Keys `host render` takes for this integrator only (it refuses them elsewhere).
+    if o.integrator.is_some() {
+        rec.insert("exposure".into(), number(o.exposure));
+    }
+    rec.insert("width".into(), SceneValue::Integer(o.width.into()));
+    rec.insert("height".into(), SceneValue::Integer(o.height.into()));
+    rec.insert("spp".into(), SceneValue::Integer(spp.into()));
+    let lit = o.integrator.is_some_and(shared::params::Integrator::is_lit);
+    if lit && (rec.contains_key("env-rotate") || o.env_rotate != 0.0) {
+        rec.insert("env-rotate".into(), number(o.env_rotate));
+    }
+    if let Some(sun) = &o.sun {
+        let mut v: Vec<SceneValue> = sun.dir.iter().map(|&x| number(x)).collect();
+        if let Some(e) = sun.irradiance {
+            v.push(number(e));
+            v.push(number(sun.radius_deg));
+        }
+        rec.insert("sun".into(), SceneValue::List(v));
+    }
+    rec
+}
+
+/// An f32 as the scene value that reads back as the same f32.
+fn number(x: f32) -> SceneValue {
+    SceneValue::Number(f64::from(x))
+}
+
+/// The first free `view-NNNN` stem in `dir` (no file of that stem with any extension the
+/// viewer writes).
+pub fn next_stem(dir: &Path) -> PathBuf {
+    (1u32..)
+        .map(|k| dir.join(format!("view-{k:04}")))
+        .find(|s| {
+            ["exr", "png", "toml"]
+                .iter()
+                .all(|e| !s.with_extension(e).exists())
+        })
+        .expect("a free name")
+}
+
+/// Writes the screenshot of `pixels` (`spp` samples of `settings`) as `stem`.exr and .png,
+/// and its scene as `stem`.toml; returns the three paths. The paths are checked first (none an
+/// input, all writable).
+pub fn screenshot(
+    settings: &Settings,
+    pixels: &[PixelOut],
+    spp: u32,
+    stem: &Path,
+) -> Result<[PathBuf; 3]> {
+    let mut o = with_camera(&settings.options, &settings.camera);
+    o.spp = spp;
+    o.out = stem.with_extension("exr");
+    o.json = None;
+    let toml = stem.with_extension("toml");
+    let png = engine::render_job::plan_render_outputs(&o)?;
+    let mut plan = engine::output::OutputPlan::new();
+    plan.file("the viewer's scene file", &toml);
+    if let Some(scene) = &o.scene_file {
+        plan.input("--scene", scene);
+    }
+    plan.check()?;
+    let lit = o.integrator.is_some_and(shared::params::Integrator::is_lit);
+    engine::render_job::write_images(&o, &png, pixels, &[], lit)?;
+    engine::output::write_text(
+        &toml,
+        &engine::render_job::scene_record::to_toml(&record(settings, spp)),
+    )?;
+    Ok([o.out.clone(), png, toml])
+}

@@ -1,0 +1,150 @@
+//! One progressive render of the viewer's current settings: the scene loaded once, the lights
+//! and parameters of the settings, and the samples so far of the image (and of the split view's
+//! second estimator). Any change of settings starts the samples anew.
+
+use crate::camera::OrbitCamera;
+use anyhow::{Context, Result};
+use engine::diagnostics::RayFlags;
+use engine::estimators::EstimatorSpec;
+use engine::lighting::SceneLights;
+use engine::progressive::Progressive;
+use engine::render::{make_camera, Resident};
+use engine::render_job::{RenderOptions, Setup};
+use shared::kernels::render::PixelOut;
+use shared::params::RenderParams;
+
+/// The settings the viewer changes, on top of the scene it was started with.
+#[derive(Clone, Debug)]
+pub struct Settings {
+    pub options: RenderOptions,
+    pub camera: OrbitCamera,
+    /// The split view's second estimator (right of the line), if on.
+    pub split: Option<&'static EstimatorSpec>,
+}
+
+/// A render in progress.
+pub struct Session<'a> {
+    setup: &'a Setup,
+    resident: &'a Resident<'a>,
+    pub settings: Settings,
+    lights: SceneLights,
+    params: RenderParams,
+    /// The split view's parameters (the second estimator), if on.
+    split_params: Option<RenderParams>,
+    image: Progressive,
+    split: Progressive,
+}
+
+impl<'a> Session<'a> {
+    /// A render of `settings` with no samples yet.
+    pub fn new(setup: &'a Setup, resident: &'a Resident<'a>, settings: Settings) -> Result<Self> {
+        let (lights, params, split_params) = prepare(setup, resident, &settings)?;
+        Ok(Session {
+            setup,
+            resident,
+            settings,
+            lights,
+            params,
+            split_params,
+            image: Progressive::new(),
+            split: Progressive::new(),
+        })
+    }
+
+    /// Switches to `settings` (samples start anew); on an error (settings that do not go
+    /// together) the current ones stay and the error is returned.
+    pub fn change(&mut self, settings: Settings) -> Result<()> {
+        let (lights, params, split_params) = prepare(self.setup, self.resident, &settings)?;
+        self.settings = settings;
+        self.lights = lights;
+        self.params = params;
+        self.split_params = split_params;
+        self.restart();
+        Ok(())
+    }
+
+    /// Drops the samples so far.
+    pub fn restart(&mut self) {
+        self.image = Progressive::new();
+        self.split = Progressive::new();
+    }
+
+    /// Samples per pixel so far.
+    pub fn samples(&self) -> u32 {
+        self.image.samples()
+    }
+
+    /// Renders the next `count` samples (fewer at a sample block's end) of the image and, in
+    /// the split view, of the second estimator; returns how many.
+    pub fn advance(&mut self, count: u32) -> Result<u32> {
+        let n = self
+            .image
+            .advance(self.resident, &self.params, &self.lights, count)?;
+        if let Some(p) = &self.split_params {
+            self.split.advance(self.resident, p, &self.lights, n)?;
+        }
+        Ok(n)
+    }
+
+    /// The image's pixels so far, and the split view's.
+    pub fn pixels(&self) -> Result<(Vec<PixelOut>, Option<Vec<PixelOut>>)> {
+        let split = match self.split_params {
+            Some(_) => Some(self.split.pixels()?),
+            None => None,
+        };
+        Ok((self.image.pixels()?, split))
+    }
+
+    /// The render's parameters (the image's).
+    pub fn params(&self) -> &RenderParams {
+        &self.params
+    }
+
+    /// The loaded scene and backend.
+    pub fn setup(&self) -> &Setup {
+        self.setup
+    }
+
+    /// What a render of the current samples reports about its rays (capped, out of regime).
+    pub fn flags(pixels: &[PixelOut], spp: u32) -> RayFlags {
+        RayFlags::of(pixels, spp)
+    }
+}
+
+/// `options` with the camera of `camera`, for `host render` and its scene file.
+pub fn with_camera(options: &RenderOptions, camera: &OrbitCamera) -> RenderOptions {
+    let mut o = options.clone();
+    o.scene.camera = Some(camera.eye);
+    o.scene.look_at = Some(camera.target);
+    o.scene.fov = camera.fov_deg;
+    o
+}
+
+/// The lights and parameters of `settings` on the loaded scene (as `host render` makes them
+/// for the same flags, the camera included), and the split view's parameters.
+fn prepare(
+    setup: &Setup,
+    resident: &Resident,
+    settings: &Settings,
+) -> Result<(SceneLights, RenderParams, Option<RenderParams>)> {
+    let options = with_camera(&settings.options, &settings.camera);
+    engine::render_job::check_render_flags(&options)?;
+    let scene = &setup.scene;
+    let mut lights = engine::render_job::render_lights(&options, &scene.volume)?;
+    let mut params = engine::render_job::render_params(&options, scene, &lights.points);
+    let [lo, hi] = scene.world_bounds;
+    let spec = engine::render::CameraSpec {
+        position: options.scene.camera,
+        look_at: options.scene.look_at,
+        fov_deg: options.scene.fov,
+    };
+    params.camera = make_camera(&spec, (lo, hi), options.width, options.height)
+        .context("the viewer's camera")?;
+    engine::render_job::lit_shadows(&options, resident, &params, &mut lights, scene)?;
+    let split = settings.split.map(|spec| {
+        let mut p = params;
+        spec.apply(&mut p);
+        p
+    });
+    Ok((lights, params, split))
+}
