@@ -1,13 +1,15 @@
 #!/usr/bin/env bash
 # Runs every test of the workspace on a fresh Debian machine: installs the apt packages the GPU
-# tests need (lavapipe, the Vulkan loader, a C++ compiler for SPIRV-Tools), the browser of the
+# tests need (lavapipe, the Vulkan loader, a C++ compiler for SPIRV-Tools, Xvfb and xdotool for
+# the viewer), the browser of the
 # `host report` test (chromium and chromedriver) and the pinned Rust toolchain, then
 # `cargo test --workspace --release`, then the `jackknife` library crate on stable Rust. Extra
 # arguments go to the workspace `cargo test`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-packages=(mesa-vulkan-drivers libvulkan1 g++)
+# xvfb and xdotool: host/tests/view.rs drives `host view` in a virtual X server.
+packages=(mesa-vulkan-drivers libvulkan1 g++ xvfb xdotool)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
