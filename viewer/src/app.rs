@@ -42,6 +42,11 @@ pub struct App<'a> {
     /// Whether "reached" was printed for the current samples.
     reported: bool,
     shift: bool,
+    /// Since the samples started: frames, their render time and the time to show them (read
+    /// back, tone-map, present), in ms.
+    frames: u32,
+    render_ms: f64,
+    show_ms: f64,
     pub result: anyhow::Result<()>,
 }
 
@@ -71,6 +76,9 @@ impl<'a> App<'a> {
             message: String::new(),
             reported: false,
             shift: false,
+            frames: 0,
+            render_ms: 0.0,
+            show_ms: 0.0,
             result: Ok(()),
         }
     }
@@ -82,7 +90,7 @@ impl<'a> App<'a> {
         change(&mut s);
         match self.session.change(s) {
             Ok(()) => {
-                self.reported = false;
+                self.restarted();
                 self.message = what.to_owned();
                 println!("view: {what}: restarted");
             }
@@ -92,6 +100,14 @@ impl<'a> App<'a> {
             }
         }
         self.window.request_redraw();
+    }
+
+    /// The samples started anew: so do the frame statistics.
+    fn restarted(&mut self) {
+        self.reported = false;
+        self.frames = 0;
+        self.render_ms = 0.0;
+        self.show_ms = 0.0;
     }
 
     fn camera(&mut self, what: &str, f: impl FnOnce(&mut OrbitCamera)) {
@@ -107,17 +123,31 @@ impl<'a> App<'a> {
             let want = self.frame_samples.min(max - spp);
             let got = self.session.advance(want)?;
             self.last_frame_ms = t.elapsed().as_secs_f64() * 1e3;
+            self.frames += 1;
+            self.render_ms += self.last_frame_ms;
             if self.options.frame_samples.is_none() {
                 let per_sample = self.last_frame_ms / f64::from(got.max(1));
                 self.frame_samples = ((FRAME_MS / per_sample.max(1e-3)) as u32).clamp(1, MAX_FRAME);
             }
         }
         let spp = self.session.samples();
+        let t = Instant::now();
+        self.show()?;
+        self.show_ms += t.elapsed().as_secs_f64() * 1e3;
         if spp >= max && !self.reported {
             self.reported = true;
-            println!("view: reached {spp} spp (--max-spp); idle");
+            let frames = f64::from(self.frames.max(1));
+            println!(
+                "view: reached {spp} spp (--max-spp) in {} frames: {:.1} ms rendering and {:.1} \
+                 ms showing per frame ({}x{}); idle",
+                self.frames,
+                self.render_ms / frames,
+                self.show_ms / frames,
+                self.session.settings.options.width,
+                self.session.settings.options.height
+            );
         }
-        self.show()
+        Ok(())
     }
 
     /// Shows the samples so far (with the HUD).
@@ -200,7 +230,7 @@ impl<'a> App<'a> {
             Key::Named(NamedKey::Escape) => event_loop.exit(),
             Key::Named(NamedKey::Space) => {
                 self.session.restart();
-                self.reported = false;
+                self.restarted();
                 println!("view: restart: restarted");
                 self.window.request_redraw();
             }
