@@ -1,7 +1,8 @@
 //! `host view` under a virtual X server (Xvfb) on lavapipe, driven by xdotool as a user drives
-//! it: the viewer accumulates to --max-spp, reacts to a key (next estimator), a mouse drag
-//! (orbit) and the split view's key, and its screenshot (P) equals `host render` of the scene
-//! file it saved, byte for byte (EXR and PNG), on the GPU and on the CPU. Without a display it
+//! it: the viewer accumulates to --max-spp, reacts to keys (next estimator, split view, next
+//! integrator, next lookup) and a mouse drag (orbit), and each screenshot (P) equals
+//! `host render` of the scene file it saved, byte for byte (EXR and PNG), on the GPU and on the
+//! CPU. Without a display it
 //! says how to get one. Needs Xvfb and xdotool (`./scripts/test.sh` installs them).
 
 use std::io::{BufRead, BufReader};
@@ -229,16 +230,32 @@ fn scripted_session(backend: &str) {
     lines.act(&x, &["key", "b"], "split view: restarted");
     lines.wait_for("reached 5 spp", 600);
     let wrote = lines.act(&x, &["key", "p"], "view: wrote");
+    assert!(wrote.contains("view-0001.toml"), "{wrote}");
+    // The next integrator (free-flight: single scattering, which reads no estimator, so the
+    // split view ends), then the next lookup (the volume packed anew).
+    lines.act(&x, &["key", "i"], "integrator: restarted");
+    lines.act(
+        &x,
+        &["key", "l"],
+        "lookup trilinear: loading the volume anew",
+    );
+    lines.wait_for("reached 5 spp", 600);
+    let wrote = lines.act(&x, &["key", "p"], "view: wrote");
+    assert!(wrote.contains("view-0002.toml"), "{wrote}");
     x.xdotool(&["key", "Escape"]);
     let status = wait_exit(&mut child, 60);
     assert!(status.success(), "the viewer exited with {status}");
 
     let shot = save.join("view-0001");
-    assert!(wrote.contains("view-0001.toml"), "{wrote}");
     let scene = std::fs::read_to_string(shot.with_extension("toml")).unwrap();
     // The estimator after the jackknife, and a camera the orbit moved off the default one.
     assert!(scene.contains("estimator = \"naive\""), "{scene}");
     assert!(scene.contains("spp = 5"), "{scene}");
+    let second = save.join("view-0002");
+    let scene2 = std::fs::read_to_string(second.with_extension("toml")).unwrap();
+    assert!(scene2.contains("integrator = \"free-flight\""), "{scene2}");
+    assert!(scene2.contains("lookup = \"trilinear\""), "{scene2}");
+    assert!(!scene2.contains("estimator"), "{scene2}");
     let render = |scene: &Path, out: &Path| {
         let r = Command::new(HOST)
             .args(["render", scene.to_str().unwrap()])

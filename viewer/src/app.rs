@@ -4,7 +4,7 @@
 use crate::camera::OrbitCamera;
 use crate::hud::{Frame, Tone};
 use crate::session::{Session, Settings};
-use crate::ViewOptions;
+use crate::{SceneRules, ViewOptions};
 use engine::gpu::present::{Presenter, Shown};
 use engine::gpu::Gpu;
 use std::time::Instant;
@@ -19,12 +19,23 @@ const FRAME_MS: f64 = 100.0;
 /// Most samples per pixel in one frame.
 const MAX_FRAME: u32 = 16;
 
-pub struct App<'a> {
-    pub window: &'a Window,
-    pub gpu: &'a Gpu,
+/// What the event loop leaves when it ends: the swapchain (kept for the next scene), the
+/// settings to load anew (a new lookup), and how it ended.
+pub struct Exit {
     pub presenter: Presenter,
-    pub session: Session<'a>,
-    pub options: &'a ViewOptions,
+    pub reload: Option<Settings>,
+    pub result: anyhow::Result<()>,
+}
+
+pub struct App<'a> {
+    window: &'a Window,
+    gpu: &'a Gpu,
+    presenter: Presenter,
+    session: Session<'a>,
+    options: &'a ViewOptions,
+    rules: &'a dyn SceneRules,
+    /// Settings that need the volume packed anew (the event loop ends, `run` loads them).
+    reload: Option<Settings>,
     /// Samples the next frame renders.
     frame_samples: u32,
     last_frame_ms: f64,
@@ -45,9 +56,12 @@ pub struct App<'a> {
     /// Since the samples started: frames, their render time and the time to show them (read
     /// back, tone-map, present), in ms.
     frames: u32,
+    /// The first frame's render time (it builds the pipelines a device builds on first use).
+    first_ms: f64,
+    /// The render time of the frames after the first.
     render_ms: f64,
     show_ms: f64,
-    pub result: anyhow::Result<()>,
+    result: anyhow::Result<()>,
 }
 
 impl<'a> App<'a> {
@@ -57,6 +71,7 @@ impl<'a> App<'a> {
         presenter: Presenter,
         session: Session<'a>,
         options: &'a ViewOptions,
+        rules: &'a dyn SceneRules,
     ) -> Self {
         let split_x = session.settings.options.width / 2;
         App {
@@ -65,6 +80,8 @@ impl<'a> App<'a> {
             presenter,
             session,
             options,
+            rules,
+            reload: None,
             frame_samples: options.frame_samples.unwrap_or(1),
             last_frame_ms: 0.0,
             cursor: (0.0, 0.0),
@@ -77,6 +94,7 @@ impl<'a> App<'a> {
             reported: false,
             shift: false,
             frames: 0,
+            first_ms: 0.0,
             render_ms: 0.0,
             show_ms: 0.0,
             result: Ok(()),
@@ -102,16 +120,49 @@ impl<'a> App<'a> {
         self.window.request_redraw();
     }
 
+    /// The swapchain, the settings to reload and the result, once the event loop has ended.
+    pub fn exit(self) -> Exit {
+        Exit {
+            presenter: self.presenter,
+            reload: self.reload,
+            result: self.result,
+        }
+    }
+
+    /// Whether the scene key `key` applies to the current render (else says so on the HUD).
+    fn applies(&mut self, key: &str, what: &str) -> bool {
+        let o = crate::session::with_camera(
+            &self.session.settings.options,
+            &self.session.settings.camera,
+        );
+        let yes = self.rules.applies(key, &o);
+        if !yes {
+            self.note(&format!("{what} does not apply to this render (--{key})"));
+        }
+        yes
+    }
+
     /// The samples started anew: so do the frame statistics.
     fn restarted(&mut self) {
         self.reported = false;
         self.frames = 0;
+        self.first_ms = 0.0;
         self.render_ms = 0.0;
         self.show_ms = 0.0;
     }
 
     fn camera(&mut self, what: &str, f: impl FnOnce(&mut OrbitCamera)) {
-        self.change(what, |s| f(&mut s.camera));
+        let mut c = self.session.settings.camera;
+        f(&mut c);
+        match self.session.set_camera(c) {
+            Ok(()) => {
+                self.restarted();
+                self.message = what.to_owned();
+                println!("view: {what}: restarted");
+            }
+            Err(e) => self.note(&format!("{what} refused: {e:#}")),
+        }
+        self.window.request_redraw();
     }
 
     /// Renders the next samples and shows the image.
@@ -123,8 +174,12 @@ impl<'a> App<'a> {
             let want = self.frame_samples.min(max - spp);
             let got = self.session.advance(want)?;
             self.last_frame_ms = t.elapsed().as_secs_f64() * 1e3;
+            if self.frames == 0 {
+                self.first_ms = self.last_frame_ms;
+            } else {
+                self.render_ms += self.last_frame_ms;
+            }
             self.frames += 1;
-            self.render_ms += self.last_frame_ms;
             if self.options.frame_samples.is_none() {
                 let per_sample = self.last_frame_ms / f64::from(got.max(1));
                 self.frame_samples = ((FRAME_MS / per_sample.max(1e-3)) as u32).clamp(1, MAX_FRAME);
@@ -137,14 +192,16 @@ impl<'a> App<'a> {
         if spp >= max && !self.reported {
             self.reported = true;
             let frames = f64::from(self.frames.max(1));
+            let later = f64::from(self.frames.saturating_sub(1).max(1));
             println!(
-                "view: reached {spp} spp (--max-spp) in {} frames: {:.1} ms rendering and {:.1} \
-                 ms showing per frame ({}x{}); idle",
+                "view: reached {spp} spp (--max-spp) in {} frames ({}x{}): the first {:.1} ms, \
+                 then {:.1} ms rendering per frame; {:.1} ms showing per frame; idle",
                 self.frames,
-                self.render_ms / frames,
-                self.show_ms / frames,
                 self.session.settings.options.width,
-                self.session.settings.options.height
+                self.session.settings.options.height,
+                self.first_ms,
+                self.render_ms / later,
+                self.show_ms / frames,
             );
         }
         Ok(())
@@ -204,7 +261,7 @@ impl<'a> App<'a> {
         let spp = self.session.samples();
         let stem = crate::save::next_stem(&self.options.save_dir);
         let result = self.session.pixels().and_then(|(pixels, _)| {
-            crate::save::screenshot(&self.session.settings, &pixels, spp, &stem)
+            crate::save::screenshot(&self.session.settings, &pixels, spp, &stem, self.rules)
         });
         match result {
             Ok(paths) => {
@@ -246,24 +303,25 @@ impl<'a> App<'a> {
                 "d" | "D" => self.camera("fly", |c| c.translate(step, 0.0, 0.0)),
                 "r" | "R" => self.camera("fly", |c| c.translate(0.0, step, 0.0)),
                 "f" | "F" => self.camera("fly", |c| c.translate(0.0, -step, 0.0)),
+                "e" | "E" if !self.applies("estimator", "the estimator") => {}
                 "e" => self.estimator(1),
                 "E" => self.estimator(-1),
+                "i" => self.integrator(1),
+                "I" => self.integrator(-1),
+                "l" | "L" => self.lookup(event_loop),
                 "=" | "+" => self.change("N", |s| s.options.n = (s.options.n + 1).min(4096)),
                 "-" => self.change("N", |s| s.options.n = s.options.n.saturating_sub(1).max(1)),
-                "]" | "[" if self.session.settings.options.integrator.is_none() => {
-                    self.note("exposure applies to integrator renders (--integrator)")
-                }
+                "]" | "[" if !self.applies("exposure", "the exposure") => {}
                 "]" => self.change("exposure", |s| s.options.exposure *= 2f32.sqrt()),
                 "[" => self.change("exposure", |s| s.options.exposure /= 2f32.sqrt()),
-                "." | "," if !self.lit() => {
-                    self.note("the light probe lights direct, path and restir renders only")
-                }
+                "." | "," if !self.applies("env-rotate", "the light probe rotation") => {}
                 "." => self.change("light probe rotation", |s| {
                     s.options.env_rotate = wrap_degrees(s.options.env_rotate + 15.0)
                 }),
                 "," => self.change("light probe rotation", |s| {
                     s.options.env_rotate = wrap_degrees(s.options.env_rotate - 15.0)
                 }),
+                "b" | "B" if !self.applies("estimator", "the split view of estimators") => {}
                 "b" | "B" => {
                     let next = match self.session.settings.split {
                         Some(_) => None,
@@ -295,13 +353,47 @@ impl<'a> App<'a> {
         self.window.request_redraw();
     }
 
-    /// Whether the render is lit by the light probe and the sun (`direct`, `path`, `restir`).
-    fn lit(&self) -> bool {
-        self.session
+    /// The integrator `by` places after the current one (none: transmittance, then the table's
+    /// order), with the lights it reads; the split view ends where the estimator does not
+    /// apply.
+    fn integrator(&mut self, by: i32) {
+        use shared::params::Integrator;
+        let count = shared::integrators::unit::UNITS.len() as i32 + 1;
+        let cur = self
+            .session
             .settings
             .options
             .integrator
-            .is_some_and(shared::params::Integrator::is_lit)
+            .map_or(0, |i| i as i32);
+        let next = (cur + by).rem_euclid(count) as u32;
+        let integrator = (next > 0).then(|| Integrator::from_u32(next));
+        let mut o = self.session.settings.options.clone();
+        o.integrator = integrator;
+        let keep_split = self.rules.applies("estimator", &o);
+        self.change("integrator", |s| {
+            s.options.integrator = integrator;
+            if !keep_split {
+                s.split = None;
+            }
+        });
+    }
+
+    /// The next lookup (nearest, stochastic, trilinear): the volume is packed anew for it, so
+    /// the event loop ends and the viewer loads it.
+    fn lookup(&mut self, event_loop: &ActiveEventLoop) {
+        use shared::volume::grid::Lookup;
+        let mut s = self.session.settings.clone();
+        s.options.lookup = match s.options.lookup {
+            Lookup::Nearest => Lookup::Stochastic,
+            Lookup::Stochastic => Lookup::Trilinear,
+            Lookup::Trilinear => Lookup::Nearest,
+        };
+        println!(
+            "view: lookup {}: loading the volume anew",
+            crate::save::lookup_name(s.options.lookup)
+        );
+        self.reload = Some(s);
+        event_loop.exit();
     }
 
     fn estimator(&mut self, by: i32) {
@@ -311,7 +403,10 @@ impl<'a> App<'a> {
 
     /// Turns the sun (where the scene has one) by `azimuth` and `elevation` degrees.
     fn sun(&mut self, what: &str, azimuth: f32, elevation: f32) {
-        if self.session.settings.options.sun.is_none() || !self.lit() {
+        if !self.applies("sun", "the sun") {
+            return;
+        }
+        if self.session.settings.options.sun.is_none() {
             self.note("no sun in this scene (give --sun with --integrator direct, path or restir)");
             return;
         }

@@ -23,6 +23,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use winit::dpi::PhysicalSize;
 use winit::event_loop::EventLoop;
+use winit::platform::run_on_demand::EventLoopExtRunOnDemand;
 use winit::raw_window_handle::{HasDisplayHandle, HasWindowHandle};
 
 /// What `host view` shows and where it saves.
@@ -43,13 +44,24 @@ pub struct ViewOptions {
     pub no_hud: bool,
 }
 
+/// The command line's rules of a scene, which the viewer keeps its saved scenes to: which keys
+/// apply to which render, and whether `host render` takes a scene (the `host` crate implements
+/// them with its flags; the viewer has no flag parser of its own).
+pub trait SceneRules {
+    /// Whether the scene key `key` (a `host render` flag without its dashes) applies to the
+    /// render `options` (its integrator, estimator and shadows read it).
+    fn applies(&self, key: &str, options: &RenderOptions) -> bool;
+    /// Why `host render` would refuse the scene `rec`, if it would.
+    fn check(&self, rec: &engine::render_job::scene_record::SceneRecord) -> Result<()>;
+}
+
 /// What a user needs to hear when no window can be opened.
 const NO_DISPLAY: &str = "host view needs a display: run it in a desktop session (X11 or \
      Wayland), or under a virtual X server (`xvfb-run -a host view ...`; Debian: `apt-get \
      install xvfb`)";
 
 /// Opens the window, loads the scene and runs the viewer until the window is closed.
-pub fn run(options: &ViewOptions) -> Result<()> {
+pub fn run(options: &ViewOptions, rules: &dyn SceneRules) -> Result<()> {
     let o = &options.render;
     anyhow::ensure!(
         o.layers.is_empty(),
@@ -62,7 +74,7 @@ pub fn run(options: &ViewOptions) -> Result<()> {
     engine::output::OutputPlan::new()
         .dir("--save-dir", &options.save_dir)
         .check()?;
-    let event_loop = EventLoop::new().map_err(|e| anyhow::anyhow!("{NO_DISPLAY} ({e})"))?;
+    let mut event_loop = EventLoop::new().map_err(|e| anyhow::anyhow!("{NO_DISPLAY} ({e})"))?;
     let size = PhysicalSize::new(o.width * options.scale, o.height * options.scale);
     let attributes = winit::window::Window::default_attributes()
         .with_title("host view")
@@ -89,39 +101,59 @@ pub fn run(options: &ViewOptions) -> Result<()> {
         "host view shows its images through Vulkan; install a Vulkan driver (Mesa's lavapipe: \
          `apt-get install mesa-vulkan-drivers`)",
     )?);
-    let backend = match o.backend {
-        BackendChoice::Cpu => Backend::Cpu,
-        _ => Backend::Gpu(gpu.clone()),
-    };
     // The window's own size may differ from the one asked for (a tiling window manager).
     let inner = window.inner_size();
     let mut render = o.clone();
     render.width = (inner.width / options.scale).max(1);
     render.height = (inner.height / options.scale).max(1);
-    // `auto` weighs a job of 64 samples per pixel: the device's pipeline builds against a few
-    // seconds of viewing.
-    let setup = Setup::with_backend(&render, backend, o.backend, 64)?;
-    let resident = Resident::new(&setup.backend, &setup.scene.packed)?;
-    tracing::info!(
-        "host view: rendering on {} ({}), showing on {}",
-        setup.backend.kind(),
-        setup.backend.device(),
-        gpu.description()
-    );
-    let presenter = gpu.presenter(inner.width, inner.height)?;
-    let camera = initial_camera(&render, &setup);
-    let settings = session::Settings {
-        options: render,
-        camera,
-        split: None,
-    };
-    let session = session::Session::new(&setup, &resident, settings)?;
+    let mut presenter = gpu.presenter(inner.width, inner.height)?;
     print_keys();
-    let mut app = app::App::new(&window, &gpu, presenter, session, options);
-    event_loop
-        .run_app(&mut app)
-        .context("the window's event loop")?;
-    std::mem::replace(&mut app.result, Ok(()))
+    let mut carried: Option<session::Settings> = None;
+    // One pass per loaded scene: a new lookup packs the volume anew, and the window's event
+    // loop runs again on it.
+    loop {
+        let o = carried
+            .as_ref()
+            .map_or_else(|| render.clone(), |s| s.options.clone());
+        let o = &o;
+        let backend = match o.backend {
+            BackendChoice::Cpu => Backend::Cpu,
+            _ => Backend::Gpu(gpu.clone()),
+        };
+        // `auto` weighs a job of 64 samples per pixel: the device's pipeline builds against a
+        // few seconds of viewing.
+        let setup = Setup::with_backend(o, backend, o.backend, 64)?;
+        let resident = Resident::new(&setup.backend, &setup.scene.packed)?;
+        tracing::info!(
+            "host view: rendering on {} ({}), showing on {}",
+            setup.backend.kind(),
+            setup.backend.device(),
+            gpu.description()
+        );
+        let settings = carried.take().unwrap_or_else(|| session::Settings {
+            camera: initial_camera(&render, &setup),
+            options: render.clone(),
+            split: None,
+        });
+        let session = session::Session::new(&setup, &resident, settings)?;
+        let mut app = app::App::new(&window, &gpu, presenter, session, options, rules);
+        event_loop
+            .run_app_on_demand(&mut app)
+            .context("the window's event loop")?;
+        let app::Exit {
+            presenter: p,
+            reload,
+            result,
+        } = app.exit();
+        result?;
+        match reload {
+            Some(s) => {
+                presenter = p;
+                carried = Some(s);
+            }
+            None => return Ok(()),
+        }
+    }
 }
 
 /// The camera `host render` places for `o`: its eye and target, f32 as a scene file holds
@@ -141,7 +173,8 @@ fn initial_camera(o: &RenderOptions, setup: &Setup) -> camera::OrbitCamera {
 pub const KEYS: &str = "\
 mouse: left drag orbit, right drag (or shift + left) pan, wheel dolly; with the split view, drag its line
 keys:  W/A/S/D fly forward/left/back/right, R/F up/down
-       e / E next / previous estimator, - / = N down / up, [ / ] exposure down / up
+       e / E next / previous estimator, i / I integrator, l lookup (reloads the volume)
+       - / = N down / up, [ / ] exposure down / up
        , / . light probe rotation -15 / +15 degrees, arrows: sun azimuth and elevation
        B split view on/off (right: track-length), v / V its next / previous estimator
        P screenshot (EXR + PNG) and its scene file, Space restart, H HUD, Esc or Q quit";

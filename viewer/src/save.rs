@@ -2,34 +2,41 @@
 //! screenshot (EXR + PNG, written as `host render` writes its images) of the samples so far.
 
 use crate::session::{with_camera, Settings};
+use crate::SceneRules;
 use anyhow::Result;
 use engine::render_job::scene_record::{SceneRecord, SceneValue};
 use shared::kernels::render::PixelOut;
 use std::path::{Path, PathBuf};
 
 /// `settings`' scene at `spp` samples per pixel: the scene the viewer was started with, its
-/// camera, estimator, N, exposure, light probe rotation and sun replaced by the current ones.
-pub fn record(settings: &Settings, spp: u32) -> SceneRecord {
+/// camera, integrator, lookup, estimator, N, exposure, light probe rotation and sun replaced by
+/// the current ones, and without the keys that do not apply to the current integrator,
+/// estimator and shadows (`rules`: `host render` refuses such keys).
+pub fn record(settings: &Settings, spp: u32, rules: &dyn SceneRules) -> SceneRecord {
     let o = with_camera(&settings.options, &settings.camera);
     let mut rec = o.scene_record.clone();
     let list = |v: [f32; 3]| SceneValue::List(v.iter().map(|&x| number(x)).collect());
     rec.insert("camera".into(), list(settings.camera.eye));
     rec.insert("look-at".into(), list(settings.camera.target));
     rec.insert("fov".into(), number(settings.camera.fov_deg));
+    match o.integrator {
+        Some(i) => rec.insert("integrator".into(), SceneValue::Text(i.unit().name.into())),
+        None => rec.remove("integrator"),
+    };
+    rec.insert(
+        "lookup".into(),
+        SceneValue::Text(lookup_name(o.lookup).into()),
+    );
     rec.insert(
         "estimator".into(),
         SceneValue::Text(o.estimator.name.to_owned()),
     );
     rec.insert("n".into(), SceneValue::Integer(o.n.into()));
-    // Keys `host render` takes for this integrator only (it refuses them elsewhere).
-    if o.integrator.is_some() {
-        rec.insert("exposure".into(), number(o.exposure));
-    }
+    rec.insert("exposure".into(), number(o.exposure));
     rec.insert("width".into(), SceneValue::Integer(o.width.into()));
     rec.insert("height".into(), SceneValue::Integer(o.height.into()));
     rec.insert("spp".into(), SceneValue::Integer(spp.into()));
-    let lit = o.integrator.is_some_and(shared::params::Integrator::is_lit);
-    if lit && (rec.contains_key("env-rotate") || o.env_rotate != 0.0) {
+    if rec.contains_key("env-rotate") || o.env_rotate != 0.0 {
         rec.insert("env-rotate".into(), number(o.env_rotate));
     }
     if let Some(sun) = &o.sun {
@@ -40,7 +47,18 @@ pub fn record(settings: &Settings, spp: u32) -> SceneRecord {
         }
         rec.insert("sun".into(), SceneValue::List(v));
     }
+    rec.retain(|key, _| rules.applies(key, &o));
     rec
+}
+
+/// The `--lookup` name of `l`.
+pub fn lookup_name(l: shared::volume::grid::Lookup) -> &'static str {
+    use shared::volume::grid::Lookup;
+    match l {
+        Lookup::Nearest => "nearest",
+        Lookup::Stochastic => "stochastic",
+        Lookup::Trilinear => "trilinear",
+    }
 }
 
 /// An f32 as the scene value that reads back as the same f32.
@@ -69,7 +87,10 @@ pub fn screenshot(
     pixels: &[PixelOut],
     spp: u32,
     stem: &Path,
+    rules: &dyn SceneRules,
 ) -> Result<[PathBuf; 3]> {
+    let rec = record(settings, spp, rules);
+    rules.check(&rec)?;
     let mut o = with_camera(&settings.options, &settings.camera);
     o.spp = spp;
     o.out = stem.with_extension("exr");
@@ -84,9 +105,6 @@ pub fn screenshot(
     plan.check()?;
     let lit = o.integrator.is_some_and(shared::params::Integrator::is_lit);
     engine::render_job::write_images(&o, &png, pixels, &[], lit)?;
-    engine::output::write_text(
-        &toml,
-        &engine::render_job::scene_record::to_toml(&record(settings, spp)),
-    )?;
+    engine::output::write_text(&toml, &engine::render_job::scene_record::to_toml(&rec))?;
     Ok([o.out.clone(), png, toml])
 }

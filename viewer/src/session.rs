@@ -63,6 +63,26 @@ impl<'a> Session<'a> {
         Ok(())
     }
 
+    /// Moves the camera only (the lights and the rest of the parameters stay); samples start
+    /// anew.
+    pub fn set_camera(&mut self, camera: OrbitCamera) -> Result<()> {
+        let o = &self.settings.options;
+        let [lo, hi] = self.setup.scene.world_bounds;
+        let spec = engine::render::CameraSpec {
+            position: Some(camera.eye),
+            look_at: Some(camera.target),
+            fov_deg: camera.fov_deg,
+        };
+        let c = make_camera(&spec, (lo, hi), o.width, o.height).context("the viewer's camera")?;
+        self.params.camera = c;
+        if let Some(p) = &mut self.split_params {
+            p.camera = c;
+        }
+        self.settings.camera = camera;
+        self.restart();
+        Ok(())
+    }
+
     /// Drops the samples so far.
     pub fn restart(&mut self) {
         self.image = Progressive::new();

@@ -169,7 +169,7 @@ fn view(args: &view::ViewArgs) -> Result<()> {
     );
     let options = args.options();
     applicable::check(&options.render, &r.given)?;
-    viewer::run(&options)
+    viewer::run(&options, &view::CliRules)
 }
 
 /// Prints the library's diagnostics on stderr as before: `warning: <message>` for warnings,

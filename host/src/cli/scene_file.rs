@@ -377,6 +377,11 @@ pub fn note_given(render: &mut super::render::RenderArgs, m: &ArgMatches) {
     render.record = record(m);
 }
 
+/// The clap id of the `host render` flag a scene key names (None: not a setting).
+pub fn flag_id(key: &str) -> Option<String> {
+    find(&render_command(), key).map(|a| a.get_id().as_str().to_owned())
+}
+
 /// Parses the `host render` flags `tokens` (a shard's scene, then flags that override it) as
 /// the command line would.
 pub fn parse_render(tokens: Vec<OsString>) -> Result<super::render::RenderArgs, clap::Error> {
