@@ -34,4 +34,5 @@ run() { # name, extra flags...
 run jackknife --estimator jackknife
 run track-length --estimator track-length
 run ratio --estimator ratio
+run direct --integrator direct --exposure 0.35
 run picture --estimator jackknife
