@@ -1,6 +1,6 @@
 //! `host view` under a virtual X server (Xvfb) on lavapipe, driven by xdotool as a user drives
 //! it: the viewer accumulates to --max-spp, reacts to keys (next estimator, split view, next
-//! integrator, next lookup) and a mouse drag (orbit), and each screenshot (P) equals
+//! integrator, next lookup), a mouse drag (orbit) and a resize, and each screenshot (P) equals
 //! `host render` of the scene file it saved, byte for byte (EXR and PNG), on the GPU and on the
 //! CPU. Without a display it
 //! says how to get one. Needs Xvfb and xdotool (`./scripts/test.sh` installs them).
@@ -240,6 +240,10 @@ fn scripted_session(backend: &str) {
         "lookup trilinear: loading the volume anew",
     );
     lines.wait_for("reached 5 spp", 600);
+    // A resize renders at the window's new size.
+    let resize = ["windowsize", win.as_str(), "56", "44"];
+    lines.act(&x, &resize, "window size 56x44: restarted");
+    lines.wait_for("reached 5 spp", 600);
     let wrote = lines.act(&x, &["key", "p"], "view: wrote");
     assert!(wrote.contains("view-0002.toml"), "{wrote}");
     x.xdotool(&["key", "Escape"]);
@@ -256,6 +260,11 @@ fn scripted_session(backend: &str) {
     assert!(scene2.contains("integrator = \"free-flight\""), "{scene2}");
     assert!(scene2.contains("lookup = \"trilinear\""), "{scene2}");
     assert!(!scene2.contains("estimator"), "{scene2}");
+    assert!(
+        scene2.contains("width = 56") && scene2.contains("height = 44"),
+        "{scene2}\nthe viewer printed:\n{}",
+        lines.seen.join("\n")
+    );
     let render = |scene: &Path, out: &Path| {
         let r = Command::new(HOST)
             .args(["render", scene.to_str().unwrap()])

@@ -465,7 +465,7 @@ impl ApplicationHandler for App<'_> {
                     let o = &self.session.settings.options;
                     if (w, h) != (o.width, o.height) {
                         self.split_x = w / 2;
-                        self.change("window size", |s| {
+                        self.change(&format!("window size {w}x{h}"), |s| {
                             s.options.width = w;
                             s.options.height = h;
                         });
