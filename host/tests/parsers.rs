@@ -228,6 +228,7 @@ fn numeric_values(cli: &host::cli::Cli) -> Vec<f64> {
         C::View(a) => {
             let mut v: Vec<f64> = [a.max_spp, a.scale].map(f64::from).to_vec();
             v.extend(a.frame_spp.map(f64::from));
+            v.push(f64::from(a.preview_ms));
             v
         }
         C::Eval(a) => {

@@ -18,6 +18,18 @@ use winit::window::{Window, WindowId};
 const FRAME_MS: f64 = 100.0;
 /// Most samples per pixel in one frame.
 const MAX_FRAME: u32 = 16;
+/// How long after the last camera move a preview gives way to the full size.
+const SETTLE: std::time::Duration = std::time::Duration::from_millis(300);
+
+/// The preview factor (window pixels per rendered pixel along each axis, 1 to 8) that brings a
+/// frame of `full_ms` at the full size down to about `target_ms`: the pixels fall with its
+/// square.
+pub fn preview_factor(full_ms: f64, target_ms: f64) -> u32 {
+    if !(target_ms > 0.0) || !(full_ms > target_ms) {
+        return 1;
+    }
+    ((full_ms / target_ms).sqrt().ceil() as u32).clamp(1, 8)
+}
 
 /// What the event loop leaves when it ends: the swapchain (kept for the next scene), the
 /// settings to load anew (a new lookup), and how it ended.
@@ -36,6 +48,10 @@ pub struct App<'a> {
     rules: &'a dyn SceneRules,
     /// Settings that need the volume packed anew (the event loop ends, `run` loads them).
     reload: Option<Settings>,
+    /// The last camera move (a preview ends [`SETTLE`] after it).
+    last_move: Instant,
+    /// Render ms per sample of the last full-size frame (what a preview's factor is chosen by).
+    full_ms_per_sample: f64,
     /// Samples the next frame renders.
     frame_samples: u32,
     last_frame_ms: f64,
@@ -82,6 +98,8 @@ impl<'a> App<'a> {
             options,
             rules,
             reload: None,
+            last_move: Instant::now(),
+            full_ms_per_sample: 0.0,
             frame_samples: options.frame_samples.unwrap_or(1),
             last_frame_ms: 0.0,
             cursor: (0.0, 0.0),
@@ -159,6 +177,11 @@ impl<'a> App<'a> {
                 self.restarted();
                 self.message = what.to_owned();
                 println!("view: {what}: restarted");
+                self.last_move = Instant::now();
+                let f = preview_factor(self.full_ms_per_sample, self.options.preview_ms);
+                if f != self.session.preview() {
+                    self.session.set_preview(f);
+                }
             }
             Err(e) => self.note(&format!("{what} refused: {e:#}")),
         }
@@ -174,6 +197,10 @@ impl<'a> App<'a> {
             let want = self.frame_samples.min(max - spp);
             let got = self.session.advance(want)?;
             self.last_frame_ms = t.elapsed().as_secs_f64() * 1e3;
+            if self.session.preview() == 1 && self.frames > 0 {
+                // The first frame builds pipelines; the frames after it are the render's.
+                self.full_ms_per_sample = self.last_frame_ms / f64::from(got.max(1));
+            }
             if self.frames == 0 {
                 self.first_ms = self.last_frame_ms;
             } else {
@@ -189,7 +216,7 @@ impl<'a> App<'a> {
         let t = Instant::now();
         self.show()?;
         self.show_ms += t.elapsed().as_secs_f64() * 1e3;
-        if spp >= max && !self.reported {
+        if spp >= max && !self.reported && self.session.preview() == 1 {
             self.reported = true;
             let frames = f64::from(self.frames.max(1));
             let later = f64::from(self.frames.saturating_sub(1).max(1));
@@ -214,15 +241,19 @@ impl<'a> App<'a> {
             return Ok(());
         }
         let o = &self.session.settings.options;
-        let (w, h) = (o.width, o.height);
+        let (full_w, full_h) = (o.width, o.height);
+        let (w, h) = self.session.image_size();
+        let preview = self.session.preview();
         let tone = match o.integrator {
             None => Tone::Transmittance,
             Some(i) if i.is_lit() => Tone::Rgb(o.exposure),
             Some(_) => Tone::Reinhard(o.exposure),
         };
         let (pixels, split) = self.session.pixels()?;
-        let right = split.as_deref().map(|r| (r, self.split_x.min(w)));
-        let mut frame = Frame::of(w, h, &pixels, right, tone);
+        let right = split
+            .as_deref()
+            .map(|r| (r, (self.split_x / preview).min(w)));
+        let mut frame = Frame::of(w, h, &pixels, right, tone).enlarged(full_w, full_h);
         let flags = Session::flags(&pixels, spp);
         let samples: f64 = pixels.iter().map(|p| f64::from(p.samples)).sum();
         let per_ray = samples / (pixels.len() as f64 * f64::from(spp));
@@ -233,10 +264,13 @@ impl<'a> App<'a> {
         if let Some(i) = o.integrator {
             name = format!("{} | {name}", i.unit().name);
         }
-        let status = format!(
+        let mut status = format!(
             "{spp} spp  {:.0} ms/frame  {:.2} lookups/ray  capped {}  outside {}",
             self.last_frame_ms, per_ray, flags.capped_rays, flags.jackknife_outside_rays
         );
+        if preview > 1 {
+            status = format!("preview 1/{preview}  {status}");
+        }
         self.window
             .set_title(&format!("host view: {name} | {status}"));
         if self.hud {
@@ -244,7 +278,7 @@ impl<'a> App<'a> {
             if !self.message.is_empty() {
                 lines.push(self.message.clone());
             }
-            frame.text(&lines, if w >= 1000 { 2 } else { 1 });
+            frame.text(&lines, if full_w >= 1000 { 2 } else { 1 });
         }
         if self
             .presenter
@@ -258,6 +292,10 @@ impl<'a> App<'a> {
     }
 
     fn screenshot(&mut self) {
+        if self.session.preview() > 1 {
+            self.note("the view is a preview while the camera moves; P saves once it settles");
+            return;
+        }
         let spp = self.session.samples();
         let stem = crate::save::next_stem(&self.options.save_dir);
         let result = self.session.pixels().and_then(|(pixels, _)| {
@@ -524,11 +562,43 @@ impl ApplicationHandler for App<'_> {
     }
 
     fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
+        if self.session.preview() > 1 {
+            if self.last_move.elapsed() >= SETTLE {
+                self.session.set_preview(1);
+                self.restarted();
+                self.message = "settled".into();
+                self.window.request_redraw();
+            } else {
+                event_loop.set_control_flow(ControlFlow::WaitUntil(self.last_move + SETTLE));
+                if self.session.samples() < self.options.max_spp {
+                    self.window.request_redraw();
+                }
+                return;
+            }
+        }
         if self.session.samples() < self.options.max_spp {
             event_loop.set_control_flow(ControlFlow::Poll);
             self.window.request_redraw();
         } else {
             event_loop.set_control_flow(ControlFlow::Wait);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::preview_factor;
+
+    /// The factor's square covers the slowdown, within 1 to 8; fast frames need no preview.
+    #[test]
+    fn preview_factor_brings_the_frame_to_its_target() {
+        assert_eq!(preview_factor(40.0, 50.0), 1);
+        assert_eq!(preview_factor(0.0, 50.0), 1);
+        assert_eq!(preview_factor(1000.0, 0.0), 1);
+        assert_eq!(preview_factor(200.0, 50.0), 2);
+        assert_eq!(preview_factor(201.0, 50.0), 3);
+        assert_eq!(preview_factor(1441.0, 50.0), 6);
+        assert_eq!(preview_factor(1e9, 50.0), 8);
+        assert_eq!(preview_factor(f64::NAN, 50.0), 1);
     }
 }

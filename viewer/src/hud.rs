@@ -70,6 +70,34 @@ impl Frame {
         f
     }
 
+    /// This frame enlarged to `width` x `height` by repeating each pixel (a preview's frame
+    /// shown at the window's size); pixels past this frame's right or bottom edge repeat its
+    /// last column or row.
+    pub fn enlarged(&self, width: u32, height: u32) -> Frame {
+        if (width, height) == (self.width, self.height) {
+            return Frame {
+                width,
+                height,
+                rgba: self.rgba.clone(),
+            };
+        }
+        let mut rgba = Vec::with_capacity(width as usize * height as usize * 4);
+        for y in 0..height {
+            let sy = (u64::from(y) * u64::from(self.height) / u64::from(height.max(1))) as u32;
+            for x in 0..width {
+                let sx = (u64::from(x) * u64::from(self.width) / u64::from(width.max(1))) as u32;
+                let i =
+                    ((sy.min(self.height - 1) * self.width + sx.min(self.width - 1)) * 4) as usize;
+                rgba.extend_from_slice(&self.rgba[i..i + 4]);
+            }
+        }
+        Frame {
+            width,
+            height,
+            rgba,
+        }
+    }
+
     /// The split line: one column, light grey.
     fn vertical_line(&mut self, x: u32) {
         if x >= self.width {
@@ -148,6 +176,19 @@ mod tests {
         assert_eq!((col(0, 0), col(1, 1)), (0, 0));
         assert_eq!(col(2, 0), 200);
         assert_eq!((col(3, 0), col(3, 1)), (255, 255));
+    }
+
+    /// Enlarging repeats each pixel over its block.
+    #[test]
+    fn enlarging_repeats_pixels() {
+        let f = Frame {
+            width: 2,
+            height: 1,
+            rgba: vec![1, 1, 1, 255, 9, 9, 9, 255],
+        };
+        let big = f.enlarged(4, 2);
+        let reds: Vec<u8> = big.rgba.chunks(4).map(|p| p[0]).collect();
+        assert_eq!(reds, [1, 1, 9, 9, 1, 1, 9, 9]);
     }
 
     /// Text lands in the band at the top-left and nowhere else.

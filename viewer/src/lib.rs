@@ -42,6 +42,9 @@ pub struct ViewOptions {
     pub save_dir: PathBuf,
     /// Start without the HUD's text.
     pub no_hud: bool,
+    /// While the camera moves, render a preview at a lower resolution whose frames take about
+    /// this many ms (0: never).
+    pub preview_ms: f64,
 }
 
 /// The command line's rules of a scene, which the viewer keeps its saved scenes to: which keys

@@ -33,6 +33,9 @@ pub struct Session<'a> {
     split_params: Option<RenderParams>,
     image: Progressive,
     split: Progressive,
+    /// Window pixels per rendered pixel along each axis while the camera moves (1: the full
+    /// size, the render `host render` reproduces).
+    preview: u32,
 }
 
 impl<'a> Session<'a> {
@@ -48,6 +51,50 @@ impl<'a> Session<'a> {
             split_params,
             image: Progressive::new(),
             split: Progressive::new(),
+            preview: 1,
+        })
+    }
+
+    /// Renders at 1/`factor` of the size along each axis (a preview while the camera moves;
+    /// 1: the full size); samples start anew.
+    pub fn set_preview(&mut self, factor: u32) {
+        self.preview = factor.max(1);
+        self.restart();
+    }
+
+    /// The preview factor (1: full size).
+    pub fn preview(&self) -> u32 {
+        self.preview
+    }
+
+    /// The size of the image being accumulated (the full size divided by the preview factor,
+    /// rounded up).
+    pub fn image_size(&self) -> (u32, u32) {
+        let o = &self.settings.options;
+        (
+            o.width.div_ceil(self.preview),
+            o.height.div_ceil(self.preview),
+        )
+    }
+
+    /// `p` at the size being accumulated: at a preview's size, its camera made for that size.
+    fn sized(&self, p: &RenderParams) -> Result<RenderParams> {
+        if self.preview == 1 {
+            return Ok(*p);
+        }
+        let (w, h) = self.image_size();
+        let camera = &self.settings.camera;
+        let [lo, hi] = self.setup.scene.world_bounds;
+        let spec = engine::render::CameraSpec {
+            position: Some(camera.eye),
+            look_at: Some(camera.target),
+            fov_deg: camera.fov_deg,
+        };
+        Ok(RenderParams {
+            width: w,
+            height: h,
+            camera: make_camera(&spec, (lo, hi), w, h).context("the viewer's camera")?,
+            ..*p
         })
     }
 
@@ -97,11 +144,11 @@ impl<'a> Session<'a> {
     /// Renders the next `count` samples (fewer at a sample block's end) of the image and, in
     /// the split view, of the second estimator; returns how many.
     pub fn advance(&mut self, count: u32) -> Result<u32> {
-        let n = self
-            .image
-            .advance(self.resident, &self.params, &self.lights, count)?;
-        if let Some(p) = &self.split_params {
-            self.split.advance(self.resident, p, &self.lights, n)?;
+        let p = self.sized(&self.params)?;
+        let n = self.image.advance(self.resident, &p, &self.lights, count)?;
+        if let Some(sp) = &self.split_params {
+            let sp = self.sized(sp)?;
+            self.split.advance(self.resident, &sp, &self.lights, n)?;
         }
         Ok(n)
     }
@@ -113,16 +160,6 @@ impl<'a> Session<'a> {
             None => None,
         };
         Ok((self.image.pixels()?, split))
-    }
-
-    /// The render's parameters (the image's).
-    pub fn params(&self) -> &RenderParams {
-        &self.params
-    }
-
-    /// The loaded scene and backend.
-    pub fn setup(&self) -> &Setup {
-        self.setup
     }
 
     /// What a render of the current samples reports about its rays (capped, out of regime).

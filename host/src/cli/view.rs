@@ -30,6 +30,11 @@ pub struct ViewArgs {
     /// Start with the HUD's text hidden (H shows it).
     #[arg(long)]
     pub no_hud: bool,
+    /// While the camera moves, render a preview at a lower resolution whose frames take about
+    /// this many milliseconds (up to 1/8 of the size along each axis); full size again 0.3 s
+    /// after the last move. 0: never.
+    #[arg(long, default_value_t = 50.0, allow_hyphen_values = true, value_parser = super::parsers::f32_in(0.0, 10000.0))]
+    pub preview_ms: f32,
 }
 
 impl ViewArgs {
@@ -42,6 +47,7 @@ impl ViewArgs {
             scale: self.scale,
             save_dir: self.save_dir.clone(),
             no_hud: self.no_hud,
+            preview_ms: f64::from(self.preview_ms),
         }
     }
 }
