@@ -356,13 +356,17 @@ pub fn sqrt(x: f32) -> f32 {
         e -= 1;
     }
     let n = m << 23;
-    // f32 estimate of sqrt(m 2^-23) in [1, 2): bit trick, then three Newton steps.
+    // f32 estimate of sqrt(a), a = m 2^-23 in [1, 4): the reciprocal root by the bit trick and
+    // three Newton steps, then one Newton step of the root itself, all by multiplications (a
+    // division costs several multiplications' latency, and these steps depend on each other).
     let a = (m as f32) * pow2(-23);
-    let mut y = f32::from_bits((a.to_bits() >> 1) + 0x1fbd_1df5);
-    y = 0.5 * (y + a / y);
-    y = 0.5 * (y + a / y);
-    y = 0.5 * (y + a / y);
-    let mut r = (y * pow2(23)) as u64;
+    let mut y = f32::from_bits(0x5f37_5a86 - (a.to_bits() >> 1));
+    y *= 1.5 - 0.5 * a * y * y;
+    y *= 1.5 - 0.5 * a * y * y;
+    y *= 1.5 - 0.5 * a * y * y;
+    let s = a * y;
+    let s = s + 0.5 * y * (a - s * s);
+    let mut r = (s * pow2(23)) as u64;
     // Exact floor(sqrt(n)): the estimate is within 2 of it.
     if r * r > n {
         r -= 1;
