@@ -67,7 +67,10 @@ impl Xvfb {
     }
 
     fn xdotool(&self, args: &[&str]) -> String {
-        let out = Command::new("xdotool")
+        // `timeout`: a search for a window that never comes must not hang the test run.
+        let out = Command::new("timeout")
+            .arg("60")
+            .arg("xdotool")
             .args(args)
             .env("DISPLAY", &self.display)
             .output()
