@@ -77,13 +77,6 @@ impl RenderBackend for CpuVolume<'_> {
         let scene = lights.view();
         let wave = Integrator::from_u32(params.integrator).wavefront();
         let count = params.width * params.height;
-        if let Some(start) = start {
-            anyhow::ensure!(
-                start.len() == count as usize,
-                "internal: {} starting sums for {count} pixels",
-                start.len()
-            );
-        }
         if wave == Some(Wavefront::Restir) && params.restir.passes > 0 {
             return Ok(restir_wave(
                 &view,

@@ -434,16 +434,23 @@ pub fn render_frame(
         samples.start,
         samples.end
     );
+    let count = params
+        .width
+        .checked_mul(params.height)
+        .context("image too large")?;
+    if let Some(start) = start {
+        anyhow::ensure!(
+            start.len() == count as usize,
+            "internal: {} starting sums for {count} pixels",
+            start.len()
+        );
+    }
     let step = spp_per_pass_within(params, &resident.vol.desc, resident.backend.loop_budget())?;
     let passes: Vec<(u32, u32)> = samples
         .clone()
         .step_by(step as usize)
         .map(|s| (s, (s + step).min(samples.end)))
         .collect();
-    let count = params
-        .width
-        .checked_mul(params.height)
-        .context("image too large")?;
     // Chunks as a whole render's (each a whole number of workgroups; the longest dispatch).
     let per_pass = (64 / passes.len().max(1) as u32).max(1);
     let chunk = count.div_ceil(per_pass).next_multiple_of(64).max(64);

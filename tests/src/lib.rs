@@ -156,3 +156,32 @@ pub fn lumpy_cells() -> DenseVolume {
         }
     })
 }
+
+/// `count` random lights around [-1, 1]^3 (seed 9), plus the sky and its sun if `sky`;
+/// resampled for `restir` if `restir`.
+pub fn many_lights(count: u32, sky: bool, restir: bool) -> engine::lighting::SceneLights {
+    use engine::lighting::random::{random_lights, RandomLights};
+    use engine::lighting::{build, EnvSource, LightingOptions, SunSpec};
+    let points = random_lights(RandomLights { count, seed: 9 }, [-1.0; 3], [1.0; 3]).unwrap();
+    let mut s = build(
+        &LightingOptions {
+            env: if sky { EnvSource::Sky } else { EnvSource::None },
+            env_scale: 1.0,
+            env_rotate_deg: 0.0,
+            sun: sky.then_some(SunSpec {
+                dir: [0.3, 1.0, -0.2],
+                irradiance: Some(2.0),
+                radius_deg: 3.0,
+            }),
+            points,
+            albedo: [0.9, 0.7, 0.5],
+        },
+        [0.0; 3],
+        1.7,
+    )
+    .unwrap();
+    if restir {
+        s.resample_points();
+    }
+    s
+}

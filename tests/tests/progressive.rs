@@ -4,12 +4,11 @@
 //! across a sample block (256 samples).
 
 use engine::bricks::{pack, PackedVolume};
-use engine::lighting::{build, random::random_lights, random::RandomLights};
-use engine::lighting::{EnvSource, LightingOptions, SceneLights, SunSpec};
+use engine::lighting::SceneLights;
 use engine::progressive::Progressive;
 use engine::render::{render_resident_lit, Resident};
 use engine::Backend;
-use integration_tests::{assert_bytes_equal, camera_params, gpu, lumpy_blobs};
+use integration_tests::{assert_bytes_equal, camera_params, gpu, lumpy_blobs, many_lights};
 use shared::kernels::render::PixelOut;
 use shared::params::{Estimator, Integrator, RenderParams, RestirParams};
 use shared::volume::grid::Lookup;
@@ -20,30 +19,9 @@ fn packed() -> (engine::volume::DenseVolume, PackedVolume) {
     (vol, packed)
 }
 
-/// Point lights, the sky and a sun (`restir` resamples the points).
+/// Six point lights, the sky and a sun (`restir` resamples the points).
 fn lights(restir: bool) -> SceneLights {
-    let points = random_lights(RandomLights { count: 6, seed: 9 }, [-1.0; 3], [1.0; 3]).unwrap();
-    let mut s = build(
-        &LightingOptions {
-            env: EnvSource::Sky,
-            env_scale: 1.0,
-            env_rotate_deg: 0.0,
-            sun: Some(SunSpec {
-                dir: [0.3, 1.0, -0.2],
-                irradiance: Some(2.0),
-                radius_deg: 3.0,
-            }),
-            points,
-            albedo: [0.9, 0.7, 0.5],
-        },
-        [0.0; 3],
-        1.7,
-    )
-    .unwrap();
-    if restir {
-        s.resample_points();
-    }
-    s
+    many_lights(6, true, restir)
 }
 
 fn params(

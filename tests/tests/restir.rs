@@ -9,12 +9,11 @@
 //! value its own reservoir holds (the shift's p̂_←j).
 
 use engine::bricks::{pack, PackedVolume};
-use engine::lighting::random::{random_lights, RandomLights};
-use engine::lighting::{build, EnvSource, LightingOptions, SceneLights, SunSpec};
+use engine::lighting::{build, EnvSource, LightingOptions, SceneLights};
 use engine::render::render_lit;
 use engine::volume::DenseVolume;
 use engine::Backend;
-use integration_tests::{assert_bytes_equal, camera_params, gpu, lumpy_blobs};
+use integration_tests::{assert_bytes_equal, camera_params, gpu, lumpy_blobs, many_lights};
 use shared::integrators::restir::{p_hat, stage_count, Reservoir, RestirState};
 use shared::integrators::restir_reuse::{neighbour, NO_NEIGHBOUR};
 use shared::kernels::render::{restir_wave_step, StageAt};
@@ -54,32 +53,6 @@ fn params(
         },
         ..camera_params(vol, w, h)
     }
-}
-
-/// `count` random lights around [-1, 1]^3 (seed 9), plus the sky and its sun if `sky`.
-fn many_lights(count: u32, sky: bool, restir: bool) -> SceneLights {
-    let points = random_lights(RandomLights { count, seed: 9 }, [-1.0; 3], [1.0; 3]).unwrap();
-    let mut s = build(
-        &LightingOptions {
-            env: if sky { EnvSource::Sky } else { EnvSource::None },
-            env_scale: 1.0,
-            env_rotate_deg: 0.0,
-            sun: sky.then_some(SunSpec {
-                dir: [0.3, 1.0, -0.2],
-                irradiance: Some(2.0),
-                radius_deg: 3.0,
-            }),
-            points,
-            albedo: [0.9, 0.7, 0.5],
-        },
-        [0.0; 3],
-        1.7,
-    )
-    .unwrap();
-    if restir {
-        s.resample_points();
-    }
-    s
 }
 
 /// `p` with `passes` spatial reuse passes of k = 3 neighbours within `radius` pixels.

@@ -2,11 +2,12 @@
 //! anew), and every redraw renders a few more samples and shows them.
 
 use crate::camera::OrbitCamera;
-use crate::hud::{Frame, Tone};
+use crate::hud::Frame;
 use crate::session::{Session, Settings};
 use crate::{SceneRules, ViewOptions};
 use engine::gpu::present::{Presenter, Shown};
 use engine::gpu::Gpu;
+use engine::render_job::preview::Preview;
 use std::time::Instant;
 use winit::application::ApplicationHandler;
 use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
@@ -244,17 +245,13 @@ impl<'a> App<'a> {
         let (full_w, full_h) = (o.width, o.height);
         let (w, h) = self.session.image_size();
         let preview = self.session.preview();
-        let tone = match o.integrator {
-            None => Tone::Transmittance,
-            Some(i) if i.is_lit() => Tone::Rgb(o.exposure),
-            Some(_) => Tone::Reinhard(o.exposure),
-        };
+        let tone = Preview::of(o.integrator, o.exposure);
         let (pixels, split) = self.session.pixels()?;
         let right = split
             .as_deref()
             .map(|r| (r, (self.split_x / preview).min(w)));
         let mut frame = Frame::of(w, h, &pixels, right, tone).enlarged(full_w, full_h);
-        let flags = Session::flags(&pixels, spp);
+        let flags = engine::diagnostics::RayFlags::of(&pixels, spp);
         let samples: f64 = pixels.iter().map(|p| f64::from(p.samples)).sum();
         let per_ray = samples / (pixels.len() as f64 * f64::from(spp));
         let mut name = format!("{} N={}", o.estimator.name, o.n);

@@ -1,36 +1,11 @@
-//! What the window shows: the render tone-mapped as its PNG preview is (exposure, sRGB), the
+//! What the window shows: the render tone-mapped as its PNG preview is ([`Preview`]), the
 //! split view's two images left and right of its line, and the HUD's lines of text drawn in
 //! the public-domain 8x8 bitmap font (no GUI toolkit: the viewer's controls are keys and the
 //! mouse, the HUD only reports).
 
+use engine::render_job::preview::Preview;
 use font8x8::UnicodeFonts;
 use shared::kernels::render::PixelOut;
-
-/// How pixels become display bytes: as `host render`'s PNG preview makes them.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Tone {
-    /// Transmittance: T in [0, 1], sRGB.
-    Transmittance,
-    /// Single scattering: exposure, then Reinhard x / (1 + x), sRGB (the luminance channel).
-    Reinhard(f32),
-    /// RGB radiance (`direct`, `path`, `restir`): exposure, clamped, sRGB per channel.
-    Rgb(f32),
-}
-
-impl Tone {
-    /// The RGB display bytes of one pixel.
-    pub fn rgb8(self, p: &PixelOut) -> [u8; 3] {
-        use engine::output::srgb8;
-        match self {
-            Tone::Transmittance => [srgb8(p.t_mean); 3],
-            Tone::Reinhard(e) => {
-                let x = p.t_mean * e;
-                [srgb8(x / (1.0 + x)); 3]
-            }
-            Tone::Rgb(e) => [p.rgb_mean.r, p.rgb_mean.g, p.rgb_mean.b].map(|v| srgb8(v * e)),
-        }
-    }
-}
 
 /// An RGBA8 frame of `width` x `height` pixels, rows top to bottom.
 pub struct Frame {
@@ -47,7 +22,7 @@ impl Frame {
         height: u32,
         pixels: &[PixelOut],
         right: Option<(&[PixelOut], u32)>,
-        tone: Tone,
+        tone: Preview,
     ) -> Frame {
         let mut rgba = Vec::with_capacity(pixels.len() * 4);
         for (k, p) in pixels.iter().enumerate() {
@@ -171,7 +146,7 @@ mod tests {
     fn split_view_takes_the_right_columns_from_the_second_image() {
         let left = vec![px(0.0); 8];
         let right = vec![px(1.0); 8];
-        let f = Frame::of(4, 2, &left, Some((&right, 2)), Tone::Transmittance);
+        let f = Frame::of(4, 2, &left, Some((&right, 2)), Preview::Transmittance);
         let col = |x: usize, y: usize| f.rgba[(y * 4 + x) * 4];
         assert_eq!((col(0, 0), col(1, 1)), (0, 0));
         assert_eq!(col(2, 0), 200);
@@ -195,7 +170,7 @@ mod tests {
     #[test]
     fn text_is_drawn_top_left() {
         let pixels = vec![px(1.0); 64 * 32];
-        let mut f = Frame::of(64, 32, &pixels, None, Tone::Transmittance);
+        let mut f = Frame::of(64, 32, &pixels, None, Preview::Transmittance);
         f.text(&["A".into()], 1);
         let lit = f
             .rgba

@@ -4,7 +4,6 @@
 
 use crate::camera::OrbitCamera;
 use anyhow::{Context, Result};
-use engine::diagnostics::RayFlags;
 use engine::estimators::EstimatorSpec;
 use engine::lighting::SceneLights;
 use engine::progressive::Progressive;
@@ -83,17 +82,10 @@ impl<'a> Session<'a> {
             return Ok(*p);
         }
         let (w, h) = self.image_size();
-        let camera = &self.settings.camera;
-        let [lo, hi] = self.setup.scene.world_bounds;
-        let spec = engine::render::CameraSpec {
-            position: Some(camera.eye),
-            look_at: Some(camera.target),
-            fov_deg: camera.fov_deg,
-        };
         Ok(RenderParams {
             width: w,
             height: h,
-            camera: make_camera(&spec, (lo, hi), w, h).context("the viewer's camera")?,
+            camera: camera_of(self.setup, &self.settings.camera, w, h)?,
             ..*p
         })
     }
@@ -114,13 +106,7 @@ impl<'a> Session<'a> {
     /// anew.
     pub fn set_camera(&mut self, camera: OrbitCamera) -> Result<()> {
         let o = &self.settings.options;
-        let [lo, hi] = self.setup.scene.world_bounds;
-        let spec = engine::render::CameraSpec {
-            position: Some(camera.eye),
-            look_at: Some(camera.target),
-            fov_deg: camera.fov_deg,
-        };
-        let c = make_camera(&spec, (lo, hi), o.width, o.height).context("the viewer's camera")?;
+        let c = camera_of(self.setup, &camera, o.width, o.height)?;
         self.params.camera = c;
         if let Some(p) = &mut self.split_params {
             p.camera = c;
@@ -161,11 +147,23 @@ impl<'a> Session<'a> {
         };
         Ok((self.image.pixels()?, split))
     }
+}
 
-    /// What a render of the current samples reports about its rays (capped, out of regime).
-    pub fn flags(pixels: &[PixelOut], spp: u32) -> RayFlags {
-        RayFlags::of(pixels, spp)
-    }
+/// The pinhole camera of `camera` for a `w` x `h` image of the loaded scene, as `host render`
+/// makes it from `--camera`, `--look-at` and `--fov`.
+fn camera_of(
+    setup: &Setup,
+    camera: &OrbitCamera,
+    w: u32,
+    h: u32,
+) -> Result<shared::camera::Camera> {
+    let [lo, hi] = setup.scene.world_bounds;
+    let spec = engine::render::CameraSpec {
+        position: Some(camera.eye),
+        look_at: Some(camera.target),
+        fov_deg: camera.fov_deg,
+    };
+    make_camera(&spec, (lo, hi), w, h).context("the viewer's camera")
 }
 
 /// `options` with the camera of `camera`, for `host render` and its scene file.
@@ -189,14 +187,7 @@ fn prepare(
     let scene = &setup.scene;
     let mut lights = engine::render_job::render_lights(&options, &scene.volume)?;
     let mut params = engine::render_job::render_params(&options, scene, &lights.points);
-    let [lo, hi] = scene.world_bounds;
-    let spec = engine::render::CameraSpec {
-        position: options.scene.camera,
-        look_at: options.scene.look_at,
-        fov_deg: options.scene.fov,
-    };
-    params.camera = make_camera(&spec, (lo, hi), options.width, options.height)
-        .context("the viewer's camera")?;
+    params.camera = camera_of(setup, &settings.camera, options.width, options.height)?;
     engine::render_job::lit_shadows(&options, resident, &params, &mut lights, scene)?;
     let split = settings.split.map(|spec| {
         let mut p = params;

@@ -56,29 +56,17 @@ impl Gpu {
             ));
         }
         let device = &owner.device;
-        let pool_info = vk::CommandPoolCreateInfo::default()
-            .queue_family_index(owner.queue_family)
-            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        let (pool, cmd) = crate::resources::command_pool(&owner)?;
         // SAFETY: valid create infos; every object is destroyed in Drop (a failure here leaks
         // them until the device is destroyed, which frees them).
-        let (pool, cmd, fence, acquired) = unsafe {
-            let pool = device
-                .create_command_pool(&pool_info, None)
-                .map_err(|e| GpuError::Vulkan("vkCreateCommandPool", e))?;
-            let alloc = vk::CommandBufferAllocateInfo::default()
-                .command_pool(pool)
-                .level(vk::CommandBufferLevel::PRIMARY)
-                .command_buffer_count(1);
-            let cmd = device
-                .allocate_command_buffers(&alloc)
-                .map_err(|e| GpuError::Vulkan("vkAllocateCommandBuffers", e))?[0];
+        let (fence, acquired) = unsafe {
             let fence = device
                 .create_fence(&vk::FenceCreateInfo::default(), None)
                 .map_err(|e| GpuError::Vulkan("vkCreateFence", e))?;
             let acquired = device
                 .create_semaphore(&vk::SemaphoreCreateInfo::default(), None)
                 .map_err(|e| GpuError::Vulkan("vkCreateSemaphore", e))?;
-            (pool, cmd, fence, acquired)
+            (fence, acquired)
         };
         let mut p = Presenter {
             loader: ash::khr::swapchain::Device::new(&owner.instance, device),
@@ -289,23 +277,32 @@ impl Presenter {
                 .aspect_mask(vk::ImageAspectFlags::COLOR)
                 .level_count(1)
                 .layer_count(1);
-            let to_transfer = vk::ImageMemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::empty())
-                .dst_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-                .old_layout(vk::ImageLayout::UNDEFINED)
-                .new_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
-                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .image(image)
-                .subresource_range(range);
-            device.cmd_pipeline_barrier(
-                cmd,
+            let layout = |old, new, src, dst, stage| {
+                let barrier = vk::ImageMemoryBarrier::default()
+                    .src_access_mask(src)
+                    .dst_access_mask(dst)
+                    .old_layout(old)
+                    .new_layout(new)
+                    .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                    .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                    .image(image)
+                    .subresource_range(range);
+                device.cmd_pipeline_barrier(
+                    cmd,
+                    vk::PipelineStageFlags::TRANSFER,
+                    stage,
+                    vk::DependencyFlags::empty(),
+                    &[],
+                    &[],
+                    &[barrier],
+                );
+            };
+            layout(
+                vk::ImageLayout::UNDEFINED,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                vk::AccessFlags::empty(),
+                vk::AccessFlags::TRANSFER_WRITE,
                 vk::PipelineStageFlags::TRANSFER,
-                vk::PipelineStageFlags::TRANSFER,
-                vk::DependencyFlags::empty(),
-                &[],
-                &[],
-                &[to_transfer],
             );
             let grey = vk::ClearColorValue {
                 float32: [0.08, 0.08, 0.08, 1.0],
@@ -353,23 +350,12 @@ impl Presenter {
                     &[region],
                 );
             }
-            let to_present = vk::ImageMemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-                .dst_access_mask(vk::AccessFlags::empty())
-                .old_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
-                .new_layout(vk::ImageLayout::PRESENT_SRC_KHR)
-                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .image(image)
-                .subresource_range(range);
-            device.cmd_pipeline_barrier(
-                cmd,
-                vk::PipelineStageFlags::TRANSFER,
+            layout(
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                vk::ImageLayout::PRESENT_SRC_KHR,
+                vk::AccessFlags::TRANSFER_WRITE,
+                vk::AccessFlags::empty(),
                 vk::PipelineStageFlags::BOTTOM_OF_PIPE,
-                vk::DependencyFlags::empty(),
-                &[],
-                &[],
-                &[to_present],
             );
             device
                 .end_command_buffer(cmd)

@@ -341,6 +341,33 @@ impl Drop for Pipeline {
     }
 }
 
+/// A command pool on the device's queue family whose buffers can be reset one by one, and one
+/// primary command buffer from it (the caller destroys the pool; on error a created pool leaks
+/// until the device is destroyed, which frees it).
+pub(crate) fn command_pool(
+    owner: &DeviceOwner,
+) -> Result<(vk::CommandPool, vk::CommandBuffer), GpuError> {
+    let info = vk::CommandPoolCreateInfo::default()
+        .queue_family_index(owner.queue_family)
+        .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+    // SAFETY: valid create infos on a live device.
+    unsafe {
+        let pool = owner
+            .device
+            .create_command_pool(&info, None)
+            .map_err(|e| GpuError::Vulkan("vkCreateCommandPool", e))?;
+        let alloc = vk::CommandBufferAllocateInfo::default()
+            .command_pool(pool)
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(1);
+        let cmd = owner
+            .device
+            .allocate_command_buffers(&alloc)
+            .map_err(|e| GpuError::Vulkan("vkAllocateCommandBuffers", e))?[0];
+        Ok((pool, cmd))
+    }
+}
+
 /// A command pool with one reusable command buffer, one descriptor pool and one fence.
 pub struct Submitter {
     owner: Arc<DeviceOwner>,
@@ -357,22 +384,10 @@ pub struct Submitter {
 impl Submitter {
     pub fn new(owner: &Arc<DeviceOwner>) -> Result<Self, GpuError> {
         let device = &owner.device;
-        let pool_info = vk::CommandPoolCreateInfo::default()
-            .queue_family_index(owner.queue_family)
-            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        let (pool, cmd) = command_pool(owner)?;
         // SAFETY: valid create infos; destroyed in Drop. On error the partially built objects
         // leak until the device is destroyed, which frees them.
         unsafe {
-            let pool = device
-                .create_command_pool(&pool_info, None)
-                .map_err(|e| GpuError::Vulkan("vkCreateCommandPool", e))?;
-            let alloc = vk::CommandBufferAllocateInfo::default()
-                .command_pool(pool)
-                .level(vk::CommandBufferLevel::PRIMARY)
-                .command_buffer_count(1);
-            let cmd = device
-                .allocate_command_buffers(&alloc)
-                .map_err(|e| GpuError::Vulkan("vkAllocateCommandBuffers", e))?[0];
             let sizes = [
                 vk::DescriptorPoolSize::default()
                     .ty(vk::DescriptorType::STORAGE_BUFFER)

@@ -5,6 +5,7 @@ pub mod layers;
 pub mod lights;
 pub mod merge;
 pub mod options;
+pub mod preview;
 pub mod scene_record;
 pub mod shard;
 pub mod summary;
@@ -474,17 +475,8 @@ pub fn write_images(
         let (w, h) = (args.width, args.height);
         crate::output::write_exr_layers(&args.out, w, h, "transmittance", &rgb, &extra)?;
     }
-    let preview: Vec<f32> = if args.integrator.is_some() {
-        // Radiance: exposure, then Reinhard x / (1 + x) so highlights do not clip.
-        t.iter()
-            .map(|&v| {
-                let x = v * args.exposure;
-                x / (1.0 + x)
-            })
-            .collect()
-    } else {
-        t
-    };
+    let tone = preview::Preview::of(args.integrator, args.exposure);
+    let preview: Vec<f32> = t.iter().map(|&v| tone.grey(v)).collect();
     write_png(png, args.width, args.height, &preview)?;
     Ok(mean)
 }
