@@ -14,6 +14,7 @@ pub mod restir;
 pub mod scene_file;
 pub mod study;
 pub mod view;
+pub mod view_rules;
 
 pub use bench::BenchArgs;
 pub use eval::EvalArgs;
@@ -169,7 +170,7 @@ fn view(args: &view::ViewArgs) -> Result<()> {
     );
     let options = args.options();
     applicable::check(&options.render, &r.given)?;
-    viewer::run(&options, &view::CliRules)
+    viewer::run(&options, &view_rules::CliRules)
 }
 
 /// Prints the library's diagnostics on stderr as before: `warning: <message>` for warnings,
