@@ -391,3 +391,31 @@ pub fn sqrt(x: f32) -> f32 {
         root
     }
 }
+
+/// (n / d, n % d) for 1 <= d < 2^31 and a quotient below 2^22 (a pixel id's row and column:
+/// the command line allows at most 16384 rows), from an f32 estimate corrected once. The
+/// estimate is within 1 of n / d there, so the result is exact; a SIMD device (lavapipe) runs
+/// it on its vector lanes, where an integer division is a scalar loop over the lanes.
+#[inline]
+pub fn div_rem_small(n: u32, d: u32) -> (u32, u32) {
+    let q0 = (n as f32 / d as f32) as u32;
+    // n - q0 d lies in [-d, 2d): exact in wrapping arithmetic, read as i32.
+    let r0 = n.wrapping_sub(q0.wrapping_mul(d)) as i32;
+    let low = r0 < 0;
+    let high = !low & (r0 as u32 >= d);
+    let q = if low {
+        q0.wrapping_sub(1)
+    } else if high {
+        q0 + 1
+    } else {
+        q0
+    };
+    let r = if low {
+        (r0 + d as i32) as u32
+    } else if high {
+        r0 as u32 - d
+    } else {
+        r0 as u32
+    };
+    (q, r)
+}

@@ -252,3 +252,33 @@ fn sqrt_is_correctly_rounded_for_every_f32() {
         "sqrt differs from IEEE at bit patterns {bad:x?}"
     );
 }
+
+/// `div_rem_small` equals integer division for every divisor of an image width (1 to 16384) at
+/// the quotients of every row (0 to 16383) and a pixel's first, middle and last column, and for
+/// small divisors up to its quotient bound (2^22); with `JK_EXHAUSTIVE=1` at every column of
+/// every 7th row.
+#[test]
+fn div_rem_small_is_integer_division() {
+    let exhaustive = std::env::var("JK_EXHAUSTIVE").is_ok_and(|v| v == "1");
+    (1u32..=16384).into_par_iter().for_each(|d| {
+        for q in 0..16384u32 {
+            let cols: Vec<u32> = if exhaustive && q % 7 == 0 {
+                (0..d).collect()
+            } else {
+                vec![0, d / 2, d - 1]
+            };
+            for r in cols {
+                let n = q * d + r;
+                assert_eq!(math::div_rem_small(n, d), (n / d, n % d), "{n} / {d}");
+            }
+        }
+    });
+    for d in 1u32..=256 {
+        for q in [(1 << 22) - 2, (1 << 22) - 1] {
+            for r in [0, d / 2, d - 1] {
+                let n = q * d + r;
+                assert_eq!(math::div_rem_small(n, d), (n / d, n % d), "{n} / {d}");
+            }
+        }
+    }
+}

@@ -76,7 +76,7 @@ pub fn track_length_capped(
     cap: u32,
     rng: HashRng,
 ) -> (f32, Tally, HashRng) {
-    let (flight, rng) = delta_tracking_capped(vol, ray, t0, t1, lookup, JITTER_SALT, cap, rng);
+    let (flight, rng) = delta_flight(vol, ray, t0, t1, lookup, JITTER_SALT, cap, false, rng);
     (if flight.found { 0.0 } else { 1.0 }, flight.tally, rng)
 }
 
@@ -148,6 +148,7 @@ pub fn delta_tracking(
 
 /// [`delta_tracking`] with a collision cap `cap` (at most [`MAX_TENTATIVE_COLLISIONS`]).
 #[allow(clippy::too_many_arguments)]
+#[inline]
 pub fn delta_tracking_capped(
     vol: &VolumeView<impl Texels>,
     ray: &Ray,
@@ -156,6 +157,26 @@ pub fn delta_tracking_capped(
     lookup: Lookup,
     salt: u32,
     cap: u32,
+    rng: HashRng,
+) -> (FreeFlight, HashRng) {
+    delta_flight(vol, ray, t0, t1, lookup, salt, cap, true, rng)
+}
+
+/// [`delta_tracking_capped`]; with `null_product` false, a flight completed exactly at the cap
+/// leaves `null_product` as it stood at the cap, without the regular-tracking pass that
+/// completes it (the track-length estimator reads only `found`; a constant at every call, so
+/// the pass is compiled out where it is not wanted).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn delta_flight(
+    vol: &VolumeView<impl Texels>,
+    ray: &Ray,
+    t0: f32,
+    t1: f32,
+    lookup: Lookup,
+    salt: u32,
+    cap: u32,
+    null_product: bool,
     rng: HashRng,
 ) -> (FreeFlight, HashRng) {
     let mut sampler = MajorantSampler::new(vol, ray, t0, t1);
@@ -191,12 +212,14 @@ pub fn delta_tracking_capped(
         rng = r;
         let flight = exact_free_flight(vol, ray, t_last, t1, -math::ln(1.0 - u));
         if flight.found {
-            let (rest, visited) = complete_exactly(vol, ray, t_last, flight.t);
-            out.null_product *= rest;
+            if null_product {
+                let (rest, visited) = complete_exactly(vol, ray, t_last, flight.t);
+                out.null_product *= rest;
+                out.tally.lookups += visited;
+            }
             out.t = flight.t;
             out.mu = flight.mu;
             out.found = true;
-            out.tally.lookups += visited;
         }
         out.tally = Tally::lookups(out.tally.lookups + flight.visited).capped_if(true);
     }

@@ -54,7 +54,7 @@ pub fn neighbour(params: &RenderParams, id: u32, sample: u32, pass: u32, n: u32)
     let (a, rng) = rng.next_u32();
     let (b, _) = rng.next_u32();
     let side = 2 * params.restir.radius + 1;
-    let (x, y) = (id % params.width, id / params.width);
+    let (y, x) = crate::math::div_rem_small(id, params.width);
     // x + a % side - r in [0, width), written without negative intermediates.
     let (qx, qy) = (x + a % side, y + b % side);
     let r = params.restir.radius;

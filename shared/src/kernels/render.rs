@@ -142,8 +142,7 @@ pub struct RenderPass {
 /// two pixel-jitter draws.
 #[inline]
 pub fn camera_ray(params: &RenderParams, id: u32, s: u32) -> (Ray, HashRng) {
-    let x = id % params.width;
-    let y = id / params.width;
+    let (y, x) = crate::math::div_rem_small(id, params.width);
     let rng = HashRng::for_sample(id, s, params.seed);
     let (jx, rng) = rng.next_f32();
     let (jy, rng) = rng.next_f32();

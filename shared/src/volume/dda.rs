@@ -18,32 +18,33 @@ pub fn clip_to_box(ray: &Ray, hi: V3, t_lo: f32, t_hi: f32) -> (f32, f32) {
     if !is_usable(ray) || !(t_lo < t_hi) {
         return (1.0, 0.0);
     }
-    let mut t0 = t_lo;
-    let mut t1 = t_hi;
-    let mut axis = 0;
-    while axis < 3 {
-        let o = ray.o.get(axis);
-        let d = ray.d.get(axis);
-        let h = hi.get(axis);
-        if d == 0.0 {
-            if !(o >= 0.0 && o <= h) {
-                return (1.0, 0.0);
-            }
-        } else {
-            let inv = 1.0 / d;
-            let ta = (0.0 - o) * inv;
-            let tb = (h - o) * inv;
-            let (near, far) = if ta < tb { (ta, tb) } else { (tb, ta) };
-            if near > t0 {
-                t0 = near;
-            }
-            if far < t1 {
-                t1 = far;
-            }
-        }
-        axis += 1;
+    // The three slabs in axis order, written out: a SIMD device (lavapipe) runs a loop's
+    // carried values through memory.
+    let (t0, t1, x) = clip_slab(ray.o.x, ray.d.x, hi.x, t_lo, t_hi);
+    let (t0, t1, y) = clip_slab(ray.o.y, ray.d.y, hi.y, t0, t1);
+    let (t0, t1, z) = clip_slab(ray.o.z, ray.d.z, hi.z, t0, t1);
+    if x & y & z {
+        (t0, t1)
+    } else {
+        (1.0, 0.0)
     }
-    (t0, t1)
+}
+
+/// One slab [0, h] of [`clip_to_box`] along an axis with origin o and direction d: [t0, t1]
+/// narrowed to it, and false where the ray runs parallel to the slab outside it.
+#[inline]
+#[allow(clippy::manual_range_contains)] // plain compares, the same on every backend
+fn clip_slab(o: f32, d: f32, h: f32, t0: f32, t1: f32) -> (f32, f32, bool) {
+    if d == 0.0 {
+        return (t0, t1, o >= 0.0 && o <= h);
+    }
+    let inv = 1.0 / d;
+    let ta = (0.0 - o) * inv;
+    let tb = (h - o) * inv;
+    let (near, far) = if ta < tb { (ta, tb) } else { (tb, ta) };
+    let t0 = if near > t0 { near } else { t0 };
+    let t1 = if far < t1 { far } else { t1 };
+    (t0, t1, true)
 }
 
 /// Whether a ray has a finite origin and a finite, non-zero direction (false for any NaN).
