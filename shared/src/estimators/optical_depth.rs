@@ -280,9 +280,8 @@ pub fn estimate_interleaved(
     let (mut sum0, mut sum1) = (0.0f32, 0.0f32);
     let mut f = 0.0f32;
     let mut tau_c = 0.0f32;
-    let mut cur = Placed::default();
+    // The last brick segment with P > 0 reached (P = 0 until there is one).
     let mut last_nonzero = Placed::default();
-    let mut have_nonzero = false;
     let mut dda = SuperVoxelDda::new(&vol.desc, ray, prep.t_min, prep.t_max);
     let mut samples = 0u32;
     // Each pass takes one high-resolution sample (coherent on SIMD hardware).
@@ -310,28 +309,23 @@ pub fn estimate_interleaved(
             let m = mu_min(&b, mode);
             f += len * p;
             tau_c += len * m;
-            cur = Placed {
-                t0: seg.t0,
-                t1: seg.t1,
-                f_end: f,
-                p,
-                mu_min: m,
-            };
             if p > 0.0 {
-                last_nonzero = cur;
-                have_nonzero = true;
+                last_nonzero = Placed {
+                    t0: seg.t0,
+                    t1: seg.t1,
+                    f_end: f,
+                    p,
+                    mu_min: m,
+                };
             }
         }
-        // Rounding can leave the last target a hair beyond the final CDF: the sample then goes to
-        // the end of the last brick with P > 0, so the count stays exactly N per estimate.
-        let seg = if target < f && cur.p > 0.0 {
-            cur
-        } else {
-            last_nonzero
-        };
-        if !have_nonzero {
+        // The sample's brick: the one whose CDF passed the target (it has P > 0), or, where
+        // rounding left the last target a hair beyond the final CDF, the last brick with P > 0
+        // (the sample then goes to its end), so the count stays exactly N per estimate.
+        if !(last_nonzero.p > 0.0) {
             break;
         }
+        let seg = last_nonzero;
         // Rewind to the sample location within the brick (Alg. 1), clamped against rounding.
         let mut t = seg.t1 - (seg.f_end - target) / seg.p;
         if t < seg.t0 {
