@@ -189,13 +189,7 @@ macro_rules! render_kernel {
                     },
                 };
                 let slot = i - pass.sums_base as usize;
-                // Read only where the pass continues a block: a first pass's read would be
-                // thrown away, and lavapipe runs a masked read as a loop over its lanes.
-                let prev = if render::starts_block(pass.s_begin) {
-                    PixelSums::default()
-                } else {
-                    sums[slot]
-                };
+                let prev = render::sums_before(pass.s_begin, &sums[slot]);
                 let p = params.specialized(integrator, estimator, importance);
                 let ($vol, $p, $lights, $i, $pass, $prev) = (&vol, &p, lights, i as u32, pass, prev);
                 sums[slot] = $call;

@@ -56,7 +56,7 @@ pub struct App<'a> {
     /// Samples the next frame renders.
     frame_samples: u32,
     last_frame_ms: f64,
-    /// Screen pixels per render pixel.
+    /// The mouse position in window pixels.
     cursor: (f64, f64),
     left: bool,
     right: bool,

@@ -76,7 +76,8 @@ pub fn track_length_capped(
     cap: u32,
     rng: HashRng,
 ) -> (f32, Tally, HashRng) {
-    let (flight, rng) = delta_flight(vol, ray, t0, t1, lookup, JITTER_SALT, cap, false, rng);
+    let (flight, rng) =
+        delta_tracking_capped(vol, ray, t0, t1, lookup, JITTER_SALT, cap, false, rng);
     (if flight.found { 0.0 } else { 1.0 }, flight.tally, rng)
 }
 
@@ -142,33 +143,19 @@ pub fn delta_tracking(
         lookup,
         salt,
         MAX_TENTATIVE_COLLISIONS,
+        true,
         rng,
     )
 }
 
-/// [`delta_tracking`] with a collision cap `cap` (at most [`MAX_TENTATIVE_COLLISIONS`]).
+/// [`delta_tracking`] with a collision cap `cap` (at most [`MAX_TENTATIVE_COLLISIONS`]). With
+/// `null_product` false, a flight completed exactly at the cap leaves `null_product` as it
+/// stood at the cap, without the regular-tracking pass that completes it (the track-length
+/// estimator reads only `found`; a constant at every call, so the pass is compiled out where it
+/// is not wanted).
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn delta_tracking_capped(
-    vol: &VolumeView<impl Texels>,
-    ray: &Ray,
-    t0: f32,
-    t1: f32,
-    lookup: Lookup,
-    salt: u32,
-    cap: u32,
-    rng: HashRng,
-) -> (FreeFlight, HashRng) {
-    delta_flight(vol, ray, t0, t1, lookup, salt, cap, true, rng)
-}
-
-/// [`delta_tracking_capped`]; with `null_product` false, a flight completed exactly at the cap
-/// leaves `null_product` as it stood at the cap, without the regular-tracking pass that
-/// completes it (the track-length estimator reads only `found`; a constant at every call, so
-/// the pass is compiled out where it is not wanted).
-#[allow(clippy::too_many_arguments)]
-#[inline]
-fn delta_flight(
     vol: &VolumeView<impl Texels>,
     ray: &Ray,
     t0: f32,

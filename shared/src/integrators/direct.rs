@@ -159,6 +159,7 @@ pub(super) fn start_at_vertex(
         cfg.lookup,
         FLIGHT_SALT,
         cfg.max_collisions,
+        true,
         rng,
     );
     st.set_tally(ff.tally);

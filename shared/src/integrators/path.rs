@@ -121,6 +121,7 @@ pub fn path_bounce(
             cfg.lookup,
             FLIGHT_SALT,
             cfg.max_collisions,
+            true,
             rng,
         );
         rng = r;

@@ -304,6 +304,7 @@ pub fn first_collision(
         cfg.lookup,
         crate::estimators::tracking::JITTER_SALT,
         cfg.max_collisions,
+        true,
         rng,
     );
     if flight.found {
@@ -347,13 +348,15 @@ pub fn direct_pixel_pass(
 }
 
 /// The sums of a pixel when sample `sample` starts: zero at the first sample of a block (the
-/// buffer holds the previous block's or render's), else `sums`.
+/// buffer holds the previous block's or render's), else `*sums`. By reference, so a kernel reads
+/// its buffer only where the pass continues a block (lavapipe runs a masked read as a loop over
+/// its lanes).
 #[inline]
-pub fn sums_before(sample: u32, sums: PixelSums) -> PixelSums {
+pub fn sums_before(sample: u32, sums: &PixelSums) -> PixelSums {
     if starts_block(sample) {
         PixelSums::default()
     } else {
-        sums
+        *sums
     }
 }
 
@@ -436,7 +439,7 @@ pub fn direct_wave_step(
         let (world, rng) = camera_ray(params, at.id, at.sample);
         return (
             direct_start(vol, &cfg, params, scene, &world, rng),
-            sums_before(at.sample, sums),
+            sums_before(at.sample, &sums),
         );
     }
     let next = direct_estimate(vol, &cfg, params, scene, st, at.stage - 1);
@@ -517,7 +520,7 @@ pub fn restir_start_step(
     let (world, rng) = camera_ray(params, at.id, at.sample);
     (
         restir_start(vol, &cfg, params, scene, &world, rng),
-        sums_before(at.sample, sums),
+        sums_before(at.sample, &sums),
     )
 }
 
@@ -620,7 +623,7 @@ pub fn path_wave_step(
 ) -> (PathState, PixelSums) {
     if at.kind == 0 {
         let (world, rng) = camera_ray(params, at.id, at.sample);
-        return (path_start(&world, rng), sums_before(at.sample, sums));
+        return (path_start(&world, rng), sums_before(at.sample, &sums));
     }
     if st.alive == 0 {
         return (st, sums);
