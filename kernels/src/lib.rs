@@ -165,11 +165,15 @@ macro_rules! render_kernel {
             #[spirv(spec_constant(id = 9, default = 0))] texels: u32,
             #[spirv(spec_constant(id = 7, default = 4294967295))] importance: u32,
         ) {
+            // The uniform blocks read before any branch: lavapipe reads a uniform word once for
+            // all lanes only where every lane runs, and lane by lane inside control flow.
+            let desc = desc.specialized(lookup, cells_per_brick, brick_log2, brick_stepping);
+            let params = params.specialized(integrator, estimator, importance);
             if let Some(i) = pass.launch.id(gid.x) {
                 let vol = VolumeView {
                     // By value: the pipeline's specialized copy (held by reference in this
                     // struct, rust-gpu dropped every read of it).
-                    desc: desc.specialized(lookup, cells_per_brick, brick_log2, brick_stepping),
+                    desc,
                     voxels: Pages {
                         p0: voxels,
                         p1: voxels_1,
@@ -190,7 +194,7 @@ macro_rules! render_kernel {
                 };
                 let slot = i - pass.sums_base as usize;
                 let prev = render::sums_before(pass.s_begin, &sums[slot]);
-                let p = params.specialized(integrator, estimator, importance);
+                let p = params;
                 let ($vol, $p, $lights, $i, $pass, $prev) = (&vol, &p, lights, i as u32, pass, prev);
                 sums[slot] = $call;
             }
@@ -275,11 +279,15 @@ macro_rules! wave_kernel {
             #[spirv(spec_constant(id = 9, default = 0))] texels: u32,
             #[spirv(spec_constant(id = 7, default = 4294967295))] importance: u32,
         ) {
+            // The uniform blocks read before any branch: lavapipe reads a uniform word once for
+            // all lanes only where every lane runs, and lane by lane inside control flow.
+            let desc = desc.specialized(lookup, cells_per_brick, brick_log2, brick_stepping);
+            let params = params.specialized(integrator, estimator, importance);
             if let Some(i) = pass.launch.id(gid.x) {
                 let vol = VolumeView {
                     // By value: the pipeline's specialized copy (held by reference in this
                     // struct, rust-gpu dropped every read of it).
-                    desc: desc.specialized(lookup, cells_per_brick, brick_log2, brick_stepping),
+                    desc,
                     voxels: Pages {
                 p0: voxels,
                 p1: voxels_1,
@@ -299,7 +307,7 @@ macro_rules! wave_kernel {
                     },
                 };
                 let slot = i - pass.sums_base as usize;
-                let p = &params.specialized(integrator, estimator, importance);
+                let p = &params;
                 let scene = Scene {
                     lighting,
                     points: lights,
