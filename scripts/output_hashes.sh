@@ -33,7 +33,7 @@ small=(--resolution 48 --width 24 --height 20 --spp 3 --seed 7 --quiet)
 estimators=(jackknife naive naive-m1 jackknife-adaptive jackknife-mean jackknife-uniform
   biased-rm biased-rm2 unbiased-rm unbiased-rm2 track-length ratio regular)
 integrators=(free-flight equiangular mis-jackknife mis-naive combined-jackknife combined-naive
-  miller mis-power)
+  miller mis-power direct path restir)
 backends=(cpu)
 if "$host" render --backend gpu "${small[@]}" --out "$out/probe_gpu.exr" >/dev/null 2>&1; then
   backends+=(gpu)
