@@ -194,8 +194,8 @@ macro_rules! render_kernel {
                 };
                 let slot = i - pass.sums_base as usize;
                 let prev = render::sums_before(pass.s_begin, &sums[slot]);
-                let p = params;
-                let ($vol, $p, $lights, $i, $pass, $prev) = (&vol, &p, lights, i as u32, pass, prev);
+                let ($vol, $p, $lights, $i, $pass, $prev) =
+                    (&vol, &params, lights, i as u32, pass, prev);
                 sums[slot] = $call;
             }
         }
