@@ -3,6 +3,7 @@
 use crate::bricks::PackedVolume;
 use crate::lighting::SceneLights;
 use crate::schedule::{RenderBackend, Schedule};
+use crate::wide::{transmittance_pass, X8};
 use anyhow::Result;
 use indicatif::ProgressBar;
 use rayon::prelude::*;
@@ -13,6 +14,7 @@ use shared::kernels::render::{
     tile_order_pixel, PixelSums, StageAt,
 };
 use shared::kernels::shadow_map::{msm_raw_texel, msm_store_texel, MsmPass};
+use shared::lanes::Lanes;
 use shared::params::Integrator;
 use shared::params::RenderParams;
 use shared::sampling::lighting::Lighting;
@@ -37,6 +39,12 @@ where
     F: Fn(u32) -> O + Sync,
 {
     (0..count).into_par_iter().map(&f).collect()
+}
+
+/// Whether the CPU backend renders `params` on `vol` eight pixels per instruction
+/// ([`shared::kernels::wide`]).
+pub fn renders_wide(vol: &PackedVolume, params: &RenderParams) -> bool {
+    shared::kernels::wide::renders(&CpuVolume::new(vol).view(), params)
 }
 
 /// A volume rendered on the CPU: the render loop of the CPU backend.
@@ -95,13 +103,30 @@ impl RenderBackend for CpuVolume<'_> {
                 .collect(),
             None => vec![PixelSums::default(); count as usize],
         };
+        // Primary-ray jackknife and naive-mean images on the layouts the wide pass reads: eight
+        // pixels per instruction, the same bytes (shared::kernels::wide).
+        let wide = shared::kernels::wide::renders(&view, params);
         for &(s0, s1) in &schedule.passes {
             for (c, block) in sums.chunks_mut(chunk as usize).enumerate() {
                 let base = c as u32 * chunk;
-                block.par_iter_mut().enumerate().for_each(|(i, acc)| {
-                    let pixel = tile_order_pixel(base + i as u32, params.width, params.height);
-                    *acc = cpu_pixel_pass(&view, params, &scene, pixel, s0, s1, *acc);
-                });
+                if wide {
+                    block
+                        .par_chunks_mut(X8::N)
+                        .enumerate()
+                        .for_each(|(j, accs)| {
+                            let first = base + (j * X8::N) as u32;
+                            let pixels: [u32; X8::N] = std::array::from_fn(|i| {
+                                tile_order_pixel(first + i as u32, params.width, params.height)
+                            });
+                            let pixels = &pixels[..accs.len()];
+                            transmittance_pass(&view, params, pixels, s0, s1, accs);
+                        });
+                } else {
+                    block.par_iter_mut().enumerate().for_each(|(i, acc)| {
+                        let pixel = tile_order_pixel(base + i as u32, params.width, params.height);
+                        *acc = cpu_pixel_pass(&view, params, &scene, pixel, s0, s1, *acc);
+                    });
+                }
                 if let Some(bar) = bar {
                     bar.inc(block.len() as u64 * (s1 - s0) as u64);
                 }

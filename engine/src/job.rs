@@ -39,6 +39,14 @@ pub fn costs(kind: WorkKind) -> (f64, f64) {
     }
 }
 
+/// [`costs`] of a primary-ray transmittance render that the CPU backend runs eight pixels per
+/// instruction ([`Job::wide`]: the jackknife and the naive mean on the fixed grid): CPU
+/// core-nanoseconds per sample from the mean of two runs of `scripts/speed_integrators.sh
+/// target/release/host OUT 256` (after a first), and the software device's time per sample over
+/// the CPU's from `host bench --backend both` (min frames, 256x256 at 8 spp, two rounds: the
+/// marginal times of two renders scattered by +-30 % on this VM), docs/results/speed.md.
+pub const WIDE_TRANSMITTANCE: (f64, f64) = (2.0 * 179.0, 1.0);
+
 /// Seconds a software device spends before its first sample that the CPU backend does not:
 /// device creation, pipeline builds (LLVM compiles of the specialized kernels; about 4 s for one
 /// to four pipelines on this project's 2-core machine, `pipeline_build_ms` in the render JSON)
@@ -51,6 +59,9 @@ pub const SOFTWARE_FIXED_S: f64 = 4.0;
 pub struct Job {
     pub kind: WorkKind,
     pub samples: u64,
+    /// Whether the CPU backend renders it eight pixels per instruction
+    /// (`shared::kernels::wide`; [`crate::cpu::renders_wide`]).
+    pub wide: bool,
 }
 
 /// The cost model's estimate for a job on each backend, in seconds of wall time.
@@ -66,6 +77,21 @@ impl Job {
         Self {
             kind: work_of(integrator),
             samples: u64::from(width) * u64::from(height) * u64::from(spp),
+            wide: false,
+        }
+    }
+
+    /// This job, rendered eight pixels per instruction on the CPU if `wide`.
+    pub fn wide_if(self, wide: bool) -> Self {
+        Self { wide, ..self }
+    }
+
+    /// CPU core-nanoseconds per sample and the software device's time ratio ([`costs`]).
+    pub fn costs(&self) -> (f64, f64) {
+        if self.wide && self.kind == WorkKind::Transmittance {
+            WIDE_TRANSMITTANCE
+        } else {
+            costs(self.kind)
         }
     }
 
@@ -73,7 +99,7 @@ impl Job {
     /// cores: both divide the same per-sample work among the cores; the device adds
     /// [`SOFTWARE_FIXED_S`].
     pub fn estimate(&self, threads: usize) -> Estimate {
-        let (core_ns, ratio) = costs(self.kind);
+        let (core_ns, ratio) = self.costs();
         let cpu_s = self.samples as f64 * core_ns * 1e-9 / threads.max(1) as f64;
         Estimate {
             cpu_s,
@@ -93,14 +119,21 @@ impl Estimate {
 mod tests {
     use super::*;
 
-    /// The README's quick-start render (512x512, 4 spp of transmittance) is short: the CPU wins
-    /// (measured: 1.5 s against 5.0 s wall on lavapipe); one at 1024 spp is the device's.
+    /// The README's quick-start render (512x512, 4 spp of transmittance) is short: the CPU wins;
+    /// a long one by an estimator the CPU runs one ray at a time is the device's, and a long
+    /// jackknife render, as fast per sample on the CPU's eight lanes, stays.
     #[test]
     fn the_default_render_stays_on_the_cpu_and_a_long_one_moves() {
-        let small = Job::render(None, 512, 512, 4).estimate(2);
-        assert!(small.cpu_is_faster(), "{small:?}");
+        for wide in [false, true] {
+            let small = Job::render(None, 512, 512, 4).wide_if(wide).estimate(2);
+            assert!(small.cpu_is_faster(), "{small:?}");
+        }
         let long = Job::render(None, 512, 512, 1024).estimate(2);
         assert!(!long.cpu_is_faster(), "{long:?}");
+        let wide = Job::render(None, 512, 512, 1 << 16)
+            .wide_if(true)
+            .estimate(2);
+        assert!(wide.cpu_is_faster(), "{wide:?}");
     }
 
     /// `path` and `restir` are slower per sample on a software device, so no size moves them

@@ -2,6 +2,7 @@
 //! super-voxels, camera), lighting, shadow maps, the CPU backend, the render jobs the Vulkan
 //! backend runs, and `host render` as a library call. No command-line parsing: the `host` crate
 //! turns flags into these options.
+#![feature(portable_simd)]
 
 pub mod backend;
 pub mod bricks;
@@ -24,6 +25,7 @@ pub mod shadow_map;
 pub mod supervoxel_info;
 pub mod totals;
 pub mod traversal;
+pub mod wide;
 
 pub use backend::{Backend, BackendChoice};
 /// Output planning and writing, re-exported from the `output` crate.

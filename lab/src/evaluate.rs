@@ -446,6 +446,7 @@ fn eval_job(
     Job {
         kind: costliest(&kinds),
         samples: pixels * spp * kinds.len() as u64,
+        wide: false,
     }
 }
 

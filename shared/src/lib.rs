@@ -2,7 +2,7 @@
 //! SPIR-V (rust-gpu). Nothing here may depend on the target: one body per function.
 //!
 //! Layers, each using only those above it (`scripts/module_cycles.py shared/src` checks):
-//! `math`, `rng`, `rgb`, `half`, `complex`, `geometry`, `camera`, `tally` -> `volume` (grid, lookups,
+//! `math`, `rng`, `lanes`, `rgb`, `half`, `complex`, `geometry`, `camera`, `tally` -> `volume` (grid, lookups,
 //! DDA) -> `shadows` (moment shadow maps) -> `params` (the render's launch parameters, the enums that cross the GPU boundary, and
 //! their one decode) -> `sampling` (exponential and equiangular distances, lights, environment map, sun, phase) ->
 //! `estimators` (Eq. 4, Alg. 1/2, tracking, ray marching, one `estimate::transmittance` for every
@@ -16,6 +16,7 @@ pub mod geometry;
 pub mod half;
 pub mod integrators;
 pub mod kernels;
+pub mod lanes;
 pub mod math;
 pub mod mis;
 pub mod params;

@@ -8,7 +8,7 @@ use bytemuck::{Pod, Zeroable};
 /// PCG32 multiplier (O'Neill's 64-bit LCG constant, as in `rand_pcg`).
 const PCG_MULTIPLIER: u64 = 6_364_136_223_846_793_005;
 /// 2^-24: turns the top 24 bits of a u32 into a float in [0, 1) exactly.
-const INV_2_POW_24: f32 = 1.0 / 16_777_216.0;
+pub const INV_2_POW_24: f32 = 1.0 / 16_777_216.0;
 
 /// PCG-XSH-RR 64/32 generator; `Pcg32::new(s, q)` equals `rand_pcg::Pcg32::new(s, q)` bit for bit.
 #[repr(C)]

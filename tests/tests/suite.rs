@@ -23,3 +23,4 @@ mod rays;
 mod restir;
 mod skip;
 mod tracking;
+mod wide;

@@ -205,7 +205,9 @@ impl Setup {
         let t_load = Instant::now();
         let scene = load_scene(args, &backend)?;
         let load_ms = t_load.elapsed().as_secs_f64() * 1e3;
-        let job = Job::render(args.integrator, args.width, args.height, spp);
+        let probe = render_params(args, &scene, &[]);
+        let job = Job::render(args.integrator, args.width, args.height, spp)
+            .wide_if(crate::cpu::renders_wide(&scene.packed, &probe));
         let backend = backend.fit(choice, &scene.packed, &job)?;
         if !args.quiet {
             log_scene(args, &scene, &backend, load_ms);

@@ -1,9 +1,11 @@
 //! Transmittance estimators: Eq. 4 (`transmittance`), Alg. 1 and 2 (`optical_depth`), the
 //! tracking baselines (`tracking`), Kettunen et al.'s ray marching (`ray_marching`), and the one
-//! estimate of a ray segment by any of them (`estimate`).
+//! estimate of a ray segment by any of them (`estimate`); Alg. 1 and 2 over several rays at once
+//! (`wide`).
 
 pub mod estimate;
 pub mod optical_depth;
 pub mod ray_marching;
 pub mod tracking;
 pub mod transmittance;
+pub mod wide;

@@ -80,7 +80,7 @@ pub fn trace_transmittance(
 /// Camera ray `world` in index space and its segment [t0, t1] inside the grid (empty, t0 >=
 /// t1, when it misses).
 #[inline]
-fn index_segment(
+pub fn index_segment(
     vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     world: &Ray,
