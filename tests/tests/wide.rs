@@ -2,10 +2,11 @@
 //! rays per instruction) gives every pixel the bytes of the scalar pass
 //! (`shared::kernels::render::render_pixel_pass`, which the GPU runs): over 8 lanes compiled for
 //! the baseline instruction set, over 8 lanes through the CPU backend's dispatch (AVX2 where the
-//! CPU has it), and over one lane; for the jackknife and the naive mean, both importances, both
-//! jitters, nearest and stochastic lookups, several brick sizes and N, cameras outside and
-//! inside the volume, and pixel counts that are not multiples of 8. And it declines the layouts
-//! and estimators it does not read.
+//! CPU has it), and over one lane; for the jackknife, its adaptive variant (partial strata
+//! skipped, the strata cap reached) and the naive mean, both importances, both jitters, nearest
+//! and stochastic lookups, several brick sizes and N, cameras outside and inside the volume, and
+//! pixel counts that are not multiples of 8. And it declines the layouts and estimators it does
+//! not read.
 
 use engine::bricks::{pack, pack_paged};
 use engine::render::{make_camera, world_bounds, CameraSpec};
@@ -119,18 +120,31 @@ fn the_wide_pass_gives_every_pixel_the_scalar_bytes() {
             };
             let inside = camera_at(vol, &base, [0.1, -0.2, 0.3]);
             for (c, camera) in [base, inside].iter().enumerate() {
-                for estimator in [Estimator::Jackknife, Estimator::NaiveMean] {
-                    for (importance, jitter, n) in [(0, 0, 10), (1, 0, 4), (0, 1, 1), (1, 1, 7)] {
+                let estimators = [
+                    Estimator::Jackknife,
+                    Estimator::NaiveMean,
+                    Estimator::JackknifeAdaptive,
+                ];
+                for estimator in estimators {
+                    // The adaptive variant's step F_delta: many strata, few (partial ones
+                    // skipped), and at the strata cap.
+                    for (importance, jitter, n, f_delta) in [
+                        (0, 0, 10, 0.5),
+                        (1, 0, 4, 3.0),
+                        (0, 1, 1, 0.05),
+                        (1, 1, 7, 1e-4),
+                    ] {
                         let params = RenderParams {
                             estimator: estimator as u32,
                             importance,
                             jitter,
                             n,
+                            f_delta,
                             ..*camera
                         };
                         let what = format!(
                             "volume {v}, brick {brick}, {lookup:?}, camera {c}, {estimator:?}, \
-                             importance {importance}, jitter {jitter}, N {n}"
+                             importance {importance}, jitter {jitter}, N {n}, F_delta {f_delta}"
                         );
                         check(&what, &view, &params);
                         cases += 1;
@@ -139,7 +153,7 @@ fn the_wide_pass_gives_every_pixel_the_scalar_bytes() {
             }
         }
     }
-    assert_eq!(cases, 96);
+    assert_eq!(cases, 144);
 }
 
 #[test]
@@ -182,7 +196,7 @@ fn the_wide_pass_declines_what_it_does_not_read() {
     for estimator in [
         Estimator::TrackLength,
         Estimator::RatioTracking,
-        Estimator::JackknifeAdaptive,
+        Estimator::NaiveSingle,
     ] {
         let p = RenderParams {
             estimator: estimator as u32,

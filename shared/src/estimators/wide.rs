@@ -1,9 +1,11 @@
-//! Alg. 2 and Alg. 1 with a fixed N ([`crate::estimators::optical_depth::prepare`] and
-//! [`crate::estimators::optical_depth::estimate_pair`]) for several rays at once, on the layout
+//! Alg. 2 and Alg. 1, with a fixed N or the adaptive variant's fixed step
+//! ([`crate::estimators::optical_depth::prepare`], `estimate_pair`, `estimate_pair_adaptive`),
+//! for several rays at once, on the layout
 //! of [`crate::volume::wide`]: a loop runs while any lane has work, and a lane's values change
 //! only under its mask, in the order the scalar loops change them, so each lane's estimates
 //! are the scalar functions' bits for its ray.
 
+use crate::estimators::optical_depth::{Prep, Strata};
 use crate::geometry::Ray;
 use crate::lanes::{pcg_hash, unit_f32, Lanes};
 use crate::params::{Importance, Jitter};
@@ -27,6 +29,51 @@ pub struct WidePair<L: Lanes> {
     pub samples: L::U,
     pub capped: L::M,
     pub rng: L::U,
+}
+
+/// How Alg. 1 divides each lane's importance CDF ([`Strata`] per lane): the step F_delta, the
+/// strata per estimate N, and whether targets past F are skipped (the adaptive variant).
+#[derive(Clone, Copy)]
+pub struct WidePlan<L: Lanes> {
+    pub f_delta: L::F,
+    pub n: L::U,
+    pub adaptive: bool,
+}
+
+impl<L: Lanes> WidePlan<L> {
+    /// [`Strata::fixed`] with N samples per estimate in every lane.
+    #[inline(always)]
+    pub fn fixed(prep: &WidePrep<L>, n: u32) -> Self {
+        WidePlan {
+            f_delta: prep.f / L::f(n as f32),
+            n: L::u(n),
+            adaptive: false,
+        }
+    }
+
+    /// [`Strata::adaptive`] with step `f_delta`, lane by lane.
+    #[inline(always)]
+    pub fn adaptive(prep: &WidePrep<L>, f_delta: f32) -> Self {
+        let plan = |l: usize| Strata::adaptive(&prep.lane(l), f_delta);
+        WidePlan {
+            f_delta: L::f_from(|l| plan(l).f_delta),
+            n: L::u_from(|l| plan(l).n0),
+            adaptive: true,
+        }
+    }
+}
+
+impl<L: Lanes> WidePrep<L> {
+    /// Lane `l`'s [`Prep`].
+    #[inline(always)]
+    pub fn lane(&self, l: usize) -> Prep {
+        Prep {
+            f: L::f_at(self.f, l),
+            t_min: L::f_at(self.t_min, l),
+            t_max: L::f_at(self.t_max, l),
+            capped: L::m_at(self.capped, l),
+        }
+    }
 }
 
 /// The importance word of a brick record (see [`crate::estimators::optical_depth::importance`]).
@@ -91,8 +138,8 @@ fn next_open0<L: Lanes>(state: L::U) -> (L::F, L::U) {
     (L::f(1.0) - unit_f32::<L>(s), s)
 }
 
-/// Alg. 1 with N samples per estimate for the rays of the lanes `on`, over `prep`'s tight
-/// segments, each lane's generator at `rng` ([`crate::rng::HashRng::state`]).
+/// Alg. 1 by `plan` for the rays of the lanes `on`, over `prep`'s tight segments, each lane's
+/// generator at `rng` ([`crate::rng::HashRng::state`]).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub fn estimate_pair<L: Lanes>(
@@ -100,20 +147,19 @@ pub fn estimate_pair<L: Lanes>(
     rays: &[Ray],
     prep: &WidePrep<L>,
     on: L::M,
-    n: u32,
+    plan: &WidePlan<L>,
     mode: Importance,
     jitter: Jitter,
     rng: L::U,
 ) -> WidePair<L> {
     let word = importance_word(mode);
     let wide = WideRays::<L>::of(rays);
-    let f_delta = prep.f / L::f(n as f32);
+    let (f_delta, nu) = (plan.f_delta, plan.n);
     // Lanes with samples to take (the scalar function returns at once for the others).
-    let go = on & L::f_gt(prep.f, L::f(0.0)) & L::m(n != 0) & L::f_gt(f_delta, L::f(0.0));
+    let go = on & L::f_gt(prep.f, L::f(0.0)) & !L::u_eq(nu, L::u(0)) & L::f_gt(f_delta, L::f(0.0));
     let (xi0, s) = next_open0::<L>(rng);
     let (xi1, s) = next_open0::<L>(s);
     let mut rng = L::u_sel(go, s, rng);
-    let nu = L::u(n);
     let (mut k0, mut k1) = (L::u(0), L::u(0));
     let (mut o0, mut o1) = (xi0, xi1);
     let (mut sum0, mut sum1) = (L::f(0.0), L::f(0.0));
@@ -137,6 +183,12 @@ pub fn estimate_pair<L: Lanes>(
         let c1 = f_delta * (L::u_to_f(k1) + o1);
         let j0 = left0 & (!left1 | L::f_le(c0, c1));
         let target = L::f_sel(j0, c0, c1);
+        // The adaptive variant: a jittered target of a partial last stratum past F takes no
+        // sample, and that estimate is done.
+        let past = a & L::m(plan.adaptive) & L::f_ge(target, prep.f);
+        k0 = L::u_sel(past & j0, nu, k0);
+        k1 = L::u_sel(past & !j0, nu, k1);
+        let a = a & !past;
         // Advance over bricks until the CDF passes the target.
         loop {
             let v = a & L::f_ge(target, f) & !dda.done;

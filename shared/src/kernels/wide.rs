@@ -1,11 +1,13 @@
-//! The CPU's transmittance pass over several pixels per instruction: the jackknife and the
-//! naive mean of [`crate::kernels::render::transmittance_pixel_pass`], one pixel per lane, on the
+//! The CPU's transmittance pass over several pixels per instruction: the jackknife, its adaptive
+//! variant and the naive mean of [`crate::kernels::render::transmittance_pixel_pass`], one pixel
+//! per lane, on the
 //! layouts [`WideVolume::of`] reads. Each pixel gets the scalar pass's bytes: the same camera
 //! rays and generators, Alg. 2 and Alg. 1 lane by lane ([`crate::estimators::wide`]), and the
 //! same Eq. 4, tally and sums per lane in sample order.
 
+use crate::estimators::optical_depth::{adaptive_capped, adaptive_unsampled};
 use crate::estimators::transmittance;
-use crate::estimators::wide::{estimate_pair, prepare};
+use crate::estimators::wide::{estimate_pair, prepare, WidePlan};
 use crate::geometry::{Ray, V3};
 use crate::kernels::render::{camera_ray, index_segment, render_pixel_pass, PixelSums};
 use crate::lanes::Lanes;
@@ -20,11 +22,15 @@ use crate::volume::wide::WideVolume;
 pub const MAX_LANES: usize = 16;
 
 /// Whether [`transmittance_pass`] renders `params` (a primary-ray transmittance image by the
-/// jackknife or the naive mean of a pair) on `vol`, i.e. whether it has a [`WideVolume`].
+/// jackknife, its adaptive variant or the naive mean of a pair) on `vol`, i.e. whether it has a
+/// [`WideVolume`].
 #[inline(always)]
 pub fn renders<T: Texels>(vol: &VolumeView<T>, params: &RenderParams) -> bool {
     let cfg = Config::decode(params, &vol.desc);
-    let estimator = matches!(cfg.estimator, Estimator::Jackknife | Estimator::NaiveMean);
+    let estimator = matches!(
+        cfg.estimator,
+        Estimator::Jackknife | Estimator::NaiveMean | Estimator::JackknifeAdaptive
+    );
     params.integrator == 0 && estimator && WideVolume::of(vol).is_some()
 }
 
@@ -71,12 +77,18 @@ pub fn transmittance_pass<L: Lanes, T: Texels>(
         let (a, b) = (L::f_from(|l| t0[l]), L::f_from(|l| t1[l]));
         let prep = prepare::<L>(&wide, &rays, a, b, on, cfg.importance);
         let rng = L::u_from(|l| rng[l]);
+        let adaptive = cfg.estimator == Estimator::JackknifeAdaptive;
+        let plan = if adaptive {
+            WidePlan::adaptive(&prep, params.f_delta)
+        } else {
+            WidePlan::fixed(&prep, params.n)
+        };
         let est = estimate_pair::<L>(
             &wide,
             &rays,
             &prep,
             on,
-            params.n,
+            &plan,
             cfg.importance,
             cfg.jitter,
             rng,
@@ -88,7 +100,14 @@ pub fn transmittance_pass<L: Lanes, T: Texels>(
                 let (x0, x1) = (L::f_at(est.x0, l), L::f_at(est.x1, l));
                 let tally =
                     Tally::lookups(L::u_at(est.samples, l)).capped_if(L::m_at(est.capped, l));
-                if cfg.estimator == Estimator::Jackknife {
+                if adaptive {
+                    // As `estimate::transmittance`'s arm for the adaptive variant.
+                    let (p, samples) = (prep.lane(l), L::u_at(est.samples, l));
+                    let tally = tally.capped_if(adaptive_capped(&p, params.f_delta));
+                    let outside = transmittance::outside_regime(x0, x1)
+                        | adaptive_unsampled(&p, params.f_delta, samples);
+                    (transmittance::jackknife(x0, x1), tally.outside_if(outside))
+                } else if cfg.estimator == Estimator::Jackknife {
                     let outside = transmittance::outside_regime(x0, x1);
                     (transmittance::jackknife(x0, x1), tally.outside_if(outside))
                 } else {
