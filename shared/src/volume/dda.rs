@@ -123,7 +123,7 @@ pub struct GridDda {
 
 /// Sign of d as a step: +1, -1, or 0 for an axis the ray does not move along.
 #[inline]
-fn step_of(d: f32) -> i32 {
+pub(crate) fn step_of(d: f32) -> i32 {
     if d > 0.0 {
         1
     } else if d < 0.0 {
@@ -135,7 +135,7 @@ fn step_of(d: f32) -> i32 {
 
 /// 1/d, or 0 where d = 0 (that axis never crosses a plane).
 #[inline]
-fn inv_or_zero(d: f32) -> f32 {
+pub(crate) fn inv_or_zero(d: f32) -> f32 {
     if d == 0.0 {
         0.0
     } else {
@@ -187,7 +187,7 @@ fn min4(a: f32, x: f32, y: f32, z: f32) -> f32 {
 
 /// Cell index of coordinate v, clamped to [lo, n-1].
 #[inline]
-fn cell_of(v: f32, size: f32, lo: i32, n: i32) -> i32 {
+pub(crate) fn cell_of(v: f32, size: f32, lo: i32, n: i32) -> i32 {
     let c = math::floor(v / size);
     if !(c >= lo as f32) {
         lo

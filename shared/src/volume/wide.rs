@@ -9,6 +9,7 @@
 use crate::geometry::Ray;
 use crate::lanes::{f16_to_f32, pcg3d, unit_f32, Lanes};
 use crate::math;
+use crate::volume::dda::{cell_of, inv_or_zero, step_of};
 use crate::volume::grid::{Lookup, VolumeView, BRICK_DIVIDES, BRICK_WORDS, FIRST_EMPTY_SLOT};
 use crate::volume::texels::Texels;
 
@@ -198,31 +199,6 @@ pub struct WideDda<L: Lanes> {
     pub done: L::M,
 }
 
-/// Sign of d as a step.
-#[inline(always)]
-fn step_of(d: f32) -> i32 {
-    if d > 0.0 {
-        1
-    } else if d < 0.0 {
-        -1
-    } else {
-        0
-    }
-}
-
-/// The brick of coordinate v (brick size `size`), clamped to [0, n - 1].
-#[inline(always)]
-fn cell_of(v: f32, size: f32, n: u32) -> i32 {
-    let c = math::floor(v / size);
-    if !(c >= 0.0) {
-        0
-    } else if c >= n as f32 {
-        n as i32 - 1
-    } else {
-        c as i32
-    }
-}
-
 impl<L: Lanes> WideDda<L> {
     /// The traversal of lane l's ray `rays[l]` from t_start to t_end (lanes off in `on` are
     /// done from the start).
@@ -233,20 +209,11 @@ impl<L: Lanes> WideDda<L> {
             L::i_from(|l| {
                 let p = rays[l].at(L::f_at(t_start, l));
                 let v = [p.x, p.y, p.z][a];
-                cell_of(v, size, vol.brick_dims[a])
+                cell_of(v, size, 0, vol.brick_dims[a] as i32)
             })
         };
         let step = |a: usize| L::i_from(|l| step_of([rays[l].d.x, rays[l].d.y, rays[l].d.z][a]));
-        let inv = |a: usize| {
-            L::f_from(|l| {
-                let d = [rays[l].d.x, rays[l].d.y, rays[l].d.z][a];
-                if d == 0.0 {
-                    0.0
-                } else {
-                    1.0 / d
-                }
-            })
-        };
+        let inv = |a: usize| L::f_from(|l| inv_or_zero([rays[l].d.x, rays[l].d.y, rays[l].d.z][a]));
         let valid = L::m_from(|l| {
             let (a, b) = (L::f_at(t_start, l), L::f_at(t_end, l));
             a < b && math::is_finite(a) && math::is_finite(b)
