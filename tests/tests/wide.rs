@@ -1,6 +1,10 @@
 //! The CPU's wide transmittance pass (`shared::kernels::wide`: Alg. 2 and Alg. 1 over several
 //! rays per instruction) gives every pixel the bytes of the scalar pass
-//! (`shared::kernels::render::render_pixel_pass`, which the GPU runs): over 8 lanes compiled for
+//! (`shared::kernels::render::render_pixel_pass`, which the GPU runs). Both run the one body of
+//! Alg. 2 and Alg. 1 (`shared::estimators::wide`); what this ties together is what each reads
+//! through: the wide traversal and lookups (`shared::volume::wide::WideVolume`) against the
+//! scalar ones (`SuperVoxelDda`, `VolumeView`'s lookups), and the wide pass's camera rays, Eq. 4,
+//! tallies and sums lane by lane. Over 8 lanes compiled for
 //! the baseline instruction set, over 8 lanes through the CPU backend's dispatch (AVX2 where the
 //! CPU has it), and over one lane; for the jackknife, its adaptive variant (partial strata
 //! skipped, the strata cap reached) and the naive mean, both importances, both jitters, nearest

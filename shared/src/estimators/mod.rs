@@ -1,7 +1,7 @@
-//! Transmittance estimators: Eq. 4 (`transmittance`), Alg. 1 and 2 (`optical_depth`), the
-//! tracking baselines (`tracking`), Kettunen et al.'s ray marching (`ray_marching`), and the one
-//! estimate of a ray segment by any of them (`estimate`); Alg. 1 and 2 over several rays at once
-//! (`wide`).
+//! Transmittance estimators: Eq. 4 (`transmittance`), Alg. 1 and 2 (their one body over lanes,
+//! `wide`, and its one-ray form, `optical_depth`), the tracking baselines (`tracking`), Kettunen
+//! et al.'s ray marching (`ray_marching`), and the one estimate of a ray segment by any of them
+//! (`estimate`).
 
 pub mod estimate;
 pub mod optical_depth;

@@ -1,14 +1,16 @@
 //! Optical depth estimation along a ray: Alg. 2 (preparation) and Alg. 1 (two interleaved,
 //! stratified, importance-sampled estimates with the mu_min control variate), Sec. 4.
 
+use crate::estimators::wide::{self, WidePlan, WidePrep};
 use crate::geometry::Ray;
 use crate::geometry::V3;
+use crate::lanes::One;
 use crate::math;
 use crate::params::{Importance, Jitter};
 use crate::rng::{pcg3d, unit_f32, HashRng};
 use crate::tally::Tally;
 use crate::volume::grid::{Brick, Lookup, VolumeView};
-use crate::volume::supervoxels::SuperVoxelDda;
+use crate::volume::lane_volume::ScalarVolume;
 use crate::volume::texels::Texels;
 
 /// Sampling importance of a brick.
@@ -40,7 +42,9 @@ pub struct Prep {
 }
 
 /// Alg. 2: one DDA over the super-voxels of [t0, t1], summing (t_{n+1} - t_n) P into F and recording
-/// the entry of the first and the exit of the last super-voxel with P != 0.
+/// the entry of the first and the exit of the last super-voxel with P != 0 (one lane of
+/// [`wide::prepare`]).
+#[inline]
 pub fn prepare(
     vol: &VolumeView<impl Texels>,
     ray: &Ray,
@@ -48,29 +52,9 @@ pub fn prepare(
     t1: f32,
     mode: Importance,
 ) -> Prep {
-    let mut f = 0.0;
-    let mut t_min = t1;
-    let mut t_max = t0;
-    let mut dda = SuperVoxelDda::new(&vol.desc, ray, t0, t1);
-    while !dda.done() {
-        let (seg, b) = dda.step(vol);
-        let p = importance(&b, mode);
-        f += (seg.t1 - seg.t0) * p;
-        if p != 0.0 {
-            if seg.t0 < t_min {
-                t_min = seg.t0;
-            }
-            if seg.t1 > t_max {
-                t_max = seg.t1;
-            }
-        }
-    }
-    Prep {
-        f,
-        t_min,
-        t_max,
-        capped: dda.exhausted(),
-    }
+    let lookup = Lookup::from_u32(vol.desc.lookup);
+    let scalar = ScalarVolume { view: *vol, lookup };
+    wide::prepare::<One, _>(&scalar, ray, t0, t1, true, mode).lane(0)
 }
 
 /// Two optical depth estimates of one ray and the number of high-resolution lookups they took.
@@ -107,16 +91,6 @@ pub fn mu_at(vol: &VolumeView<impl Texels>, p: V3, lookup: Lookup, key: [u32; 3]
         }
         Lookup::Trilinear => vol.mu_trilinear(p),
     }
-}
-
-/// The brick segment a sample is placed in: its range, the CDF at its end and its statistics.
-#[derive(Clone, Copy, Default)]
-struct Placed {
-    t0: f32,
-    t1: f32,
-    f_end: f32,
-    p: f32,
-    mu_min: f32,
 }
 
 /// Alg. 1: two i.i.d. optical depth estimates with N samples each (CDF step F_delta = F / N),
@@ -251,8 +225,10 @@ impl Strata {
     }
 }
 
-/// The shared loop of Alg. 1: up to two interleaved estimates over one DDA (Sec. 4.3).
+/// The shared loop of Alg. 1: up to two interleaved estimates over one DDA (Sec. 4.3): one lane
+/// of [`wide::estimate_pair`].
 #[allow(clippy::too_many_arguments)]
+#[inline]
 pub fn estimate_interleaved(
     vol: &VolumeView<impl Texels>,
     ray: &Ray,
@@ -263,108 +239,16 @@ pub fn estimate_interleaved(
     lookup: Lookup,
     rng: HashRng,
 ) -> (DepthPairEstimate, HashRng) {
-    let (n0, n1) = (plan.n0, plan.n1);
-    if !(prep.f > 0.0) || (n0 == 0 && n1 == 0) || !(plan.f_delta > 0.0) {
-        let est = DepthPairEstimate {
-            capped: prep.capped,
-            ..Default::default()
-        };
-        return (est, rng);
-    }
-    let f_delta = plan.f_delta;
-    let (xi0, rng) = rng.next_f32_open0();
-    let (xi1, mut rng) = rng.next_f32_open0();
-    // Per estimate: samples taken k_j, current offset xi_j, running sum of (mu - mu_min) / P.
-    let (mut k0, mut k1) = (0u32, 0u32);
-    let (mut o0, mut o1) = (xi0, xi1);
-    let (mut sum0, mut sum1) = (0.0f32, 0.0f32);
-    let mut f = 0.0f32;
-    let mut tau_c = 0.0f32;
-    // The last brick segment with P > 0 reached (P = 0 until there is one).
-    let mut last_nonzero = Placed::default();
-    let mut dda = SuperVoxelDda::new(&vol.desc, ray, prep.t_min, prep.t_max);
-    let mut samples = 0u32;
-    // Each pass takes one high-resolution sample (coherent on SIMD hardware).
-    while k0 < n0 || k1 < n1 {
-        let j0 = k0 < n0 && (k1 >= n1 || f_delta * (k0 as f32 + o0) <= f_delta * (k1 as f32 + o1));
-        let target = if j0 {
-            f_delta * (k0 as f32 + o0)
-        } else {
-            f_delta * (k1 as f32 + o1)
-        };
-        if plan.adaptive && target >= prep.f {
-            // The jittered target of a partial last stratum fell past F: no sample there.
-            if j0 {
-                k0 = n0;
-            } else {
-                k1 = n1;
-            }
-            continue;
-        }
-        // Advance over bricks until the CDF passes the target.
-        while target >= f && !dda.done() {
-            let (seg, b) = dda.step(vol);
-            let len = seg.t1 - seg.t0;
-            let p = importance(&b, mode);
-            let m = mu_min(&b, mode);
-            f += len * p;
-            tau_c += len * m;
-            if p > 0.0 {
-                last_nonzero = Placed {
-                    t0: seg.t0,
-                    t1: seg.t1,
-                    f_end: f,
-                    p,
-                    mu_min: m,
-                };
-            }
-        }
-        // The sample's brick: the one whose CDF passed the target (it has P > 0), or, where
-        // rounding left the last target a hair beyond the final CDF, the last brick with P > 0
-        // (the sample then goes to its end), so the count stays exactly N per estimate.
-        if !(last_nonzero.p > 0.0) {
-            break;
-        }
-        let seg = last_nonzero;
-        // Rewind to the sample location within the brick (Alg. 1), clamped against rounding.
-        let mut t = seg.t1 - (seg.f_end - target) / seg.p;
-        if t < seg.t0 {
-            t = seg.t0;
-        }
-        if t > seg.t1 {
-            t = seg.t1;
-        }
-        let key = [rng.state, samples, 0x9e37_79b9];
-        let contribution = (mu_at(vol, ray.at(t), lookup, key) - seg.mu_min) / seg.p;
-        samples += 1;
-        if j0 {
-            sum0 += contribution;
-            k0 += 1;
-            if jitter == Jitter::Stratified {
-                let (xi, r) = rng.next_f32_open0();
-                o0 = xi;
-                rng = r;
-            }
-        } else {
-            sum1 += contribution;
-            k1 += 1;
-            if jitter == Jitter::Stratified {
-                let (xi, r) = rng.next_f32_open0();
-                o1 = xi;
-                rng = r;
-            }
-        }
-    }
-    // The control variate needs the rest of the segment.
-    while !dda.done() {
-        let (seg, b) = dda.step(vol);
-        tau_c += (seg.t1 - seg.t0) * mu_min(&b, mode);
-    }
-    let est = DepthPairEstimate {
-        x0: f_delta * sum0 + tau_c,
-        x1: f_delta * sum1 + tau_c,
-        samples,
-        capped: prep.capped || dda.exhausted(),
+    let scalar = ScalarVolume { view: *vol, lookup };
+    let lanes = WidePlan::<One>::of(|_| *plan, plan.adaptive);
+    let prep = WidePrep::<One>::splat(prep);
+    let est =
+        wide::estimate_pair::<One, _>(&scalar, ray, &prep, true, &lanes, mode, jitter, rng.state);
+    let pair = DepthPairEstimate {
+        x0: est.x0,
+        x1: est.x1,
+        samples: est.samples,
+        capped: est.capped,
     };
-    (est, rng)
+    (pair, HashRng { state: est.rng })
 }

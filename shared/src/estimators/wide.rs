@@ -1,15 +1,16 @@
-//! Alg. 2 and Alg. 1, with a fixed N or the adaptive variant's fixed step
-//! ([`crate::estimators::optical_depth::prepare`], `estimate_pair`, `estimate_pair_adaptive`),
-//! for several rays at once, on the layout
-//! of [`crate::volume::wide`]: a loop runs while any lane has work, and a lane's values change
-//! only under its mask, in the order the scalar loops change them, so each lane's estimates
-//! are the scalar functions' bits for its ray.
+//! Alg. 2 and Alg. 1 (two interleaved, stratified, importance-sampled estimates with the
+//! mu_min control variate; a fixed N, one estimate, or the adaptive variant's fixed step), Sec. 4:
+//! the one body of both, written over lanes ([`Lanes`]) and a volume that reads them
+//! ([`LaneVolume`]). One lane over [`crate::volume::lane_volume::ScalarVolume`] is
+//! [`crate::estimators::optical_depth`]'s `prepare` and `estimate_interleaved`, which the GPU's
+//! kernels and the CPU's scalar paths run; eight lanes over [`crate::volume::wide::WideVolume`]
+//! the CPU's wide pass. A loop runs while any lane has work, and a lane's values change only
+//! under its mask, so each lane's estimates are the bits of its ray alone.
 
 use crate::estimators::optical_depth::{Prep, Strata};
-use crate::geometry::Ray;
 use crate::lanes::{pcg_hash, unit_f32, Lanes};
 use crate::params::{Importance, Jitter};
-use crate::volume::wide::{WideDda, WideRays, WideVolume, MEAN, MU_MIN, P};
+use crate::volume::lane_volume::LaneVolume;
 
 /// [`crate::estimators::optical_depth::Prep`] per lane.
 #[derive(Clone, Copy)]
@@ -32,21 +33,25 @@ pub struct WidePair<L: Lanes> {
 }
 
 /// How Alg. 1 divides each lane's importance CDF ([`Strata`] per lane): the step F_delta, the
-/// strata per estimate N, and whether targets past F are skipped (the adaptive variant).
+/// strata of each estimate n0 and n1, and whether targets past F are skipped (the adaptive
+/// variant).
 #[derive(Clone, Copy)]
 pub struct WidePlan<L: Lanes> {
     pub f_delta: L::F,
-    pub n: L::U,
+    pub n0: L::U,
+    pub n1: L::U,
     pub adaptive: bool,
 }
 
 impl<L: Lanes> WidePlan<L> {
-    /// [`Strata::fixed`] with N samples per estimate in every lane.
+    /// [`Strata::fixed`] with n0 and n1 samples in every lane.
     #[inline(always)]
-    pub fn fixed(prep: &WidePrep<L>, n: u32) -> Self {
+    pub fn fixed(prep: &WidePrep<L>, n0: u32, n1: u32) -> Self {
+        let n = if n0 > n1 { n0 } else { n1 };
         WidePlan {
             f_delta: prep.f / L::f(n as f32),
-            n: L::u(n),
+            n0: L::u(n0),
+            n1: L::u(n1),
             adaptive: false,
         }
     }
@@ -54,11 +59,17 @@ impl<L: Lanes> WidePlan<L> {
     /// [`Strata::adaptive`] with step `f_delta`, lane by lane.
     #[inline(always)]
     pub fn adaptive(prep: &WidePrep<L>, f_delta: f32) -> Self {
-        let plan = |l: usize| Strata::adaptive(&prep.lane(l), f_delta);
+        Self::of(|l| Strata::adaptive(&prep.lane(l), f_delta), true)
+    }
+
+    /// Lane l divides by `plan(l)`.
+    #[inline(always)]
+    pub fn of(plan: impl Fn(usize) -> Strata, adaptive: bool) -> Self {
         WidePlan {
             f_delta: L::f_from(|l| plan(l).f_delta),
-            n: L::u_from(|l| plan(l).n0),
-            adaptive: true,
+            n0: L::u_from(|l| plan(l).n0),
+            n1: L::u_from(|l| plan(l).n1),
+            adaptive,
         }
     }
 }
@@ -76,57 +87,52 @@ impl<L: Lanes> WidePrep<L> {
     }
 }
 
-/// The importance word of a brick record (see [`crate::estimators::optical_depth::importance`]).
-#[inline(always)]
-fn importance_word(mode: Importance) -> u32 {
-    match mode {
-        Importance::VarianceAware => P,
-        Importance::Mean => MEAN,
+impl<L: Lanes> WidePrep<L> {
+    /// `prep` in every lane.
+    #[inline(always)]
+    pub fn splat(prep: &Prep) -> Self {
+        WidePrep {
+            f: L::f(prep.f),
+            t_min: L::f(prep.t_min),
+            t_max: L::f(prep.t_max),
+            capped: L::m(prep.capped),
+        }
     }
 }
 
-/// The control variate of a brick's record words (see
-/// [`crate::estimators::optical_depth::mu_min`]).
+/// Alg. 2 for the rays of the lanes `on` over [t0, t1]: one traversal summing
+/// (t_{n+1} - t_n) P into F and recording the entry of the first and the exit of the last
+/// segment with P != 0.
 #[inline(always)]
-fn mu_min<L: Lanes>(vol: &WideVolume, m: L::M, cell: [L::U; 3], mode: Importance) -> L::F {
-    match mode {
-        Importance::VarianceAware => L::f_from_bits(vol.brick_word::<L>(m, cell, MU_MIN)),
-        Importance::Mean => L::f(0.0),
-    }
-}
-
-/// Alg. 2 for the rays of the lanes `on` over [t0, t1].
-#[inline(always)]
-pub fn prepare<L: Lanes>(
-    vol: &WideVolume,
-    rays: &[Ray],
+pub fn prepare<L: Lanes, V: LaneVolume<L>>(
+    vol: &V,
+    rays: &V::Rays,
     t0: L::F,
     t1: L::F,
     on: L::M,
     mode: Importance,
 ) -> WidePrep<L> {
-    let word = importance_word(mode);
     let mut f = L::f(0.0);
     let mut t_min = t1;
     let mut t_max = t0;
-    let mut dda = WideDda::<L>::new(vol, rays, t0, t1, on);
+    let mut dda = vol.dda(rays, t0, t1, on);
     loop {
-        let a = !dda.done;
+        let a = on & !V::done(&dda);
         if !L::any(a) {
             break;
         }
-        let seg = dda.step(vol, a);
-        let p = L::f_from_bits(vol.brick_word::<L>(a, seg.cell, word));
-        f = L::f_sel(a, f + (seg.t1 - seg.t0) * p, f);
+        let (s0, s1, b) = vol.step(&mut dda, a);
+        let p = vol.importance(a, &b, mode);
+        f = L::f_sel(a, f + (s1 - s0) * p, f);
         let nonzero = a & L::f_ne(p, L::f(0.0));
-        t_min = L::f_sel(nonzero & L::f_lt(seg.t0, t_min), seg.t0, t_min);
-        t_max = L::f_sel(nonzero & L::f_gt(seg.t1, t_max), seg.t1, t_max);
+        t_min = L::f_sel(nonzero & L::f_lt(s0, t_min), s0, t_min);
+        t_max = L::f_sel(nonzero & L::f_gt(s1, t_max), s1, t_max);
     }
     WidePrep {
         f,
         t_min,
         t_max,
-        capped: dda.exhausted(),
+        capped: on & V::exhausted(&dda),
     }
 }
 
@@ -139,12 +145,14 @@ fn next_open0<L: Lanes>(state: L::U) -> (L::F, L::U) {
 }
 
 /// Alg. 1 by `plan` for the rays of the lanes `on`, over `prep`'s tight segments, each lane's
-/// generator at `rng` ([`crate::rng::HashRng::state`]).
+/// generator at `rng` ([`crate::rng::HashRng::state`]). Every estimate takes exactly its n
+/// samples where F > 0 (the adaptive variant: fewer where a jittered target of the partial last
+/// stratum falls past F); with F = 0 both estimates are exactly 0 and no sample is taken.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-pub fn estimate_pair<L: Lanes>(
-    vol: &WideVolume,
-    rays: &[Ray],
+pub fn estimate_pair<L: Lanes, V: LaneVolume<L>>(
+    vol: &V,
+    rays: &V::Rays,
     prep: &WidePrep<L>,
     on: L::M,
     plan: &WidePlan<L>,
@@ -152,29 +160,31 @@ pub fn estimate_pair<L: Lanes>(
     jitter: Jitter,
     rng: L::U,
 ) -> WidePair<L> {
-    let word = importance_word(mode);
-    let wide = WideRays::<L>::of(rays);
-    let (f_delta, nu) = (plan.f_delta, plan.n);
-    // Lanes with samples to take (the scalar function returns at once for the others).
-    let go = on & L::f_gt(prep.f, L::f(0.0)) & !L::u_eq(nu, L::u(0)) & L::f_gt(f_delta, L::f(0.0));
+    let (f_delta, n0, n1) = (plan.f_delta, plan.n0, plan.n1);
+    let zero = L::f(0.0);
+    // Lanes with samples to take (the others are done at once).
+    let none = L::u_eq(n0, L::u(0)) & L::u_eq(n1, L::u(0));
+    let go = on & L::f_gt(prep.f, zero) & !none & L::f_gt(f_delta, zero);
     let (xi0, s) = next_open0::<L>(rng);
     let (xi1, s) = next_open0::<L>(s);
     let mut rng = L::u_sel(go, s, rng);
+    // Per estimate: samples taken k_j, current offset xi_j, running sum of (mu - mu_min) / P.
     let (mut k0, mut k1) = (L::u(0), L::u(0));
     let (mut o0, mut o1) = (xi0, xi1);
-    let (mut sum0, mut sum1) = (L::f(0.0), L::f(0.0));
-    let mut f = L::f(0.0);
-    let mut tau_c = L::f(0.0);
-    // The last brick segment with P > 0 reached: t0, t1, CDF at its end, P, mu_min.
-    let zero = L::f(0.0);
+    let (mut sum0, mut sum1) = (zero, zero);
+    let mut f = zero;
+    let mut tau_c = zero;
+    // The last segment with P > 0 reached: t0, t1, CDF at its end, P, mu_min (P = 0 until
+    // there is one).
     let (mut l_t0, mut l_t1, mut l_f, mut l_p, mut l_m) = (zero, zero, zero, zero, zero);
-    let mut dda = WideDda::<L>::new(vol, rays, prep.t_min, prep.t_max, go);
+    let mut dda = vol.dda(rays, prep.t_min, prep.t_max, go);
     let mut samples = L::u(0);
-    // Lanes still in the sample loop (a lane leaves it where the scalar loop breaks).
+    // Lanes still in the sample loop (a lane leaves it where its sample has no brick).
     let mut live = go;
+    // Each pass takes one high-resolution sample per lane (coherent on SIMD hardware).
     loop {
-        let left0 = L::u_lt(k0, nu);
-        let left1 = L::u_lt(k1, nu);
+        let left0 = L::u_lt(k0, n0);
+        let left1 = L::u_lt(k1, n1);
         let a = live & (left0 | left1);
         if !L::any(a) {
             break;
@@ -186,38 +196,41 @@ pub fn estimate_pair<L: Lanes>(
         // The adaptive variant: a jittered target of a partial last stratum past F takes no
         // sample, and that estimate is done.
         let past = a & L::m(plan.adaptive) & L::f_ge(target, prep.f);
-        k0 = L::u_sel(past & j0, nu, k0);
-        k1 = L::u_sel(past & !j0, nu, k1);
+        k0 = L::u_sel(past & j0, n0, k0);
+        k1 = L::u_sel(past & !j0, n1, k1);
         let a = a & !past;
-        // Advance over bricks until the CDF passes the target.
+        // Advance over segments until the CDF passes the target.
         loop {
-            let v = a & L::f_ge(target, f) & !dda.done;
+            let v = a & L::f_ge(target, f) & !V::done(&dda);
             if !L::any(v) {
                 break;
             }
-            let seg = dda.step(vol, v);
-            let p = L::f_from_bits(vol.brick_word::<L>(v, seg.cell, word));
-            let m = mu_min::<L>(vol, v, seg.cell, mode);
-            let len = seg.t1 - seg.t0;
+            let (s0, s1, b) = vol.step(&mut dda, v);
+            let p = vol.importance(v, &b, mode);
+            let m = vol.mu_min(v, &b, mode);
+            let len = s1 - s0;
             f = L::f_sel(v, f + len * p, f);
             tau_c = L::f_sel(v, tau_c + len * m, tau_c);
             let nonzero = v & L::f_gt(p, zero);
-            l_t0 = L::f_sel(nonzero, seg.t0, l_t0);
-            l_t1 = L::f_sel(nonzero, seg.t1, l_t1);
+            l_t0 = L::f_sel(nonzero, s0, l_t0);
+            l_t1 = L::f_sel(nonzero, s1, l_t1);
             l_f = L::f_sel(nonzero, f, l_f);
             l_p = L::f_sel(nonzero, p, l_p);
             l_m = L::f_sel(nonzero, m, l_m);
         }
+        // The sample's segment: the one whose CDF passed the target (it has P > 0), or, where
+        // rounding left the last target a hair beyond the final CDF, the last one with P > 0
+        // (the sample then goes to its end), so the count stays exactly n per estimate. A lane
+        // without one leaves the loop.
         let stop = a & !L::f_gt(l_p, zero);
         live = live & !stop;
         let a = a & !stop;
-        // The sample's location within its brick, clamped against rounding.
+        // Rewind to the sample location within the segment (Alg. 1), clamped against rounding.
         let t = l_t1 - (l_f - target) / l_p;
         let t = L::f_sel(L::f_lt(t, l_t0), l_t0, t);
         let t = L::f_sel(L::f_gt(t, l_t1), l_t1, t);
         let key = [rng, samples, L::u(0x9e37_79b9)];
-        let mu = vol.mu_at::<L>(a, wide.at(t), key);
-        let contribution = (mu - l_m) / l_p;
+        let contribution = (vol.mu_at(a, rays, t, key) - l_m) / l_p;
         samples = L::u_sel(a, L::u_add(samples, L::u(1)), samples);
         let (a0, a1) = (a & j0, a & !j0);
         sum0 = L::f_sel(a0, sum0 + contribution, sum0);
@@ -233,19 +246,19 @@ pub fn estimate_pair<L: Lanes>(
     }
     // The control variate needs the rest of the segment.
     loop {
-        let v = go & !dda.done;
+        let v = go & !V::done(&dda);
         if !L::any(v) {
             break;
         }
-        let seg = dda.step(vol, v);
-        let m = mu_min::<L>(vol, v, seg.cell, mode);
-        tau_c = L::f_sel(v, tau_c + (seg.t1 - seg.t0) * m, tau_c);
+        let (s0, s1, b) = vol.step(&mut dda, v);
+        let m = vol.mu_min(v, &b, mode);
+        tau_c = L::f_sel(v, tau_c + (s1 - s0) * m, tau_c);
     }
     WidePair {
         x0: L::f_sel(go, f_delta * sum0 + tau_c, zero),
         x1: L::f_sel(go, f_delta * sum1 + tau_c, zero),
         samples,
-        capped: prep.capped | (go & dda.exhausted()),
+        capped: prep.capped | (go & V::exhausted(&dda)),
         rng,
     }
 }

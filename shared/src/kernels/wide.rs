@@ -16,7 +16,7 @@ use crate::rgb::Rgb;
 use crate::tally::Tally;
 use crate::volume::grid::VolumeView;
 use crate::volume::texels::Texels;
-use crate::volume::wide::WideVolume;
+use crate::volume::wide::{WideRays, WideVolume};
 
 /// Most lanes a wide pass holds.
 pub const MAX_LANES: usize = 16;
@@ -75,15 +75,16 @@ pub fn transmittance_pass<L: Lanes, T: Texels>(
         }
         let on = L::m_from(|l| l < count && t0[l] < t1[l]);
         let (a, b) = (L::f_from(|l| t0[l]), L::f_from(|l| t1[l]));
-        let prep = prepare::<L>(&wide, &rays, a, b, on, cfg.importance);
+        let rays = WideRays::<L>::of(&rays);
+        let prep = prepare::<L, _>(&wide, &rays, a, b, on, cfg.importance);
         let rng = L::u_from(|l| rng[l]);
         let adaptive = cfg.estimator == Estimator::JackknifeAdaptive;
         let plan = if adaptive {
             WidePlan::adaptive(&prep, params.f_delta)
         } else {
-            WidePlan::fixed(&prep, params.n)
+            WidePlan::fixed(&prep, params.n, params.n)
         };
-        let est = estimate_pair::<L>(
+        let est = estimate_pair::<L, _>(
             &wide,
             &rays,
             &prep,

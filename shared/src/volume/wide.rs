@@ -6,11 +6,13 @@
 //!
 //! [`GridDda::bricks`]: crate::volume::dda::GridDda::bricks
 
-use crate::geometry::Ray;
+use crate::geometry::{Ray, V3};
 use crate::lanes::{f16_to_f32, pcg3d, unit_f32, Lanes};
 use crate::math;
+use crate::params::Importance;
 use crate::volume::dda::{cell_of, inv_or_zero, step_of};
 use crate::volume::grid::{Lookup, VolumeView, BRICK_DIVIDES, BRICK_WORDS, FIRST_EMPTY_SLOT};
+use crate::volume::lane_volume::LaneVolume;
 use crate::volume::texels::Texels;
 
 /// Word of a [`crate::volume::grid::Brick`] record: `mu_min`.
@@ -119,7 +121,7 @@ impl<'a> WideVolume<'a> {
     /// [`crate::estimators::optical_depth::mu_at`] at index-space points `p` in lanes `m` (0
     /// elsewhere), jitter keys `key`.
     #[inline(always)]
-    pub fn mu_at<L: Lanes>(&self, m: L::M, p: [L::F; 3], key: [L::U; 3]) -> L::F {
+    pub fn mu_at_points<L: Lanes>(&self, m: L::M, p: [L::F; 3], key: [L::U; 3]) -> L::F {
         let q = if self.lookup == Lookup::Stochastic {
             let h = pcg3d::<L>(key);
             let half = L::f(0.5);
@@ -148,6 +150,23 @@ pub struct WideRays<L: Lanes> {
 }
 
 impl<L: Lanes> WideRays<L> {
+    /// Lane l's ray.
+    #[inline(always)]
+    pub fn lane(&self, l: usize) -> Ray {
+        Ray {
+            o: V3::new(
+                L::f_at(self.o[0], l),
+                L::f_at(self.o[1], l),
+                L::f_at(self.o[2], l),
+            ),
+            d: V3::new(
+                L::f_at(self.d[0], l),
+                L::f_at(self.d[1], l),
+                L::f_at(self.d[2], l),
+            ),
+        }
+    }
+
     /// Lane l holds `rays[l]`.
     #[inline(always)]
     pub fn of(rays: &[Ray]) -> Self {
@@ -200,20 +219,20 @@ pub struct WideDda<L: Lanes> {
 }
 
 impl<L: Lanes> WideDda<L> {
-    /// The traversal of lane l's ray `rays[l]` from t_start to t_end (lanes off in `on` are
-    /// done from the start).
+    /// The traversal of lane l's ray from t_start to t_end (lanes off in `on` are done from
+    /// the start).
     #[inline(always)]
-    pub fn new(vol: &WideVolume, rays: &[Ray], t_start: L::F, t_end: L::F, on: L::M) -> Self {
+    pub fn new(vol: &WideVolume, rays: &WideRays<L>, t_start: L::F, t_end: L::F, on: L::M) -> Self {
         let size = vol.brick_size as f32;
         let cell = |a: usize| {
             L::i_from(|l| {
-                let p = rays[l].at(L::f_at(t_start, l));
+                let p = rays.lane(l).at(L::f_at(t_start, l));
                 let v = [p.x, p.y, p.z][a];
                 cell_of(v, size, 0, vol.brick_dims[a] as i32)
             })
         };
-        let step = |a: usize| L::i_from(|l| step_of([rays[l].d.x, rays[l].d.y, rays[l].d.z][a]));
-        let inv = |a: usize| L::f_from(|l| inv_or_zero([rays[l].d.x, rays[l].d.y, rays[l].d.z][a]));
+        let step = |a: usize| L::i_from(|l| step_of(L::f_at(rays.d[a], l)));
+        let inv = |a: usize| L::f_from(|l| inv_or_zero(L::f_at(rays.d[a], l)));
         let valid = L::m_from(|l| {
             let (a, b) = (L::f_at(t_start, l), L::f_at(t_end, l));
             a < b && math::is_finite(a) && math::is_finite(b)
@@ -222,11 +241,7 @@ impl<L: Lanes> WideDda<L> {
             c: [cell(0), cell(1), cell(2)],
             s: [step(0), step(1), step(2)],
             inv: [inv(0), inv(1), inv(2)],
-            o: [
-                L::f_from(|l| rays[l].o.x),
-                L::f_from(|l| rays[l].o.y),
-                L::f_from(|l| rays[l].o.z),
-            ],
+            o: rays.o,
             t: t_start,
             t_end,
             budget: L::u(vol.budget),
@@ -286,5 +301,60 @@ impl<L: Lanes> WideDda<L> {
         let left = L::u_sub(self.budget, L::u(1));
         self.budget = L::u_sel(a & !spent, left, self.budget);
         WideSegment { t0, t1, cell }
+    }
+}
+
+/// The importance word of a brick record (see [`crate::estimators::optical_depth::importance`]).
+#[inline(always)]
+fn importance_word(mode: Importance) -> u32 {
+    match mode {
+        Importance::VarianceAware => P,
+        Importance::Mean => MEAN,
+    }
+}
+
+impl<L: Lanes> LaneVolume<L> for WideVolume<'_> {
+    type Rays = WideRays<L>;
+    type Dda = WideDda<L>;
+    /// The brick's cell (its record is read where a word of it is used).
+    type Brick = [L::U; 3];
+
+    #[inline(always)]
+    fn dda(&self, rays: &WideRays<L>, t0: L::F, t1: L::F, on: L::M) -> WideDda<L> {
+        WideDda::new(self, rays, t0, t1, on)
+    }
+
+    #[inline(always)]
+    fn done(dda: &WideDda<L>) -> L::M {
+        dda.done
+    }
+
+    #[inline(always)]
+    fn exhausted(dda: &WideDda<L>) -> L::M {
+        dda.exhausted()
+    }
+
+    #[inline(always)]
+    fn step(&self, dda: &mut WideDda<L>, a: L::M) -> (L::F, L::F, [L::U; 3]) {
+        let seg = dda.step(self, a);
+        (seg.t0, seg.t1, seg.cell)
+    }
+
+    #[inline(always)]
+    fn importance(&self, m: L::M, cell: &[L::U; 3], mode: Importance) -> L::F {
+        L::f_from_bits(self.brick_word::<L>(m, *cell, importance_word(mode)))
+    }
+
+    #[inline(always)]
+    fn mu_min(&self, m: L::M, cell: &[L::U; 3], mode: Importance) -> L::F {
+        match mode {
+            Importance::VarianceAware => L::f_from_bits(self.brick_word::<L>(m, *cell, MU_MIN)),
+            Importance::Mean => L::f(0.0),
+        }
+    }
+
+    #[inline(always)]
+    fn mu_at(&self, m: L::M, rays: &WideRays<L>, t: L::F, key: [L::U; 3]) -> L::F {
+        self.mu_at_points::<L>(m, rays.at(t), key)
     }
 }
