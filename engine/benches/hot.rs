@@ -116,7 +116,7 @@ fn traversal(c: &mut Criterion) {
                 let (t0, t1) = clip_to_box(ray, hi, 0.0, f32::INFINITY);
                 if t0 < t1 {
                     let mut dda = GridDda::bricks(&vol.desc, ray, t0, t1);
-                    while !dda.done {
+                    while !dda.done() {
                         black_box(dda.step());
                         cells += 1;
                     }

@@ -175,7 +175,7 @@ fn estimator_advice(params: &RenderParams) -> String {
         Estimator::JackknifeAdaptive => format!(
             "F / F_delta exceeded {} strata, so the CDF step was widened (fewer samples than \
              --f-delta asks for); raise --f-delta",
-            shared::estimators::optical_depth::MAX_ADAPTIVE_STRATA
+            shared::estimators::wide::MAX_ADAPTIVE_STRATA
         ),
         _ => "an internal loop bound was reached".into(),
     }

@@ -42,7 +42,7 @@ pub fn reads_per_ray(packed: &PackedVolume, params: &RenderParams) -> ReadsPerRa
             }
             let mut b = GridDda::bricks(&packed.desc, &ray, t0, t1);
             let mut m = 0u64;
-            while !b.done {
+            while !b.done() {
                 b.step_brick(&vol);
                 m += 1;
             }

@@ -119,6 +119,10 @@ impl Lanes for X8 {
         a - b
     }
     #[inline(always)]
+    fn u_div(a: U, b: U) -> U {
+        a / b
+    }
+    #[inline(always)]
     fn u_mul(a: U, b: U) -> U {
         a * b
     }
@@ -228,4 +232,63 @@ unsafe fn pass_avx2<T: Texels>(
     acc: &mut [PixelSums],
 ) {
     wide::transmittance_pass::<X8, T>(vol, params, pixels, s_begin, s_end, acc);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use shared::half::f16_to_f32_lanes;
+    use shared::rng::{pcg3d_lanes, pcg_hash_lanes, unit_f32_lanes};
+
+    /// Eight values of `f` over lane indices as an [`X8`] lane value.
+    fn lanes(f: impl Fn(usize) -> u32) -> U {
+        X8::u_from(f)
+    }
+
+    /// The 8-lane forms of the hashes, `unit_f32` and the f16 decode give each lane the bits of
+    /// the one-lane form (the scalar functions): every f16 value, and 2^16 hash inputs spread
+    /// over the u32 range (a PCG-hash chain from 1), eight per call.
+    #[test]
+    fn eight_lanes_are_eight_scalar_calls() {
+        for base in (0..=0xffffu32).step_by(8) {
+            let f = f16_to_f32_lanes::<X8>(lanes(|l| base + l as u32));
+            for l in 0..8 {
+                let want = shared::half::f16_to_f32(base + l as u32).to_bits();
+                assert_eq!(
+                    X8::f_at(f, l).to_bits(),
+                    want,
+                    "f16 {:#06x}",
+                    base + l as u32
+                );
+            }
+        }
+        let mut v = [1u32; 8];
+        for (l, x) in v.iter_mut().enumerate() {
+            *x = shared::rng::pcg_hash(l as u32 + 1);
+        }
+        for _ in 0..1 << 13 {
+            let x = lanes(|l| v[l]);
+            let hashed = pcg_hash_lanes::<X8>(x);
+            let key = [
+                x,
+                lanes(|l| v[l].rotate_left(11)),
+                lanes(|l| v[l] ^ 0x9e37_79b9),
+            ];
+            let h3 = pcg3d_lanes::<X8>(key);
+            let unit = unit_f32_lanes::<X8>(x);
+            for l in 0..8 {
+                let k = [v[l], v[l].rotate_left(11), v[l] ^ 0x9e37_79b9];
+                assert_eq!(X8::u_at(hashed, l), shared::rng::pcg_hash(v[l]));
+                let want = shared::rng::pcg3d(k);
+                assert_eq!([0, 1, 2].map(|i| X8::u_at(h3[i], l)), want);
+                assert_eq!(
+                    X8::f_at(unit, l).to_bits(),
+                    shared::rng::unit_f32(v[l]).to_bits()
+                );
+            }
+            for x in v.iter_mut() {
+                *x = shared::rng::pcg_hash(*x);
+            }
+        }
+    }
 }

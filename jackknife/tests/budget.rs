@@ -19,13 +19,13 @@ fn iterations(g: &Grid, ray: &Ray) -> (u32, u32, bool) {
     }
     let mut bricks = GridDda::bricks(&vol.desc, ray, t0, t1);
     let mut nb = 0;
-    while !bricks.done {
+    while !bricks.done() {
         bricks.step_brick(&vol);
         nb += 1;
     }
     let mut voxels = GridDda::voxels(&vol.desc, ray, t0, t1);
     let mut nv = 0;
-    while !voxels.done {
+    while !voxels.done() {
         voxels.step_voxel(&vol);
         nv += 1;
     }

@@ -1,21 +1,28 @@
 //! IEEE half-precision decoding with integer operations only (no f16 type on SPIR-V needed).
 
+use crate::lanes::{Lanes, One};
+
 /// The f32 value of the binary16 number with bits `h` (exact; every f16 is an f32).
 #[inline]
 pub fn f16_to_f32(h: u32) -> f32 {
-    let sign = (h & 0x8000) << 16;
-    let exp = (h >> 10) & 0x1f;
-    let mant = h & 0x03ff;
-    if exp == 0 {
-        // Zero or subnormal: mant * 2^-24, exact in f32.
-        let v = mant as f32 * (1.0 / 16_777_216.0);
-        return f32::from_bits(v.to_bits() | sign);
-    }
-    if exp == 31 {
-        // Inf or NaN.
-        return f32::from_bits(sign | 0x7f80_0000 | (mant << 13));
-    }
-    f32::from_bits(sign | ((exp + 112) << 23) | (mant << 13))
+    f16_to_f32_lanes::<One>(h)
+}
+
+/// [`f16_to_f32`] lane by lane (its one body): zero or subnormal (exponent 0) is mant * 2^-24,
+/// exact in f32; exponent 31 is inf or NaN.
+#[inline(always)]
+pub fn f16_to_f32_lanes<L: Lanes>(h: L::U) -> L::F {
+    let sign = L::u_shl(L::u_and(h, L::u(0x8000)), L::u(16));
+    let exp = L::u_and(L::u_shr(h, L::u(10)), L::u(0x1f));
+    let mant = L::u_and(h, L::u(0x03ff));
+    let mant13 = L::u_shl(mant, L::u(13));
+    let tiny = L::u_to_f(mant) * L::f(1.0 / 16_777_216.0);
+    let tiny = L::f_from_bits(L::u_or(L::f_bits(tiny), sign));
+    let special = L::f_from_bits(L::u_or(L::u_or(sign, L::u(0x7f80_0000)), mant13));
+    let exp112 = L::u_shl(L::u_add(exp, L::u(112)), L::u(23));
+    let normal = L::f_from_bits(L::u_or(L::u_or(sign, exp112), mant13));
+    let v = L::f_sel(L::u_eq(exp, L::u(31)), special, normal);
+    L::f_sel(L::u_eq(exp, L::u(0)), tiny, v)
 }
 
 /// The half at `index` of an array packed two per u32 (low half first).

@@ -1,8 +1,9 @@
-//! Several rays per instruction: the lane types that the wide traversal and Alg. 1/2
-//! ([`crate::estimators::wide`]) are written over. [`One`] is one lane of plain scalars (no_std,
-//! SPIR-V); the CPU backend implements the trait over 8-lane vectors. Every operation is the
-//! lane-wise IEEE (or wrapping integer) operation of the scalar code, so each lane computes the
-//! bits the scalar functions compute for its ray.
+//! Several rays per instruction: the lane types that Alg. 1/2 ([`crate::estimators::wide`]), the
+//! traversal step ([`crate::volume::walk`]), the hashes ([`crate::rng`]) and the f16 decode
+//! ([`crate::half`]) are written over, once. [`One`] is one lane of plain scalars (no_std,
+//! SPIR-V): the scalar functions are those bodies over it. The CPU backend implements the trait
+//! over 8-lane vectors. Every operation is the lane-wise IEEE (or wrapping integer) operation,
+//! so each lane computes the bits one lane computes for its ray.
 
 use core::ops::{Add, BitAnd, BitOr, Div, Mul, Not, Sub};
 
@@ -49,6 +50,8 @@ pub trait Lanes: Copy {
     fn u_add(a: Self::U, b: Self::U) -> Self::U;
     fn u_sub(a: Self::U, b: Self::U) -> Self::U;
     fn u_mul(a: Self::U, b: Self::U) -> Self::U;
+    /// `a / b` (b nonzero in every lane).
+    fn u_div(a: Self::U, b: Self::U) -> Self::U;
     fn u_and(a: Self::U, b: Self::U) -> Self::U;
     fn u_or(a: Self::U, b: Self::U) -> Self::U;
     fn u_xor(a: Self::U, b: Self::U) -> Self::U;
@@ -183,6 +186,10 @@ impl Lanes for One {
         a.wrapping_sub(b)
     }
     #[inline]
+    fn u_div(a: u32, b: u32) -> u32 {
+        a / b
+    }
+    #[inline]
     fn u_mul(a: u32, b: u32) -> u32 {
         a.wrapping_mul(b)
     }
@@ -269,81 +276,5 @@ impl Lanes for One {
     #[inline]
     fn i_to_u(v: i32) -> u32 {
         v as u32
-    }
-}
-
-/// [`crate::rng::pcg_hash`] lane by lane.
-#[inline(always)]
-pub fn pcg_hash<L: Lanes>(v: L::U) -> L::U {
-    let state = L::u_add(L::u_mul(v, L::u(747_796_405)), L::u(2_891_336_453));
-    let shift = L::u_add(L::u_shr(state, L::u(28)), L::u(4));
-    let word = L::u_mul(L::u_xor(L::u_shr(state, shift), state), L::u(277_803_737));
-    L::u_xor(L::u_shr(word, L::u(22)), word)
-}
-
-/// [`crate::rng::pcg3d`] lane by lane.
-#[inline(always)]
-pub fn pcg3d<L: Lanes>(v: [L::U; 3]) -> [L::U; 3] {
-    let (a, c) = (L::u(1_664_525), L::u(1_013_904_223));
-    let mut x = L::u_add(L::u_mul(v[0], a), c);
-    let mut y = L::u_add(L::u_mul(v[1], a), c);
-    let mut z = L::u_add(L::u_mul(v[2], a), c);
-    x = L::u_add(x, L::u_mul(y, z));
-    y = L::u_add(y, L::u_mul(z, x));
-    z = L::u_add(z, L::u_mul(x, y));
-    x = L::u_xor(x, L::u_shr(x, L::u(16)));
-    y = L::u_xor(y, L::u_shr(y, L::u(16)));
-    z = L::u_xor(z, L::u_shr(z, L::u(16)));
-    x = L::u_add(x, L::u_mul(y, z));
-    y = L::u_add(y, L::u_mul(z, x));
-    z = L::u_add(z, L::u_mul(x, y));
-    [x, y, z]
-}
-
-/// [`crate::rng::unit_f32`] lane by lane.
-#[inline(always)]
-pub fn unit_f32<L: Lanes>(bits: L::U) -> L::F {
-    L::u_to_f(L::u_shr(bits, L::u(8))) * L::f(crate::rng::INV_2_POW_24)
-}
-
-/// [`crate::half::f16_to_f32`] lane by lane.
-#[inline(always)]
-pub fn f16_to_f32<L: Lanes>(h: L::U) -> L::F {
-    let sign = L::u_shl(L::u_and(h, L::u(0x8000)), L::u(16));
-    let exp = L::u_and(L::u_shr(h, L::u(10)), L::u(0x1f));
-    let mant = L::u_and(h, L::u(0x03ff));
-    let mant13 = L::u_shl(mant, L::u(13));
-    let tiny = L::u_to_f(mant) * L::f(1.0 / 16_777_216.0);
-    let tiny = L::f_from_bits(L::u_or(L::f_bits(tiny), sign));
-    let special = L::f_from_bits(L::u_or(L::u_or(sign, L::u(0x7f80_0000)), mant13));
-    let exp112 = L::u_shl(L::u_add(exp, L::u(112)), L::u(23));
-    let normal = L::f_from_bits(L::u_or(L::u_or(sign, exp112), mant13));
-    let v = L::f_sel(L::u_eq(exp, L::u(31)), special, normal);
-    L::f_sel(L::u_eq(exp, L::u(0)), tiny, v)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The lane forms over [`One`] give the scalar functions' bits: every f16 value, and the
-    /// hashes and `unit_f32` on 2^16 inputs spread over the u32 range (seeded by a PCG hash).
-    #[test]
-    fn one_lane_is_the_scalar_functions() {
-        for h in 0..=0xffffu32 {
-            let want = crate::half::f16_to_f32(h).to_bits();
-            assert_eq!(f16_to_f32::<One>(h).to_bits(), want, "f16 {h:#06x}");
-        }
-        let mut v = 1u32;
-        for _ in 0..1 << 16 {
-            v = crate::rng::pcg_hash(v);
-            assert_eq!(pcg_hash::<One>(v), crate::rng::pcg_hash(v));
-            let k = [v, v.rotate_left(11), v ^ 0x9e37_79b9];
-            assert_eq!(pcg3d::<One>(k), crate::rng::pcg3d(k));
-            assert_eq!(
-                unit_f32::<One>(v).to_bits(),
-                crate::rng::unit_f32(v).to_bits()
-            );
-        }
     }
 }

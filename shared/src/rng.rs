@@ -3,6 +3,7 @@
 //!
 //! State is passed in and returned, so the CPU and every GPU invocation draw identical streams.
 
+use crate::lanes::{Lanes, One};
 use bytemuck::{Pod, Zeroable};
 
 /// PCG32 multiplier (O'Neill's 64-bit LCG constant, as in `rand_pcg`).
@@ -105,32 +106,52 @@ pub fn rotate_right(x: u32, r: u32) -> u32 {
 /// Maps 32 random bits to [0, 1) using the top 24 (exact in f32).
 #[inline]
 pub fn unit_f32(bits: u32) -> f32 {
-    (bits >> 8) as f32 * INV_2_POW_24
+    unit_f32_lanes::<One>(bits)
+}
+
+/// [`unit_f32`] lane by lane (its one body).
+#[inline(always)]
+pub fn unit_f32_lanes<L: Lanes>(bits: L::U) -> L::F {
+    L::u_to_f(L::u_shr(bits, L::u(8))) * L::f(INV_2_POW_24)
 }
 
 /// PCG hash of one u32 (Jarzynski & Olano 2020, "pcg"): a well-mixed seed per pixel.
 #[inline]
 pub fn pcg_hash(v: u32) -> u32 {
-    let state = v.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
-    let word = ((state >> ((state >> 28).wrapping_add(4))) ^ state).wrapping_mul(277_803_737);
-    (word >> 22) ^ word
+    pcg_hash_lanes::<One>(v)
+}
+
+/// [`pcg_hash`] lane by lane (its one body).
+#[inline(always)]
+pub fn pcg_hash_lanes<L: Lanes>(v: L::U) -> L::U {
+    let state = L::u_add(L::u_mul(v, L::u(747_796_405)), L::u(2_891_336_453));
+    let shift = L::u_add(L::u_shr(state, L::u(28)), L::u(4));
+    let word = L::u_mul(L::u_xor(L::u_shr(state, shift), state), L::u(277_803_737));
+    L::u_xor(L::u_shr(word, L::u(22)), word)
 }
 
 /// PCG3D (Jarzynski & Olano 2020): three well-mixed u32 from three, for 3D jitter.
 #[inline]
 pub fn pcg3d(v: [u32; 3]) -> [u32; 3] {
-    let mut x = v[0].wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-    let mut y = v[1].wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-    let mut z = v[2].wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-    x = x.wrapping_add(y.wrapping_mul(z));
-    y = y.wrapping_add(z.wrapping_mul(x));
-    z = z.wrapping_add(x.wrapping_mul(y));
-    x ^= x >> 16;
-    y ^= y >> 16;
-    z ^= z >> 16;
-    x = x.wrapping_add(y.wrapping_mul(z));
-    y = y.wrapping_add(z.wrapping_mul(x));
-    z = z.wrapping_add(x.wrapping_mul(y));
+    pcg3d_lanes::<One>(v)
+}
+
+/// [`pcg3d`] lane by lane (its one body).
+#[inline(always)]
+pub fn pcg3d_lanes<L: Lanes>(v: [L::U; 3]) -> [L::U; 3] {
+    let (a, c) = (L::u(1_664_525), L::u(1_013_904_223));
+    let mut x = L::u_add(L::u_mul(v[0], a), c);
+    let mut y = L::u_add(L::u_mul(v[1], a), c);
+    let mut z = L::u_add(L::u_mul(v[2], a), c);
+    x = L::u_add(x, L::u_mul(y, z));
+    y = L::u_add(y, L::u_mul(z, x));
+    z = L::u_add(z, L::u_mul(x, y));
+    x = L::u_xor(x, L::u_shr(x, L::u(16)));
+    y = L::u_xor(y, L::u_shr(y, L::u(16)));
+    z = L::u_xor(z, L::u_shr(z, L::u(16)));
+    x = L::u_add(x, L::u_mul(y, z));
+    y = L::u_add(y, L::u_mul(z, x));
+    z = L::u_add(z, L::u_mul(x, y));
     [x, y, z]
 }
 

@@ -408,7 +408,7 @@ fn map_texels_match_an_f64_march() {
             };
             if t0 < t1 {
                 let mut dda = GridDda::voxels(&view.desc, &ray, t0, t1);
-                while !dda.done {
+                while !dda.done() {
                     let seg = dda.step();
                     tau += (seg.t1 - seg.t0) as f64
                         * view.voxel(seg.cell[0], seg.cell[1], seg.cell[2]) as f64;

@@ -90,7 +90,7 @@ fn dda_segments_tile_the_clipped_ray_and_match_their_cells() {
         }
         let mut dda = GridDda::bricks(&packed.desc, &ray, t0, t1);
         let mut t = t0;
-        while !dda.done {
+        while !dda.done() {
             let s = dda.step();
             assert_eq!(s.t0, t, "segments must be contiguous");
             assert!(s.t1 >= s.t0);

@@ -1,45 +1,16 @@
 //! Optical depth estimation along a ray: Alg. 2 (preparation) and Alg. 1 (two interleaved,
 //! stratified, importance-sampled estimates with the mu_min control variate), Sec. 4.
 
+use crate::estimators::lane_volume::ScalarVolume;
 use crate::estimators::wide::{self, WidePlan, WidePrep};
+pub use crate::estimators::wide::{Prep, Strata, MAX_ADAPTIVE_STRATA};
 use crate::geometry::Ray;
-use crate::geometry::V3;
 use crate::lanes::One;
-use crate::math;
 use crate::params::{Importance, Jitter};
-use crate::rng::{pcg3d, unit_f32, HashRng};
+use crate::rng::HashRng;
 use crate::tally::Tally;
-use crate::volume::grid::{Brick, Lookup, VolumeView};
-use crate::volume::lane_volume::ScalarVolume;
+use crate::volume::grid::{Lookup, VolumeView};
 use crate::volume::texels::Texels;
-
-/// Sampling importance of a brick.
-#[inline]
-pub fn importance(b: &Brick, mode: Importance) -> f32 {
-    match mode {
-        Importance::VarianceAware => b.p,
-        Importance::Mean => b.mean,
-    }
-}
-
-/// Control variate mu_min of a brick (0 without a control variate).
-#[inline]
-pub fn mu_min(b: &Brick, mode: Importance) -> f32 {
-    match mode {
-        Importance::VarianceAware => b.mu_min,
-        Importance::Mean => 0.0,
-    }
-}
-
-/// Output of Alg. 2: the integral of importance F and the tight segment [t'_min, t'_max].
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Prep {
-    pub f: f32,
-    pub t_min: f32,
-    pub t_max: f32,
-    /// Whether the traversal's iteration budget ended it early ([`SuperVoxelDda::exhausted`]).
-    pub capped: bool,
-}
 
 /// Alg. 2: one DDA over the super-voxels of [t0, t1], summing (t_{n+1} - t_n) P into F and recording
 /// the entry of the first and the exit of the last super-voxel with P != 0 (one lane of
@@ -72,24 +43,6 @@ impl DepthPairEstimate {
     #[inline]
     pub fn tally(&self) -> Tally {
         Tally::lookups(self.samples).capped_if(self.capped)
-    }
-}
-
-/// Extinction at index-space point p with the chosen lookup; `key` decorrelates the jitter.
-#[inline]
-pub fn mu_at(vol: &VolumeView<impl Texels>, p: V3, lookup: Lookup, key: [u32; 3]) -> f32 {
-    match lookup {
-        Lookup::Nearest => vol.mu_nearest(p),
-        Lookup::Stochastic => {
-            let h = pcg3d(key);
-            let j = V3::new(
-                unit_f32(h[0]) - 0.5,
-                unit_f32(h[1]) - 0.5,
-                unit_f32(h[2]) - 0.5,
-            );
-            vol.mu_nearest(p + j)
-        }
-        Lookup::Trilinear => vol.mu_trilinear(p),
     }
 }
 
@@ -130,9 +83,6 @@ pub fn estimate_single(
     estimate_interleaved(vol, ray, prep, &plan, mode, jitter, lookup, rng)
 }
 
-/// Most strata per estimate in the adaptive variant (bounds the work per ray on the GPU).
-pub const MAX_ADAPTIVE_STRATA: u32 = 1024;
-
 /// Alg. 1 with a constant CDF step F_delta (the paper's adaptive variant, Fig. 8d): the sample
 /// count grows with the importance integral F; the last, partial stratum is sampled only when
 /// its jittered target falls below F, which keeps the estimate unbiased.
@@ -167,62 +117,6 @@ pub fn adaptive_capped(prep: &Prep, f_delta: f32) -> bool {
 #[inline]
 pub fn adaptive_unsampled(prep: &Prep, f_delta: f32, samples: u32) -> bool {
     (prep.f > 0.0) & (Strata::adaptive(prep, f_delta).n0 == 1) & (samples < 2)
-}
-
-/// How Alg. 1 divides the importance CDF: step, strata per estimate, and whether targets past
-/// F are skipped (adaptive) or clamped into the last brick (fixed count; only rounding).
-#[derive(Clone, Copy, Debug)]
-pub struct Strata {
-    pub f_delta: f32,
-    pub n0: u32,
-    pub n1: u32,
-    pub adaptive: bool,
-}
-
-impl Strata {
-    /// F_delta = F / N with exactly n0 and n1 samples (Sec. 4.3, fixed sample count).
-    #[inline]
-    pub fn fixed(prep: &Prep, n0: u32, n1: u32) -> Self {
-        let n = if n0 > n1 { n0 } else { n1 };
-        Strata {
-            f_delta: prep.f / n as f32,
-            n0,
-            n1,
-            adaptive: false,
-        }
-    }
-
-    /// A constant F_delta; ceil(F / F_delta) strata per estimate, capped.
-    #[inline]
-    pub fn adaptive(prep: &Prep, f_delta: f32) -> Self {
-        let strata = if f_delta > 0.0 {
-            let q = prep.f / f_delta;
-            if q >= MAX_ADAPTIVE_STRATA as f32 {
-                MAX_ADAPTIVE_STRATA
-            } else {
-                let c = math::floor(q) as u32;
-                if (c as f32) < q {
-                    c + 1
-                } else {
-                    c
-                }
-            }
-        } else {
-            0
-        };
-        // With the cap reached, widen the step so the strata still cover [0, F].
-        let f_delta = if strata == MAX_ADAPTIVE_STRATA && prep.f > f_delta * strata as f32 {
-            prep.f / strata as f32
-        } else {
-            f_delta
-        };
-        Strata {
-            f_delta,
-            n0: strata,
-            n1: strata,
-            adaptive: true,
-        }
-    }
 }
 
 /// The shared loop of Alg. 1: up to two interleaved estimates over one DDA (Sec. 4.3): one lane

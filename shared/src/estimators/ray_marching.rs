@@ -2,7 +2,8 @@
 //! series with aggressive Russian roulette and U-statistics), over mean-based importance sampling
 //! with tight segments and uniform jitter, as the paper compares them (Sec. 6; REFERENCE.md).
 
-use crate::estimators::optical_depth::{estimate_single, prepare, DepthPairEstimate, Prep};
+use crate::estimators::optical_depth::{estimate_single, prepare, DepthPairEstimate};
+use crate::estimators::wide::Prep;
 use crate::geometry::Ray;
 use crate::math;
 use crate::params::{Importance, Jitter};

@@ -6,7 +6,7 @@
 //! The sampler is a pull iterator rather than pbrt-v4's callback, so every loop is flat, bounded
 //! and free of closures on the GPU.
 
-use crate::estimators::optical_depth::mu_at;
+use crate::estimators::lane_volume::mu_at;
 use crate::geometry::Ray;
 use crate::math;
 use crate::rng::HashRng;
@@ -41,7 +41,7 @@ pub fn regular_tracking_tau(
     let mut tau = 0.0f32;
     let mut visited = 0u32;
     let mut dda = GridDda::voxels(&vol.desc, ray, t0, t1);
-    while !dda.done {
+    while !dda.done() {
         let (seg, read) = dda.step_voxel(vol);
         if read {
             tau += (seg.t1 - seg.t0) * vol.voxel(seg.cell[0], seg.cell[1], seg.cell[2]);
@@ -330,7 +330,7 @@ pub fn exact_free_flight(
     }
     let mut tau = 0.0f32;
     let mut dda = GridDda::voxels(&vol.desc, ray, t0, t1);
-    while !dda.done && !out.found {
+    while !dda.done() && !out.found {
         let (seg, read) = dda.step_voxel(vol);
         if !read {
             // An all-zero cube: no collision, nothing added to tau.

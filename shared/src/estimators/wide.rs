@@ -1,18 +1,88 @@
 //! Alg. 2 and Alg. 1 (two interleaved, stratified, importance-sampled estimates with the
 //! mu_min control variate; a fixed N, one estimate, or the adaptive variant's fixed step), Sec. 4:
 //! the one body of both, written over lanes ([`Lanes`]) and a volume that reads them
-//! ([`LaneVolume`]). One lane over [`crate::volume::lane_volume::ScalarVolume`] is
+//! ([`LaneVolume`]). One lane over [`crate::estimators::lane_volume::ScalarVolume`] is
 //! [`crate::estimators::optical_depth`]'s `prepare` and `estimate_interleaved`, which the GPU's
 //! kernels and the CPU's scalar paths run; eight lanes over [`crate::volume::wide::WideVolume`]
 //! the CPU's wide pass. A loop runs while any lane has work, and a lane's values change only
 //! under its mask, so each lane's estimates are the bits of its ray alone.
 
-use crate::estimators::optical_depth::{Prep, Strata};
-use crate::lanes::{pcg_hash, unit_f32, Lanes};
+use crate::estimators::lane_volume::LaneVolume;
+use crate::lanes::Lanes;
+use crate::math;
 use crate::params::{Importance, Jitter};
-use crate::volume::lane_volume::LaneVolume;
+use crate::rng::{pcg_hash_lanes, unit_f32_lanes};
 
-/// [`crate::estimators::optical_depth::Prep`] per lane.
+/// Output of Alg. 2: the integral of importance F and the tight segment [t'_min, t'_max].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Prep {
+    pub f: f32,
+    pub t_min: f32,
+    pub t_max: f32,
+    /// Whether the traversal's iteration budget ended it early ([`crate::volume::supervoxels::SuperVoxelDda::exhausted`]).
+    pub capped: bool,
+}
+
+/// Most strata per estimate in the adaptive variant (bounds the work per ray on the GPU).
+pub const MAX_ADAPTIVE_STRATA: u32 = 1024;
+
+/// How Alg. 1 divides the importance CDF: step, strata per estimate, and whether targets past
+/// F are skipped (adaptive) or clamped into the last brick (fixed count; only rounding).
+#[derive(Clone, Copy, Debug)]
+pub struct Strata {
+    pub f_delta: f32,
+    pub n0: u32,
+    pub n1: u32,
+    pub adaptive: bool,
+}
+
+impl Strata {
+    /// F_delta = F / N with exactly n0 and n1 samples (Sec. 4.3, fixed sample count).
+    #[inline]
+    pub fn fixed(prep: &Prep, n0: u32, n1: u32) -> Self {
+        let n = if n0 > n1 { n0 } else { n1 };
+        Strata {
+            f_delta: prep.f / n as f32,
+            n0,
+            n1,
+            adaptive: false,
+        }
+    }
+
+    /// A constant F_delta; ceil(F / F_delta) strata per estimate, capped.
+    #[inline]
+    pub fn adaptive(prep: &Prep, f_delta: f32) -> Self {
+        let strata = if f_delta > 0.0 {
+            let q = prep.f / f_delta;
+            if q >= MAX_ADAPTIVE_STRATA as f32 {
+                MAX_ADAPTIVE_STRATA
+            } else {
+                let c = math::floor(q) as u32;
+                if (c as f32) < q {
+                    c + 1
+                } else {
+                    c
+                }
+            }
+        } else {
+            0
+        };
+        // With the cap reached, widen the step so the strata still cover [0, F].
+        let f_delta = if strata == MAX_ADAPTIVE_STRATA && prep.f > f_delta * strata as f32 {
+            prep.f / strata as f32
+        } else {
+            f_delta
+        };
+        Strata {
+            f_delta,
+            n0: strata,
+            n1: strata,
+            adaptive: true,
+        }
+    }
+}
+
+/// [`Prep`] per lane.
 #[derive(Clone, Copy)]
 pub struct WidePrep<L: Lanes> {
     pub f: L::F,
@@ -140,8 +210,8 @@ pub fn prepare<L: Lanes, V: LaneVolume<L>>(
 /// ([`crate::rng::HashRng::next_f32_open0`]).
 #[inline(always)]
 fn next_open0<L: Lanes>(state: L::U) -> (L::F, L::U) {
-    let s = pcg_hash::<L>(state);
-    (L::f(1.0) - unit_f32::<L>(s), s)
+    let s = pcg_hash_lanes::<L>(state);
+    (L::f(1.0) - unit_f32_lanes::<L>(s), s)
 }
 
 /// Alg. 1 by `plan` for the rays of the lanes `on`, over `prep`'s tight segments, each lane's

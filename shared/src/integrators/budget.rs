@@ -5,8 +5,8 @@
 
 use super::stages::Wavefront;
 use super::unit::Family;
-use crate::estimators::optical_depth::MAX_ADAPTIVE_STRATA;
 use crate::estimators::ray_marching::{MAX_BIASED_SAMPLES, MAX_DEGREE, MAX_UNBIASED_SAMPLES};
+use crate::estimators::wide::MAX_ADAPTIVE_STRATA;
 use crate::params::{Estimator, Integrator, RenderParams};
 use crate::sampling::lights::MAX_LIGHTS;
 use crate::volume::grid::GridDesc;

@@ -1,6 +1,6 @@
 //! What the strategies of one camera ray share: the ray, its segment in the grid, the light.
 
-use crate::estimators::optical_depth::mu_at;
+use crate::estimators::lane_volume::mu_at;
 use crate::geometry::{Ray, V3};
 use crate::params::{Config, RenderParams};
 use crate::rng::HashRng;

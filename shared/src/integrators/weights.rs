@@ -2,8 +2,9 @@
 //! naive g(X) of Fig. 12d), and the power heuristic through Re g (beyond the paper).
 
 use crate::complex::Complex;
-use crate::estimators::optical_depth::{estimate_interleaved, prepare, DepthPairEstimate, Strata};
+use crate::estimators::optical_depth::{estimate_interleaved, prepare, DepthPairEstimate};
 use crate::estimators::transmittance;
+use crate::estimators::wide::Strata;
 use crate::geometry::Ray;
 use crate::math;
 use crate::params::{Importance, Jitter};

@@ -103,7 +103,7 @@ pub fn build_texel6(
         let mut tau = 0.0f32;
         let mut visited = 0u32;
         let mut dda = GridDda::new(1.0, [d[0], d[1], d[2]], &ray, t0, t1);
-        while !dda.done && visited < cap {
+        while !dda.done() && visited < cap {
             let seg = dda.step();
             tau += (seg.t1 - seg.t0) * vol.voxel(seg.cell[0], seg.cell[1], seg.cell[2]);
             let next = exp(-tau);

@@ -5,9 +5,11 @@
 //! bit, in fewer iterations.
 
 use crate::geometry::{Ray, V3};
+use crate::lanes::One;
 use crate::math;
 use crate::volume::grid::{traversal_budget, Brick, GridDesc, VolumeView, BRICK_DIVIDES, NO_SKIP};
 use crate::volume::texels::Texels;
+use crate::volume::walk::{cell_of, start_of, valid, Walk};
 
 /// Clips [t_lo, t_hi] to the box [0, hi] (slab test). Returns (t_enter, t_exit); the ray misses
 /// when `!(t_enter < t_exit)`. Axis-parallel rays are handled without 0 * inf. Degenerate input
@@ -94,17 +96,11 @@ pub struct Cursor {
 /// ((plane - o) / d), never accumulated, so two traversals of one ray agree on every t.
 #[derive(Clone, Copy, Debug)]
 pub struct GridDda {
-    cx: i32,
-    cy: i32,
-    cz: i32,
-    sx: i32,
-    sy: i32,
-    sz: i32,
-    inv: V3,
-    o: V3,
+    /// Where the traversal stands: cell, step, 1/d and origin per axis, t and t_end, the
+    /// iterations left before it is forced to end (see [`GridDesc::brick_steps`]), whether that
+    /// budget ended it before its end, whether it ended.
+    walk: Walk<One>,
     d: V3,
-    t: f32,
-    t_end: f32,
     size: f32,
     /// The traversed cells are [lo, dims) per axis (lo 0 but in the cells of one brick).
     lo: [i32; 3],
@@ -114,33 +110,6 @@ pub struct GridDda {
     unit: i32,
     /// log2 of `unit` when it is a power of two, else [`BRICK_DIVIDES`] (see [`GridDda::cube_last`]).
     unit_log2: u32,
-    /// Iterations left before the traversal is forced to end (see [`GridDesc::brick_steps`]).
-    budget: u32,
-    /// Whether the budget ended the traversal before it reached its end.
-    exhausted: bool,
-    pub done: bool,
-}
-
-/// Sign of d as a step: +1, -1, or 0 for an axis the ray does not move along.
-#[inline]
-pub(crate) fn step_of(d: f32) -> i32 {
-    if d > 0.0 {
-        1
-    } else if d < 0.0 {
-        -1
-    } else {
-        0
-    }
-}
-
-/// 1/d, or 0 where d = 0 (that axis never crosses a plane).
-#[inline]
-pub(crate) fn inv_or_zero(d: f32) -> f32 {
-    if d == 0.0 {
-        0.0
-    } else {
-        1.0 / d
-    }
 }
 
 /// Along one axis, where a ray moving by `step` from cell c enters and leaves the slab of cells
@@ -182,19 +151,6 @@ fn min4(a: f32, x: f32, y: f32, z: f32) -> f32 {
         z
     } else {
         m
-    }
-}
-
-/// Cell index of coordinate v, clamped to [lo, n-1].
-#[inline]
-pub(crate) fn cell_of(v: f32, size: f32, lo: i32, n: i32) -> i32 {
-    let c = math::floor(v / size);
-    if !(c >= lo as f32) {
-        lo
-    } else if c >= n as f32 {
-        n - 1
-    } else {
-        c as i32
     }
 }
 
@@ -257,32 +213,14 @@ impl GridDda {
         t_end: f32,
     ) -> Self {
         let dims = [cells[0] as i32, cells[1] as i32, cells[2] as i32];
-        let p = ray.at(t_start);
-        let valid = t_start < t_end && math::is_finite(t_start) && math::is_finite(t_end);
         GridDda {
-            cx: cell_of(p.x, size, 0, dims[0]),
-            cy: cell_of(p.y, size, 0, dims[1]),
-            cz: cell_of(p.z, size, 0, dims[2]),
-            sx: step_of(ray.d.x),
-            sy: step_of(ray.d.y),
-            sz: step_of(ray.d.z),
-            inv: V3::new(
-                inv_or_zero(ray.d.x),
-                inv_or_zero(ray.d.y),
-                inv_or_zero(ray.d.z),
-            ),
-            o: ray.o,
+            walk: Walk::start(ray, t_start, t_end, size, [0; 3], dims, budget),
             d: ray.d,
-            t: t_start,
-            t_end,
             size,
             lo: [0; 3],
             dims,
             unit,
             unit_log2,
-            budget,
-            exhausted: false,
-            done: !valid,
         }
     }
 
@@ -302,26 +240,22 @@ impl GridDda {
     ) -> Self {
         let lo = [lo[0] as i32, lo[1] as i32, lo[2] as i32];
         let dims = [hi[0] as i32, hi[1] as i32, hi[2] as i32];
-        let p = Ray {
-            o: self.o,
-            d: self.d,
-        }
-        .at(t_start);
-        let valid = t_start < t_end && math::is_finite(t_start) && math::is_finite(t_end);
+        let st = start_of(&self.ray(), t_start, size, lo, dims);
         GridDda {
-            cx: cell_of(p.x, size, lo[0], dims[0]),
-            cy: cell_of(p.y, size, lo[1], dims[1]),
-            cz: cell_of(p.z, size, lo[2], dims[2]),
-            t: t_start,
-            t_end,
+            walk: Walk {
+                c: st.c,
+                t: t_start,
+                t_end,
+                budget,
+                exhausted: false,
+                done: !valid(t_start, t_end),
+                ..self.walk
+            },
             size,
             lo,
             dims,
             unit: 1,
             unit_log2: 0,
-            budget,
-            exhausted: false,
-            done: !valid,
             ..*self
         }
     }
@@ -345,15 +279,35 @@ impl GridDda {
         t_start: f32,
         t_end: f32,
     ) -> (f32, f32) {
-        let p = Ray {
-            o: self.o,
-            d: self.d,
-        }
-        .at(t_start);
+        let p = self.ray().at(t_start);
         let c = |v: f32, a: usize| cell_of(v, size, outer_lo[a] as i32, outer_hi[a] as i32);
-        let x = axis_span(size, c(p.x, 0), lo[0], hi[0], self.sx, self.o.x, self.inv.x);
-        let y = axis_span(size, c(p.y, 1), lo[1], hi[1], self.sy, self.o.y, self.inv.y);
-        let z = axis_span(size, c(p.z, 2), lo[2], hi[2], self.sz, self.o.z, self.inv.z);
+        let x = axis_span(
+            size,
+            c(p.x, 0),
+            lo[0],
+            hi[0],
+            self.walk.s[0],
+            self.walk.o[0],
+            self.walk.inv[0],
+        );
+        let y = axis_span(
+            size,
+            c(p.y, 1),
+            lo[1],
+            hi[1],
+            self.walk.s[1],
+            self.walk.o[1],
+            self.walk.inv[1],
+        );
+        let z = axis_span(
+            size,
+            c(p.z, 2),
+            lo[2],
+            hi[2],
+            self.walk.s[2],
+            self.walk.o[2],
+            self.walk.inv[2],
+        );
         if !(x.2 && y.2 && z.2) {
             return (t_end, t_start);
         }
@@ -365,7 +319,7 @@ impl GridDda {
     /// Iterations left of the budget.
     #[inline]
     pub fn budget_left(&self) -> u32 {
-        self.budget
+        self.walk.budget
     }
 
     /// Whether the traversal ended because its budget of iterations ran out, before reaching
@@ -373,23 +327,27 @@ impl GridDda {
     /// verified in closed form (which then steps) can take a traversal past the builder's bound.
     #[inline]
     pub fn exhausted(&self) -> bool {
-        self.exhausted
+        self.walk.exhausted
     }
 
-    /// Parameter where the ray leaves the current cell along one axis (+inf if it never does).
+    /// The ray (index space).
     #[inline]
-    fn exit(&self, c: i32, s: i32, o: f32, inv: f32) -> f32 {
-        if s == 0 {
-            return f32::INFINITY;
+    fn ray(&self) -> Ray {
+        let o = self.walk.o;
+        Ray {
+            o: V3::new(o[0], o[1], o[2]),
+            d: self.d,
         }
-        let plane = c.wrapping_add(if s > 0 { 1 } else { 0 }) as f32 * self.size;
-        (plane - o) * inv
     }
 
     /// The current cell (the next segment's, while `!done`).
     #[inline]
     pub fn cell(&self) -> [u32; 3] {
-        [self.cx as u32, self.cy as u32, self.cz as u32]
+        [
+            self.walk.c[0] as u32,
+            self.walk.c[1] as u32,
+            self.walk.c[2] as u32,
+        ]
     }
 
     /// The next brick segment and its statistics (call only while `!done`). An all-zero brick
@@ -416,7 +374,7 @@ impl GridDda {
         after_end: bool,
     ) -> (Segment, Brick) {
         let cell = self.cell();
-        let b = if after_end & self.done {
+        let b = if after_end & self.walk.done {
             Brick::ZERO
         } else {
             vol.brick(cell)
@@ -429,9 +387,9 @@ impl GridDda {
         // A pipeline that steps through all-zero bricks (`GridDesc::brick_stepping`, folded by
         // specialization) leaves the skip out entirely.
         if (vol.desc.brick_stepping == 0) & (level != NO_SKIP) & (level != 0) {
-            let t0 = self.t;
+            let t0 = self.walk.t;
             if self.skip_cube(level) {
-                let t1 = self.t;
+                let t1 = self.walk.t;
                 return (Segment { t0, t1, cell }, b);
             }
         }
@@ -442,11 +400,11 @@ impl GridDda {
     #[inline]
     pub fn cursor(&self) -> Cursor {
         Cursor {
-            cell: [self.cx, self.cy, self.cz],
-            t: self.t,
-            budget: self.budget,
-            exhausted: self.exhausted,
-            done: self.done,
+            cell: self.walk.c,
+            t: self.walk.t,
+            budget: self.walk.budget,
+            exhausted: self.walk.exhausted,
+            done: self.walk.done,
         }
     }
 
@@ -454,11 +412,11 @@ impl GridDda {
     /// steps and skips since.
     #[inline]
     pub fn restore(&mut self, c: Cursor) {
-        [self.cx, self.cy, self.cz] = c.cell;
-        self.t = c.t;
-        self.budget = c.budget;
-        self.exhausted = c.exhausted;
-        self.done = c.done;
+        self.walk.c = c.cell;
+        self.walk.t = c.t;
+        self.walk.budget = c.budget;
+        self.walk.exhausted = c.exhausted;
+        self.walk.done = c.done;
     }
 
     /// The next voxel segment of a voxel traversal ([`GridDda::voxels`]), or, in an all-zero
@@ -479,9 +437,9 @@ impl GridDda {
             .skip_level();
         let zero = level != NO_SKIP;
         if (vol.desc.brick_stepping == 0) & zero {
-            let t0 = self.t;
+            let t0 = self.walk.t;
             if self.skip_cube(level) {
-                let t1 = self.t;
+                let t1 = self.walk.t;
                 return (Segment { t0, t1, cell }, false);
             }
         }
@@ -519,10 +477,10 @@ impl GridDda {
         };
         // Non-short-circuit `&` and `|` throughout: every operand is pure, and a SIMD device
         // runs every arm of a branch anyway, so the skip is straight-line code.
-        let finite = math::is_finite(self.inv.x)
-            & math::is_finite(self.inv.y)
-            & math::is_finite(self.inv.z)
-            & math::is_finite(self.t);
+        let finite = math::is_finite(self.walk.inv[0])
+            & math::is_finite(self.walk.inv[1])
+            & math::is_finite(self.walk.inv[2])
+            & math::is_finite(self.walk.t);
         // The cube's side, unit << level cells, must stay within 2^30 (i32 arithmetic).
         if (level >= 31) | !finite || self.unit as u32 > (1u32 << 30) >> level {
             return unchanged;
@@ -548,9 +506,9 @@ impl GridDda {
         if !math::is_finite(t_star) {
             return unchanged;
         }
-        if (t_star >= self.t_end) | (self.t >= self.t_end) {
-            self.done = true;
-            self.spend();
+        if (t_star >= self.walk.t_end) | (self.walk.t >= self.walk.t_end) {
+            self.walk.done = true;
+            self.walk.spend(true);
             return Skipped {
                 dda: self,
                 skipped: true,
@@ -568,9 +526,9 @@ impl GridDda {
         let (_, s_star, _, _, _) = self.axis(a_star);
         let j = last_star + s_star;
         let mut next = (
-            self.cx + self.sx * m0,
-            self.cy + self.sy * m1,
-            self.cz + self.sz * m2,
+            self.walk.c[0] + self.walk.s[0] * m0,
+            self.walk.c[1] + self.walk.s[1] * m1,
+            self.walk.c[2] + self.walk.s[2] * m2,
         );
         if a_star == 0 {
             next.0 = j;
@@ -580,15 +538,15 @@ impl GridDda {
             next.2 = j;
         }
         if (j < 0) | (j >= self.dim(a_star)) {
-            self.done = true;
+            self.walk.done = true;
         } else {
-            (self.cx, self.cy, self.cz) = next;
+            self.walk.c = [next.0, next.1, next.2];
         }
         // As `step` sets t: the crossing's parameter unless it is below t (so -0 after +0).
-        if !(t_star < self.t) {
-            self.t = t_star;
+        if !(t_star < self.walk.t) {
+            self.walk.t = t_star;
         }
-        self.spend();
+        self.walk.spend(true);
         Skipped {
             dda: self,
             skipped: true,
@@ -611,11 +569,29 @@ impl GridDda {
     #[inline]
     fn axis(&self, a: usize) -> (i32, i32, f32, f32, f32) {
         if a == 0 {
-            (self.cx, self.sx, self.o.x, self.d.x, self.inv.x)
+            (
+                self.walk.c[0],
+                self.walk.s[0],
+                self.walk.o[0],
+                self.d.x,
+                self.walk.inv[0],
+            )
         } else if a == 1 {
-            (self.cy, self.sy, self.o.y, self.d.y, self.inv.y)
+            (
+                self.walk.c[1],
+                self.walk.s[1],
+                self.walk.o[1],
+                self.d.y,
+                self.walk.inv[1],
+            )
         } else {
-            (self.cz, self.sz, self.o.z, self.d.z, self.inv.z)
+            (
+                self.walk.c[2],
+                self.walk.s[2],
+                self.walk.o[2],
+                self.d.z,
+                self.walk.inv[2],
+            )
         }
     }
 
@@ -655,7 +631,7 @@ impl GridDda {
     #[inline]
     fn exit_of(&self, a: usize, k: i32) -> f32 {
         let (_, s, o, _, inv) = self.axis(a);
-        self.exit(k, s, o, inv)
+        Walk::<One>::exit(k, s, o, inv, self.size)
     }
 
     /// The number m of axis `b`'s crossings, from the current cell to the cube's `last`, that
@@ -704,67 +680,17 @@ impl GridDda {
         (e < star.0) | ((e == star.0) & (b < star.1))
     }
 
-    /// One iteration of the step budget (the guard against endless loops).
+    /// The current brick's segment; advances to the next brick. Call only while `!done`.
     #[inline]
-    fn spend(&mut self) {
-        if self.budget == 0 {
-            self.exhausted = !self.done;
-            self.done = true;
-        } else {
-            self.budget -= 1;
-        }
+    pub fn step(&mut self) -> Segment {
+        let (t0, t1, cell) = self.walk.step(true, self.size, self.lo, self.dims);
+        Segment { t0, t1, cell }
     }
 
-    /// The current brick's segment; advances to the next brick. Call only while `!done`.
-    pub fn step(&mut self) -> Segment {
-        let tx = self.exit(self.cx, self.sx, self.o.x, self.inv.x);
-        let ty = self.exit(self.cy, self.sy, self.o.y, self.inv.y);
-        let tz = self.exit(self.cz, self.sz, self.o.z, self.inv.z);
-        let cell = [self.cx as u32, self.cy as u32, self.cz as u32];
-        let t0 = self.t;
-        let mut t1 = tx;
-        let mut axis = 0;
-        if ty < t1 {
-            t1 = ty;
-            axis = 1;
-        }
-        if tz < t1 {
-            t1 = tz;
-            axis = 2;
-        }
-        if t1 < t0 {
-            // A plane behind the start (start exactly on a boundary): zero-length segment.
-            t1 = t0;
-        }
-        if t1 >= self.t_end {
-            t1 = self.t_end;
-            self.done = true;
-        } else {
-            if axis == 0 {
-                self.cx += self.sx;
-            } else if axis == 1 {
-                self.cy += self.sy;
-            } else {
-                self.cz += self.sz;
-            }
-            if self.cx < self.lo[0]
-                || self.cy < self.lo[1]
-                || self.cz < self.lo[2]
-                || self.cx >= self.dims[0]
-                || self.cy >= self.dims[1]
-                || self.cz >= self.dims[2]
-            {
-                self.done = true;
-            }
-        }
-        self.t = t1;
-        if self.budget == 0 {
-            self.exhausted = !self.done;
-            self.done = true;
-        } else {
-            self.budget -= 1;
-        }
-        Segment { t0, t1, cell }
+    /// Whether the traversal has ended.
+    #[inline]
+    pub fn done(&self) -> bool {
+        self.walk.done
     }
 }
 
@@ -871,7 +797,7 @@ mod tests {
                 |c: [u32; 3]| levels[(c[0] + dims[0] * (c[1] + dims[1] * c[2])) as usize];
             let mut stepped = Vec::new();
             let mut dda = GridDda::new(size, dims, &ray, t0, t_end);
-            while !dda.done {
+            while !dda.done() {
                 let s = dda.step();
                 if level_of(s.cell) == NO_SKIP {
                     stepped.push(bits(&s));
@@ -879,7 +805,7 @@ mod tests {
             }
             let mut skipped = Vec::new();
             let mut dda = GridDda::new(size, dims, &ray, t0, t_end);
-            while !dda.done {
+            while !dda.done() {
                 let level = level_of(dda.cell());
                 if level != NO_SKIP {
                     if dda.skip_cube(level) {

@@ -4,7 +4,8 @@
 //! the bounding box.
 
 use crate::geometry::V3;
-use crate::half::f16_to_f32;
+use crate::half::f16_to_f32_lanes;
+use crate::lanes::{Lanes, One};
 use crate::spec::or_keep;
 use crate::volume::pages::Pages;
 use crate::volume::texels::{NoTexels, Texels};
@@ -362,16 +363,118 @@ pub struct VolumeView<'a, T: Texels = NoTexels> {
     pub texels: T,
 }
 
-/// `clamp(floor(v), 0, n - 1)` without a float floor: truncation equals floor for v >= 1, and
-/// everything below 1 (NaN included) maps to 0.
-#[inline]
-fn floor_index(v: f32, n: u32) -> u32 {
-    if !(v >= 1.0) {
-        0
-    } else if v >= n as f32 {
-        n - 1
+/// `clamp(floor(v), 0, n - 1)` lane by lane without a float floor: truncation equals floor for
+/// v >= 1, and everything below 1 (NaN included) maps to 0.
+#[inline(always)]
+pub fn floor_index_lanes<L: Lanes>(v: L::F, n: u32) -> L::U {
+    let below = !L::f_ge(v, L::f(1.0));
+    let above = L::f_ge(v, L::f(n as f32));
+    let inside = L::f_to_u(L::f_sel(below | above, L::f(0.0), v));
+    L::u_sel(below, L::u(0), L::u_sel(above, L::u(n - 1), inside))
+}
+
+/// What the nearest lookup reads of a volume's two tables, lane by lane: a view's records and
+/// pool ([`VolumeView`], one lane), or the CPU's wide form of them
+/// ([`crate::volume::wide::WideVolume`]).
+pub trait Tables<L: Lanes> {
+    /// The `slot` word of the record of brick `b` in lanes `m`.
+    fn slot(&self, m: L::M, b: [L::U; 3]) -> L::U;
+    /// The f16 bits at pool index `index` in lanes `m` (0 elsewhere).
+    fn pool_half(&self, m: L::M, index: L::U) -> L::U;
+}
+
+/// [`VolumeView::pool_index`] of voxels `v` in lanes `m`, lane by lane (its one body): whether
+/// the voxel's brick stores its voxels (false outside `m`), and the index of its f16 value in the
+/// pool: the brick's slot plus the voxel's index within the brick's extent (clipped to the grid),
+/// x fastest.
+#[inline(always)]
+pub fn pool_index_lanes<L: Lanes>(
+    desc: &GridDesc,
+    tables: &impl Tables<L>,
+    m: L::M,
+    v: [L::U; 3],
+) -> (L::M, L::U) {
+    // Constant indices only (no bounds checks in the kernels).
+    let b = if desc.brick_log2 < BRICK_DIVIDES {
+        let sh = L::u(desc.brick_log2);
+        [L::u_shr(v[0], sh), L::u_shr(v[1], sh), L::u_shr(v[2], sh)]
     } else {
-        v as u32
+        let size = L::u(desc.brick_size);
+        [
+            L::u_div(v[0], size),
+            L::u_div(v[1], size),
+            L::u_div(v[2], size),
+        ]
+    };
+    let slot = tables.slot(m, b);
+    let stores = m & L::u_lt(slot, L::u(FIRST_EMPTY_SLOT));
+    let size = L::u(desc.brick_size);
+    let origin = [
+        L::u_mul(b[0], size),
+        L::u_mul(b[1], size),
+        L::u_mul(b[2], size),
+    ];
+    // Voxels of the brick along x and y inside the grid: B, or fewer in the last brick.
+    let rest_x = L::u_sub(L::u(desc.dims[0]), origin[0]);
+    let rest_y = L::u_sub(L::u(desc.dims[1]), origin[1]);
+    let w = L::u_sel(L::u_lt(rest_x, size), rest_x, size);
+    let h = L::u_sel(L::u_lt(rest_y, size), rest_y, size);
+    let local = [
+        L::u_sub(v[0], origin[0]),
+        L::u_sub(v[1], origin[1]),
+        L::u_sub(v[2], origin[2]),
+    ];
+    let inner = L::u_add(local[1], L::u_mul(h, local[2]));
+    let index = L::u_add(slot, L::u_add(local[0], L::u_mul(w, inner)));
+    (stores, index)
+}
+
+/// [`VolumeView::voxel`] of voxels `v` in lanes `m` (0 elsewhere), lane by lane (its one body):
+/// 0 in a brick without stored voxels, else its f16 value in the pool times the density scale.
+#[inline(always)]
+pub fn voxel_lanes<L: Lanes>(
+    desc: &GridDesc,
+    tables: &impl Tables<L>,
+    m: L::M,
+    v: [L::U; 3],
+) -> L::F {
+    let (stores, index) = pool_index_lanes::<L>(desc, tables, m, v);
+    let half = tables.pool_half(stores, index);
+    let mu = L::f(desc.density_scale) * f16_to_f32_lanes::<L>(half);
+    L::f_sel(stores, mu, L::f(0.0))
+}
+
+/// [`VolumeView::mu_nearest`] at points `p` in lanes `m` (0 elsewhere), lane by lane (its one
+/// body).
+#[inline(always)]
+pub fn mu_nearest_lanes<L: Lanes>(
+    desc: &GridDesc,
+    tables: &impl Tables<L>,
+    m: L::M,
+    p: [L::F; 3],
+) -> L::F {
+    let d = &desc.dims;
+    let v = [
+        floor_index_lanes::<L>(p[0], d[0]),
+        floor_index_lanes::<L>(p[1], d[1]),
+        floor_index_lanes::<L>(p[2], d[2]),
+    ];
+    voxel_lanes::<L>(desc, tables, m, v)
+}
+
+impl<T: Texels> Tables<One> for VolumeView<'_, T> {
+    #[inline]
+    fn slot(&self, _m: bool, b: [u32; 3]) -> u32 {
+        self.brick(b).slot
+    }
+
+    #[inline]
+    fn pool_half(&self, m: bool, index: u32) -> u32 {
+        if m {
+            self.half(index)
+        } else {
+            0
+        }
     }
 }
 
@@ -392,12 +495,17 @@ impl<T: Texels> VolumeView<'_, T> {
     /// f16 value in the pool.
     #[inline]
     pub fn voxel(&self, i: u32, j: u32, k: u32) -> f32 {
-        match self.pool_index(i, j, k) {
-            Some(index) => {
-                let h = self.half(index as u32);
-                self.desc.density_scale * f16_to_f32(h)
-            }
-            None => 0.0,
+        voxel_lanes::<One>(&self.desc, self, true, [i, j, k])
+    }
+
+    /// Index in the pool (in f16 values) of voxel (i, j, k), or None in an empty brick.
+    #[inline]
+    pub fn pool_index(&self, i: u32, j: u32, k: u32) -> Option<usize> {
+        let (stores, index) = pool_index_lanes::<One>(&self.desc, self, true, [i, j, k]);
+        if stores {
+            Some(index as usize)
+        } else {
+            None
         }
     }
 
@@ -429,43 +537,10 @@ impl<T: Texels> VolumeView<'_, T> {
         }
     }
 
-    /// Index in the pool (in f16 values) of voxel (i, j, k), or None in an empty brick.
-    #[inline]
-    pub fn pool_index(&self, i: u32, j: u32, k: u32) -> Option<usize> {
-        let b = self.desc.brick_size;
-        let d = &self.desc;
-        let (bi, bj, bk) = (d.brick_of(i), d.brick_of(j), d.brick_of(k));
-        let brick = self.brick([bi, bj, bk]);
-        if !brick.stores_voxels() {
-            return None;
-        }
-        let slot = brick.slot;
-        let (w, h) = (self.brick_extent(0, bi), self.brick_extent(1, bj));
-        let local = (i - bi * b) + w * ((j - bj * b) + h * (k - bk * b));
-        Some(slot as usize + local as usize)
-    }
-
-    /// Voxels of brick `c` along `axis` inside the grid: B, or fewer in the last brick.
-    #[inline]
-    pub fn brick_extent(&self, axis: usize, c: u32) -> u32 {
-        let b = self.desc.brick_size;
-        let rest = self.desc.dims[axis] - c * b;
-        if rest < b {
-            rest
-        } else {
-            b
-        }
-    }
-
     /// mu at index-space point p, nearest voxel, clamped to the grid's edge.
     #[inline]
     pub fn mu_nearest(&self, p: V3) -> f32 {
-        let d = &self.desc.dims;
-        self.voxel(
-            floor_index(p.x, d[0]),
-            floor_index(p.y, d[1]),
-            floor_index(p.z, d[2]),
-        )
+        mu_nearest_lanes::<One>(&self.desc, self, true, [p.x, p.y, p.z])
     }
 
     /// mu at index-space point p by trilinear interpolation of the voxel centres, clamped at the
@@ -507,7 +582,12 @@ impl<T: Texels> VolumeView<'_, T> {
 
 #[cfg(test)]
 mod floor_index_tests {
-    use super::floor_index;
+    use super::floor_index_lanes;
+    use crate::lanes::One;
+
+    fn floor_index(v: f32, n: u32) -> u32 {
+        floor_index_lanes::<One>(v, n)
+    }
 
     #[test]
     fn equals_clamped_floor() {

@@ -57,7 +57,7 @@ impl SuperVoxelDda {
     /// value fewer for every loop that carries the traversal.
     #[inline]
     pub fn done(&self) -> bool {
-        self.cells_exhausted | (!self.in_cells & self.bricks.done)
+        self.cells_exhausted | (!self.in_cells & self.bricks.done())
     }
 
     /// What a step of the fixed grid changes ([`GridDda::cursor`] of the bricks): on a grid
@@ -130,7 +130,7 @@ impl SuperVoxelDda {
             let cells = self
                 .bricks
                 .within(size, box_lo, box_hi, self.cell_budget, ta, tb);
-            if cells.done {
+            if cells.done() {
                 // The ray misses the box: the brick's segment holds zero statistics only.
                 return (seg, Brick::ZERO);
             }
@@ -147,7 +147,7 @@ impl SuperVoxelDda {
             seg.cell[2] - self.lo[2],
         ];
         let b = vol.cell(self.first_cell, local);
-        if self.cells.done {
+        if self.cells.done() {
             self.in_cells = false;
             self.cells_exhausted = self.cells.exhausted();
         }
