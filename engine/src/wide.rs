@@ -276,14 +276,14 @@ mod tests {
             ];
             let h3 = pcg3d_lanes::<X8>(key);
             let unit = unit_f32_lanes::<X8>(x);
-            for l in 0..8 {
-                let k = [v[l], v[l].rotate_left(11), v[l] ^ 0x9e37_79b9];
-                assert_eq!(X8::u_at(hashed, l), shared::rng::pcg_hash(v[l]));
+            for (l, &vl) in v.iter().enumerate() {
+                let k = [vl, vl.rotate_left(11), vl ^ 0x9e37_79b9];
+                assert_eq!(X8::u_at(hashed, l), shared::rng::pcg_hash(vl));
                 let want = shared::rng::pcg3d(k);
                 assert_eq!([0, 1, 2].map(|i| X8::u_at(h3[i], l)), want);
                 assert_eq!(
                     X8::f_at(unit, l).to_bits(),
-                    shared::rng::unit_f32(v[l]).to_bits()
+                    shared::rng::unit_f32(vl).to_bits()
                 );
             }
             for x in v.iter_mut() {
