@@ -16,10 +16,7 @@ use crate::rgb::Rgb;
 use crate::tally::Tally;
 use crate::volume::grid::VolumeView;
 use crate::volume::texels::Texels;
-use crate::volume::wide::{WideRays, WideVolume};
-
-/// Most lanes a wide pass holds.
-pub const MAX_LANES: usize = 16;
+use crate::volume::wide::{WideRays, WideVolume, MAX_LANES};
 
 /// Whether [`transmittance_pass`] renders `params` (a primary-ray transmittance image by the
 /// jackknife, its adaptive variant or the naive mean of a pair) on `vol`, i.e. whether it has a

@@ -14,7 +14,7 @@ use crate::volume::grid::{
 use crate::volume::texels::Texels;
 use crate::volume::walk::{start_of, valid, Start, Walk};
 
-/// Most lanes a wide traversal holds.
+/// Most lanes a wide traversal (and the CPU's wide pass) holds.
 pub const MAX_LANES: usize = 16;
 
 /// Word of a [`crate::volume::grid::Brick`] record: `mu_min`.
