@@ -173,25 +173,33 @@ impl<L: Lanes> Walk<L> {
         axis = L::i_sel(m, L::i(2), axis);
         // A plane behind the start (start exactly on a boundary): a zero-length segment.
         t1 = L::f_sel(L::f_lt(t1, t0), t0, t1);
+        // The two guards change no bit (a lane that neither ends nor advances keeps its state);
+        // they let one lane branch where its next step would otherwise wait on this one's
+        // compares through a chain of selects (the CPU's one-ray tracking: speed.md, "Step").
         let end = L::f_ge(t1, self.t_end);
-        t1 = L::f_sel(end, self.t_end, t1);
+        if L::any(end) {
+            t1 = L::f_sel(end, self.t_end, t1);
+            self.done = self.done | (a & end);
+        }
         let advance = a & !end;
-        let moves_x = advance & L::i_eq(axis, L::i(0));
-        let moves_y = advance & L::i_eq(axis, L::i(1));
-        let moves_z = advance & L::i_eq(axis, L::i(2));
-        self.c = [
-            L::i_sel(moves_x, L::i_add(c[0], st[0]), c[0]),
-            L::i_sel(moves_y, L::i_add(c[1], st[1]), c[1]),
-            L::i_sel(moves_z, L::i_add(c[2], st[2]), c[2]),
-        ];
-        let c = self.c;
-        let outside = L::i_lt(c[0], L::i(lo[0]))
-            | L::i_lt(c[1], L::i(lo[1]))
-            | L::i_lt(c[2], L::i(lo[2]))
-            | L::i_ge(c[0], L::i(n[0]))
-            | L::i_ge(c[1], L::i(n[1]))
-            | L::i_ge(c[2], L::i(n[2]));
-        self.done = self.done | (a & (end | (advance & outside)));
+        if L::any(advance) {
+            let moves_x = advance & L::i_eq(axis, L::i(0));
+            let moves_y = advance & L::i_eq(axis, L::i(1));
+            let moves_z = advance & L::i_eq(axis, L::i(2));
+            self.c = [
+                L::i_sel(moves_x, L::i_add(c[0], st[0]), c[0]),
+                L::i_sel(moves_y, L::i_add(c[1], st[1]), c[1]),
+                L::i_sel(moves_z, L::i_add(c[2], st[2]), c[2]),
+            ];
+            let c = self.c;
+            let outside = L::i_lt(c[0], L::i(lo[0]))
+                | L::i_lt(c[1], L::i(lo[1]))
+                | L::i_lt(c[2], L::i(lo[2]))
+                | L::i_ge(c[0], L::i(n[0]))
+                | L::i_ge(c[1], L::i(n[1]))
+                | L::i_ge(c[2], L::i(n[2]));
+            self.done = self.done | (advance & outside);
+        }
         self.t = L::f_sel(a, t1, self.t);
         self.spend(a);
         (t0, t1, cell)
