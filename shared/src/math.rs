@@ -357,39 +357,32 @@ pub fn sqrt(x: f32) -> f32 {
     }
     let n = m << 23;
     // f32 estimate of sqrt(a), a = m 2^-23 in [1, 4): the reciprocal root by the bit trick and
-    // three Newton steps, then one Newton step of the root itself, all by multiplications (a
+    // two Newton steps, then one Newton step of the root itself, all by multiplications (a
     // division costs several multiplications' latency, and these steps depend on each other).
     let a = (m as f32) * pow2(-23);
     let mut y = f32::from_bits(0x5f37_5a86 - (a.to_bits() >> 1));
     y *= 1.5 - 0.5 * a * y * y;
     y *= 1.5 - 0.5 * a * y * y;
-    y *= 1.5 - 0.5 * a * y * y;
     let s = a * y;
     let s = s + 0.5 * y * (a - s * s);
-    let mut r = (s * pow2(23)) as u64;
-    // Exact floor(sqrt(n)): the estimate is within 2 of it.
-    if r * r > n {
-        r -= 1;
-    }
-    if r * r > n {
-        r -= 1;
-    }
-    if (r + 1) * (r + 1) <= n {
-        r += 1;
-    }
-    if (r + 1) * (r + 1) <= n {
-        r += 1;
-    }
-    // Round to nearest: sqrt(n) > r + 1/2 exactly when n > r^2 + r.
-    if n > r * r + r {
-        r += 1;
-    }
+    let r0 = (s * pow2(23)) as u64;
+    // The rounded root r = round(sqrt(n)), the least k with n <= k^2 + k (sqrt(n) < k + 1/2
+    // exactly then), is within 1 of the estimate r0 for every m and parity of E (every pair is
+    // checked by the test `sqrt_is_correctly_rounded_in_1_to_4`), so r is r0 - 1 plus the
+    // number of k in {r0 - 1, r0} below it: two products independent of each other.
+    let r = r0 - 1 + below_root(r0 - 1, n) + below_root(r0, n);
     let root = (r as f32) * pow2(e / 2 - 23);
     if tiny {
         root * pow2(-32)
     } else {
         root
     }
+}
+
+/// 1 if k is below the rounded square root of n (k^2 + k < n), else 0: [`sqrt`]'s correction.
+#[inline]
+fn below_root(k: u64, n: u64) -> u64 {
+    (k * (k + 1) < n) as u64
 }
 
 /// (n / d, n % d) for 1 <= d < 2^31 and a quotient below 2^22 (a pixel id's row and column:

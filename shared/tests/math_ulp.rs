@@ -211,6 +211,23 @@ fn floor_matches_std() {
     }
 }
 
+/// Every f32 in [1, 4): all 2^24 pairs of mantissa and exponent parity, which alone decide
+/// `math::sqrt`'s integer root (an exponent only scales it, a subnormal is scaled into a normal),
+/// so this proves the correction's range for every input; a wrong correction fails here.
+#[test]
+fn sqrt_is_correctly_rounded_in_1_to_4() {
+    let (lo, hi) = (1.0f32.to_bits(), 4.0f32.to_bits());
+    let bad: Vec<u32> = (lo..hi)
+        .into_par_iter()
+        .filter(|&b| {
+            let x = f32::from_bits(b);
+            math::sqrt(x).to_bits() != x.sqrt().to_bits()
+        })
+        .take_any(10)
+        .collect();
+    assert!(bad.is_empty(), "sqrt differs from IEEE at {bad:x?}");
+}
+
 #[test]
 fn sqrt_is_correctly_rounded_for_every_f32() {
     // math::sqrt is built from integer and + - * / arithmetic (stable Rust, same on every target);
