@@ -7,6 +7,13 @@ use crate::geometry::Ray;
 use crate::lanes::{Lanes, One};
 use crate::math;
 
+/// Whether [`Walk::step`] guards the moves with `if L::any(advance)`, which changes no bit: on
+/// the CPU one lane then branches, and its next step runs ahead on the predicted path instead of
+/// waiting on this step's compares through a chain of selects; in the kernels the guard folds
+/// away, since lavapipe runs an `if` under masks and merges what its arm writes through memory
+/// (speed.md, section "Step").
+const GUARDS: bool = !cfg!(target_arch = "spirv");
+
 /// Sign of d as a step: +1, -1, or 0 for an axis the ray does not move along.
 #[inline]
 pub(crate) fn step_of(d: f32) -> i32 {
@@ -173,16 +180,13 @@ impl<L: Lanes> Walk<L> {
         axis = L::i_sel(m, L::i(2), axis);
         // A plane behind the start (start exactly on a boundary): a zero-length segment.
         t1 = L::f_sel(L::f_lt(t1, t0), t0, t1);
-        // The two guards change no bit (a lane that neither ends nor advances keeps its state);
-        // they let one lane branch where its next step would otherwise wait on this one's
-        // compares through a chain of selects (the CPU's one-ray tracking: speed.md, "Step").
         let end = L::f_ge(t1, self.t_end);
-        if L::any(end) {
-            t1 = L::f_sel(end, self.t_end, t1);
-            self.done = self.done | (a & end);
-        }
+        t1 = L::f_sel(end, self.t_end, t1);
         let advance = a & !end;
-        if L::any(advance) {
+        // The guard changes no bit (a lane that does not advance keeps its cell): see
+        // [`GUARDS`].
+        let mut outside = L::m(false);
+        if !GUARDS || L::any(advance) {
             let moves_x = advance & L::i_eq(axis, L::i(0));
             let moves_y = advance & L::i_eq(axis, L::i(1));
             let moves_z = advance & L::i_eq(axis, L::i(2));
@@ -192,14 +196,14 @@ impl<L: Lanes> Walk<L> {
                 L::i_sel(moves_z, L::i_add(c[2], st[2]), c[2]),
             ];
             let c = self.c;
-            let outside = L::i_lt(c[0], L::i(lo[0]))
+            outside = L::i_lt(c[0], L::i(lo[0]))
                 | L::i_lt(c[1], L::i(lo[1]))
                 | L::i_lt(c[2], L::i(lo[2]))
                 | L::i_ge(c[0], L::i(n[0]))
                 | L::i_ge(c[1], L::i(n[1]))
                 | L::i_ge(c[2], L::i(n[2]));
-            self.done = self.done | (advance & outside);
         }
+        self.done = self.done | (a & (end | (advance & outside)));
         self.t = L::f_sel(a, t1, self.t);
         self.spend(a);
         (t0, t1, cell)
