@@ -682,7 +682,7 @@ impl GridDda {
 
     /// The current brick's segment; advances to the next brick. Call only while `!done`. Out
     /// of line on the CPU, where inlined into its callers it ran 7 % slower per tracking ray
-    /// (speed.md, "Step"); the kernels inline it as they choose.
+    /// (speed.md, "Step"); `#[inline]` in the kernels.
     #[cfg_attr(target_arch = "spirv", inline)]
     #[cfg_attr(not(target_arch = "spirv"), inline(never))]
     pub fn step(&mut self) -> Segment {
