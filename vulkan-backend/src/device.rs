@@ -424,6 +424,17 @@ impl DeviceOwner {
         self.software
     }
 
+    /// The threads a software device runs a dispatch's workgroups on, as one contiguous range
+    /// of workgroups per thread ([`shared::kernels::launch::interleaved_group`]); 1 on a GPU,
+    /// whose scheduler hands out workgroups as units free up.
+    pub fn interleave(&self) -> u32 {
+        if self.software {
+            software_threads(std::env::var("LP_NUM_THREADS").ok().as_deref())
+        } else {
+            1
+        }
+    }
+
     /// Name of the selected device as a C string (for logs).
     pub fn name(&self) -> &str {
         self.description.split(" [").next().unwrap_or("")
@@ -451,6 +462,21 @@ impl Drop for DeviceOwner {
 
 #[cfg(test)]
 mod tests {
+    use super::software_threads;
+
+    /// lavapipe's thread count: the variable where it is a number (clamped to llvmpipe's
+    /// 1..=32), else the CPUs this process may use.
+    #[test]
+    fn software_threads_follow_lp_num_threads() {
+        assert_eq!(software_threads(Some("3")), 3);
+        assert_eq!(software_threads(Some(" 8 ")), 8);
+        assert_eq!(software_threads(Some("0")), 1);
+        assert_eq!(software_threads(Some("100")), 32);
+        let cpus = std::thread::available_parallelism().map_or(1, |n| n.get() as u32);
+        assert_eq!(software_threads(None), cpus.clamp(1, 32));
+        assert_eq!(software_threads(Some("many")), cpus.clamp(1, 32));
+    }
+
     use super::*;
 
     #[test]
@@ -517,4 +543,14 @@ mod tests {
             Some("uniformBufferStandardLayout")
         );
     }
+}
+
+/// lavapipe's threads for compute dispatches: `LP_NUM_THREADS` where it is a number, else one
+/// per CPU this process may run on; at most llvmpipe's 32. A wrong guess costs speed only: the
+/// workgroups' ids are a permutation either way.
+fn software_threads(lp_num_threads: Option<&str>) -> u32 {
+    lp_num_threads
+        .and_then(|v| v.trim().parse::<u32>().ok())
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get() as u32))
+        .clamp(1, 32)
 }

@@ -181,7 +181,7 @@ impl Gpu {
     ) -> Result<(), GpuError> {
         let mut keys: Vec<(Kernel, Vec<u32>)> = Vec::new();
         let mut commands = Vec::new();
-        for c in plan(work.steps, self.max_groups()) {
+        for c in plan(work.steps, self.max_groups(), self.owner.interleave()) {
             commands.push(match c {
                 Command::Dispatch { push, groups } => {
                     let (def, spec) = (work.pipeline)(&push);

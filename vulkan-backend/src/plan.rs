@@ -23,8 +23,14 @@ pub enum Command<P> {
 }
 
 /// The commands for `steps`: each `Run` split into dispatches of at most `max_groups`
-/// workgroups, dispatch k covering ids `offset..offset + n` (`launch.offset`, `launch.count`).
-pub fn plan<P: PushConstants>(steps: Vec<Step<P>>, max_groups: u32) -> Vec<Command<P>> {
+/// workgroups, dispatch k covering ids `offset..offset + n` (`launch.offset`, `launch.count`),
+/// its workgroups interleaved over `interleave` threads (`launch.interleave`, see
+/// [`shared::kernels::launch::interleaved_group`]).
+pub fn plan<P: PushConstants>(
+    steps: Vec<Step<P>>,
+    max_groups: u32,
+    interleave: u32,
+) -> Vec<Command<P>> {
     let chunk = max_groups.max(1) * WORKGROUP_SIZE;
     let mut commands = Vec::new();
     for step in steps {
@@ -38,6 +44,7 @@ pub fn plan<P: PushConstants>(steps: Vec<Step<P>>, max_groups: u32) -> Vec<Comma
                     let launch = push.launch_mut();
                     launch.offset = offset;
                     launch.count = offset + n;
+                    launch.interleave = interleave;
                     commands.push(Command::Dispatch {
                         push,
                         groups: n.div_ceil(WORKGROUP_SIZE),
@@ -77,7 +84,7 @@ mod tests {
             Step::Run { push, ids: 0..0 },
             Step::Run { push, ids: 0..64 },
         ];
-        let commands = plan(steps, 2);
+        let commands = plan(steps, 2, 3);
         assert_eq!(
             shape(&commands),
             vec![
@@ -89,7 +96,7 @@ mod tests {
             ]
         );
         assert!(commands.iter().all(|c| match c {
-            Command::Dispatch { push, .. } => push.seed == 7,
+            Command::Dispatch { push, .. } => push.seed == 7 && push.interleave == 3,
             Command::Barrier => true,
         }));
     }
@@ -100,7 +107,7 @@ mod tests {
             push: Launch::default(),
             ids: u32::MAX - 100..u32::MAX,
         }];
-        let commands = plan(steps, 65_535);
+        let commands = plan(steps, 65_535, 1);
         assert_eq!(shape(&commands), vec![Some((u32::MAX - 100, u32::MAX, 2))]);
     }
 }

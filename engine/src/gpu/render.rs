@@ -289,7 +289,16 @@ fn render_tiles(
     start: Option<&[PixelSums]>,
     bar: Option<&ProgressBar>,
 ) -> Result<Vec<PixelSums>> {
-    let (gpu, passes, chunk) = (dev.gpu, &schedule.passes, schedule.chunk);
+    let (gpu, passes) = (dev.gpu, &schedule.passes);
+    // The longest dispatch: a chunk on a GPU (driver watchdogs). A software device runs each
+    // dispatch as a fork and join of its threads, which the OS then often puts on one core
+    // (docs/results/speed.md, "One dispatch per pass on software devices"): there a pass is one
+    // dispatch where no progress bar needs chunks (and a wavefront's, which moves per sample).
+    let (chunk, wave_chunk) = match (gpu.is_software(), bar) {
+        (true, None) => (u32::MAX, u32::MAX),
+        (true, Some(_)) => (schedule.chunk, u32::MAX),
+        (false, _) => (schedule.chunk, schedule.chunk),
+    };
     let count = params.width * params.height;
     let p = gpu.buffer(std::mem::size_of::<RenderParams>() as u64)?;
     // Storage buffers may not be empty: without point lights, one zeroed light is bound.
@@ -383,7 +392,7 @@ fn render_tiles(
                 params,
                 schedule.samples(),
                 ids,
-                chunk,
+                wave_chunk,
                 &buffers,
                 uploads_now,
                 slice,

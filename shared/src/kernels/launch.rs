@@ -7,30 +7,59 @@ use bytemuck::{Pod, Zeroable};
 /// Header of every kernel's push constants: which slice of the ids one dispatch covers.
 ///
 /// The host splits large launches into several dispatches (workgroup-count limits, driver
-/// watchdogs); invocation `gid` of a dispatch handles id `offset + gid`, if below `count`.
+/// watchdogs); each id in `offset..count` is handled by exactly one invocation of the dispatch,
+/// whole workgroups of consecutive ids ([`Launch::id`]). Which workgroup handles which ids is
+/// the device's plan (`interleave`); no result depends on it.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
 pub struct Launch {
     /// First id covered by this dispatch.
     pub offset: u32,
-    /// Total number of ids in the launch (ids >= count do nothing).
+    /// End of the ids covered by this dispatch (ids >= count do nothing).
     pub count: u32,
     /// User seed, for kernels that draw random numbers.
     pub seed: u32,
-    pub _pad: u32,
+    /// The threads a software device runs the dispatch's workgroups on, as contiguous ranges,
+    /// one per thread ([`interleaved_group`]); 0 or 1 on a GPU: workgroup w handles the w-th
+    /// run of ids.
+    pub interleave: u32,
 }
 
 impl Launch {
-    /// The id an invocation handles, or `None` past the end of the launch.
+    /// The id an invocation handles, or `None` past the end of the dispatch: workgroup
+    /// `gid / WORKGROUP_SIZE` handles the [`interleaved_group`]-th run of `WORKGROUP_SIZE`
+    /// consecutive ids.
     #[inline]
     pub fn id(&self, gid: u32) -> Option<usize> {
-        let id = self.offset.wrapping_add(gid);
-        if gid < self.count && id < self.count {
+        let n = self.count.wrapping_sub(self.offset);
+        let groups = n / WORKGROUP_SIZE + u32::from(n % WORKGROUP_SIZE != 0);
+        let w = interleaved_group(gid / WORKGROUP_SIZE, groups, self.interleave);
+        let local = w
+            .wrapping_mul(WORKGROUP_SIZE)
+            .wrapping_add(gid % WORKGROUP_SIZE);
+        let id = self.offset.wrapping_add(local);
+        if local < self.count && id < self.count {
             Some(id as usize)
         } else {
             None
         }
     }
+}
+
+/// The run of ids workgroup `w` of a dispatch of `groups` workgroups handles, where the device
+/// runs the workgroups as `parts` contiguous ranges of `groups / parts`, one per thread (how
+/// lavapipe runs a dispatch; the `groups % parts` left over run one by one): the k-th
+/// workgroup of range p handles run `k * parts + p`, so the threads work side by side on
+/// neighbouring ids (equal work, shared cache lines) instead of on distant parts of the image.
+/// A permutation of `0..groups`; the identity for `parts` <= 1 and on the left-over
+/// workgroups.
+#[inline]
+pub fn interleaved_group(w: u32, groups: u32, parts: u32) -> u32 {
+    let per = if parts > 1 { groups / parts } else { 0 };
+    if per == 0 || w >= per * parts {
+        return w;
+    }
+    (w % per) * parts + w / per
 }
 
 /// Threads per workgroup of every 1-D kernel (`#[spirv(compute(threads(64)))]`).
@@ -163,5 +192,77 @@ pub mod bindings {
     /// `RestirState`s as the states.
     pub mod restir {
         pub use super::direct::*;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every id of a dispatch is handled by exactly one invocation, for any split of the
+    /// workgroups into ranges, whole or partial last workgroup, and the ranges handle
+    /// neighbouring runs: range p's k-th workgroup the run k * parts + p.
+    #[test]
+    fn every_id_once_for_every_interleave() {
+        for (offset, n) in [
+            (0u32, 4096u32),
+            (10, 290),
+            (128, 64 * 7 + 5),
+            (5, 1),
+            (0, 0),
+        ] {
+            for parts in [0u32, 1, 2, 3, 4, 7, 16, 32, 64] {
+                let launch = Launch {
+                    offset,
+                    count: offset + n,
+                    interleave: parts,
+                    ..Launch::default()
+                };
+                let groups = n.div_ceil(WORKGROUP_SIZE);
+                let mut seen = vec![0u32; n as usize];
+                for gid in 0..groups * WORKGROUP_SIZE {
+                    if let Some(id) = launch.id(gid) {
+                        assert!(id >= offset as usize && id < (offset + n) as usize);
+                        seen[id - offset as usize] += 1;
+                    }
+                }
+                assert!(
+                    seen.iter().all(|&c| c == 1),
+                    "offset {offset}, {n} ids, {parts} parts: {seen:?}"
+                );
+                let per = if parts > 1 { groups / parts } else { 0 };
+                for w in 0..groups {
+                    let expect = if per > 0 && w < per * parts {
+                        (w % per) * parts + w / per
+                    } else {
+                        w
+                    };
+                    assert_eq!(interleaved_group(w, groups, parts), expect);
+                }
+            }
+        }
+    }
+
+    /// Without an interleave, invocation gid handles id offset + gid, as a plain dispatch.
+    #[test]
+    fn no_interleave_is_the_plain_mapping() {
+        let launch = Launch {
+            offset: 100,
+            count: 1000,
+            ..Launch::default()
+        };
+        for gid in 0..1024 {
+            let want = (gid + 100 < 1000).then_some(gid as usize + 100);
+            assert_eq!(launch.id(gid), want);
+        }
+        // Two threads: the first range's workgroups take the even runs, the second's the odd.
+        let two = Launch {
+            offset: 0,
+            count: 4 * 64,
+            interleave: 2,
+            ..Launch::default()
+        };
+        let runs: Vec<usize> = (0..4).map(|w| two.id(w * 64).unwrap() / 64).collect();
+        assert_eq!(runs, [0, 2, 1, 3]);
     }
 }
