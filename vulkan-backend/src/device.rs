@@ -460,6 +460,16 @@ impl Drop for DeviceOwner {
     }
 }
 
+/// lavapipe's threads for compute dispatches: `LP_NUM_THREADS` where it is a number, else one
+/// per CPU this process may run on; at most llvmpipe's 32. A wrong guess costs speed only: the
+/// workgroups' ids are a permutation either way.
+fn software_threads(lp_num_threads: Option<&str>) -> u32 {
+    lp_num_threads
+        .and_then(|v| v.trim().parse::<u32>().ok())
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get() as u32))
+        .clamp(1, 32)
+}
+
 #[cfg(test)]
 mod tests {
     use super::software_threads;
@@ -543,14 +553,4 @@ mod tests {
             Some("uniformBufferStandardLayout")
         );
     }
-}
-
-/// lavapipe's threads for compute dispatches: `LP_NUM_THREADS` where it is a number, else one
-/// per CPU this process may run on; at most llvmpipe's 32. A wrong guess costs speed only: the
-/// workgroups' ids are a permutation either way.
-fn software_threads(lp_num_threads: Option<&str>) -> u32 {
-    lp_num_threads
-        .and_then(|v| v.trim().parse::<u32>().ok())
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get() as u32))
-        .clamp(1, 32)
 }

@@ -32,7 +32,7 @@ impl Launch {
     #[inline]
     pub fn id(&self, gid: u32) -> Option<usize> {
         let n = self.count.wrapping_sub(self.offset);
-        let groups = n / WORKGROUP_SIZE + u32::from(n % WORKGROUP_SIZE != 0);
+        let groups = n.div_ceil(WORKGROUP_SIZE);
         let w = interleaved_group(gid / WORKGROUP_SIZE, groups, self.interleave);
         let local = w
             .wrapping_mul(WORKGROUP_SIZE)
