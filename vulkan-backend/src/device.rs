@@ -29,6 +29,8 @@ pub struct DeviceOwner {
     /// Whether the device is a software implementation on the host's CPU (lavapipe,
     /// SwiftShader: `VK_PHYSICAL_DEVICE_TYPE_CPU`).
     pub(crate) software: bool,
+    /// [`DeviceOwner::interleave`], read once when the device is opened.
+    interleave: u32,
     /// Whether the fallback to non-device-local storage memory was reported.
     storage_fallback_warned: std::sync::atomic::AtomicBool,
     /// The window's surface where the device was opened for one ([`crate::present`]); the
@@ -175,6 +177,11 @@ impl DeviceParts {
             timestamp_bits: self.timestamp_bits,
             description: self.description,
             software: self.software,
+            interleave: if self.software {
+                software_threads(std::env::var("LP_NUM_THREADS").ok().as_deref())
+            } else {
+                1
+            },
             storage_fallback_warned: std::sync::atomic::AtomicBool::new(false),
             surface: None,
         }
@@ -428,11 +435,7 @@ impl DeviceOwner {
     /// of workgroups per thread ([`shared::kernels::launch::interleaved_group`]); 1 on a GPU,
     /// whose scheduler hands out workgroups as units free up.
     pub fn interleave(&self) -> u32 {
-        if self.software {
-            software_threads(std::env::var("LP_NUM_THREADS").ok().as_deref())
-        } else {
-            1
-        }
+        self.interleave
     }
 
     /// Name of the selected device as a C string (for logs).
@@ -472,7 +475,7 @@ fn software_threads(lp_num_threads: Option<&str>) -> u32 {
 
 #[cfg(test)]
 mod tests {
-    use super::software_threads;
+    use super::*;
 
     /// lavapipe's thread count: the variable where it is a number (clamped to llvmpipe's
     /// 1..=32), else the CPUs this process may use.
@@ -486,8 +489,6 @@ mod tests {
         assert_eq!(software_threads(None), cpus.clamp(1, 32));
         assert_eq!(software_threads(Some("many")), cpus.clamp(1, 32));
     }
-
-    use super::*;
 
     #[test]
     fn forced_index_accepts_only_existing_devices() {
