@@ -36,6 +36,7 @@ import re
 import shlex
 import shutil
 import signal
+import stat
 import struct
 import subprocess
 import sys
@@ -115,6 +116,47 @@ def sparse_file(name, size, prefix):
 
 def fifo(name):
     return lambda d: os.mkfifo(os.path.join(d, name))
+
+
+def mknod_null(name):
+    """A character device like /dev/null (1, 3) made in the case's own folder, never the
+    system's; where this user may not make one (not root), a FIFO instead, so the case still
+    checks that a special file is refused and kept."""
+    def setup(d):
+        p = os.path.join(d, name)
+        try:
+            os.mknod(p, 0o666 | stat.S_IFCHR, os.makedev(1, 3))
+        except PermissionError:
+            os.mkfifo(p)
+    return setup
+
+
+def summary_json(name="r.json"):
+    """A render's JSON summary written by the binary itself: its `scene` names it as `json`."""
+    def setup(d):
+        subprocess.run([HOST, "render", "--backend", "cpu", "--resolution", "16", "--width", "8",
+                        "--height", "4", "--spp", "1", "-q", "-o", os.path.join(d, "s.exr"),
+                        "--json", name], cwd=d, check=True, capture_output=True)
+    return setup
+
+
+def ref_shard(name="ref.shard"):
+    """An eval reference shard written by the binary itself."""
+    def setup(d):
+        subprocess.run([HOST, "eval", "--backend", "cpu", "--resolution", "16", "--width", "8",
+                        "--height", "8", "--spp", "2", "-q", "--estimators", "jackknife",
+                        "--out-dir", "evs", "--reference-shard", name], cwd=d, check=True,
+                       capture_output=True)
+    return setup
+
+
+def render_shard(name="part.shard"):
+    """A render shard written by the binary itself."""
+    def setup(d):
+        subprocess.run([HOST, "render", "--backend", "cpu", "--resolution", "16", "--width", "8",
+                        "--height", "4", "--spp", "1", "-q", "--shard", name], cwd=d, check=True,
+                       capture_output=True)
+    return setup
 
 
 def symlink(target, name):
@@ -856,6 +898,67 @@ def cases():
     add("env_JK_LOG_bogus", render(), "ok", env={"JK_LOG": "bogus"})
     add("env_JK_LOG_trace", render(), "ok", env={"JK_LOG": "trace"})
     add("env_JK_VULKAN_DEVICE_bogus_cpu", render(), "either", env={"JK_VULKAN_DEVICE": "bogus"})
+
+    # --- Trust round 3: outputs onto inputs through every path, devices and FIFOs as outputs,
+    # checks before the work.
+    toml = lambda name="s.toml": (lambda d: write(d, name, "spp = 2\nseed = 5\n"))
+    add("eval_scene_summary_keeps_summary", evaluate("--scene", "r.json"), "either",
+        setup=summary_json(), protect=["r.json"])
+    add("bench_scene_summary_keeps_summary", bench("--scene", "r.json"), "either",
+        setup=summary_json(), protect=["r.json"])
+    add("eval_json_onto_scene", evaluate("--scene", "s.toml", "--json", "s.toml"), "refuse",
+        setup=toml(), protect=["s.toml"], words=["would overwrite the input --scene"])
+    add("bench_json_onto_scene", bench("--scene", "s.toml", "--json", "s.toml"), "refuse",
+        setup=toml(), protect=["s.toml"], words=["would overwrite the input --scene"])
+    add("write_scene_onto_volume", render("--volume", "v.vdb", "--write-scene", "v.vdb"),
+        "refuse", setup=vol_copy, protect=["v.vdb"], words=["would overwrite the input --volume"])
+    add("write_scene_symlink_to_volume", render("--volume", "v.vdb", "--write-scene", "l.toml"),
+        "refuse", setup=both(vol_copy, symlink("v.vdb", "l.toml")), protect=["v.vdb"],
+        words=["same file"])
+    add("write_scene_onto_env", direct("--env", "p.hdr", "--write-scene", "p.hdr"), "refuse",
+        setup=hdr("p.hdr", 4, 2), protect=["p.hdr"], words=["would overwrite the input --env"])
+    add("write_scene_symlink_to_env", direct("--env", "p.hdr", "--write-scene", "l.toml"),
+        "refuse", setup=both(hdr("p.hdr", 4, 2), symlink("p.hdr", "l.toml")),
+        protect=["p.hdr"], words=["same file"])
+    add("write_scene_inapplicable_flag", render("--hg-g", "0.5", "--write-scene", "w.toml"),
+        "refuse", words=["--hg-g"])
+    add("reference_shard_onto_volume", evaluate("--reference-shard", "v.vdb", vol="v.vdb"),
+        "refuse", setup=vol_copy, protect=["v.vdb"], words=["would overwrite the input --volume"])
+    add("reference_shard_onto_scene", evaluate("--scene", "s.toml", "--reference-shard",
+        "s.toml"), "refuse", setup=toml(), protect=["s.toml"], words=["input --scene"])
+    add("eval_json_onto_reference_from", evaluate("--reference-from", "ref.shard", "--json",
+        "ref.shard"), "refuse", setup=ref_shard(), protect=["ref.shard"],
+        words=["would overwrite the input --reference-from"])
+    add("eval_json_symlink_to_reference_from", evaluate("--reference-from", "ref.shard",
+        "--json", "l.json"), "refuse", setup=both(ref_shard(), symlink("ref.shard", "l.json")),
+        protect=["ref.shard"], words=["same file"])
+    add("merge_json_onto_shard", ["merge", "part.shard", "-q", "--json", "part.shard"], "refuse",
+        setup=render_shard(), protect=["part.shard"], words=["would overwrite the input"])
+    add("report_onto_eval_folder_file", report("--from-eval", "ev0", "--out", "ev0/.."),
+        "either", setup=real_eval(), protect=["ev0/eval.json"])
+    for flag, name in [("--json", "o.json"), ("-o", "o.exr"), ("--write-scene", "o.toml"),
+                       ("--shard", "o.shard")]:
+        argv = render(flag, name) if flag != "-o" else render(out=False) + ["-o", name]
+        add(f"fifo_output_{flag.strip('-')}", argv, "refuse", setup=fifo(name), timeout=20,
+            words=["FIFO"])
+        add(f"chardev_output_{flag.strip('-')}", argv, "either", setup=mknod_null(name),
+            protect=[name])
+    add("fifo_output_study_json", study("profile", "--json", "o.json"), "refuse",
+        setup=fifo("o.json"), timeout=20, words=["FIFO"])
+    add("fifo_output_bench_json", bench("--json", "o.json"), "refuse", setup=fifo("o.json"),
+        timeout=20, words=["FIFO"])
+    add("fifo_output_eval_json", evaluate("--json", "o.json"), "refuse", setup=fifo("o.json"),
+        timeout=20, words=["FIFO"])
+    add("output_name_245_bytes", render("--json", "n" * 245 + ".json"), "ok")
+    add("output_name_260_bytes", render("--json", "n" * 260 + ".json"), "refuse",
+        words=["255"], max_seconds=10)
+    add("layers_twice", render("--layers", "samples,samples"), "refuse",
+        words=["--layers", "twice"], max_seconds=10)
+    add("scene_from_proc", render("--scene", "/proc/self/maps"), "refuse", words=["--scene"])
+    add("scene_positional_after_flags", RENDER + vol_args(None) + ["-o", "r.exr", "s.toml"],
+        "ok", setup=toml(), outputs=["r.exr"])
+    add("shard_of_a_summary_scene", ["render", "r.json", "--shard", "x.shard", "-q"], "ok",
+        setup=summary_json(), outputs=["x.shard"], protect=["r.json"])
     return C
 
 

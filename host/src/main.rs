@@ -11,6 +11,14 @@ fn main() -> ExitCode {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
+    // An interrupted or killed run (Ctrl-C, SIGTERM, SIGHUP) leaves no temporary file of a
+    // write in progress (outputs are renamed into place, so none is left half written). A
+    // handler that cannot be installed (one already is) leaves the signals' default.
+    let _ = ctrlc::set_handler(|| {
+        engine::output::partials::remove_all();
+        eprintln!("error: interrupted; no output was left half written");
+        std::process::exit(130);
+    });
     // Usage errors exit with 1 like every other error (clap's default is 2); --help and
     // --version print to stdout and exit with 0.
     let cli = match host::cli::parse() {

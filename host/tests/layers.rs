@@ -342,3 +342,32 @@ fn depth_layer_is_where_camera_rays_first_collide() {
         eprintln!("no Vulkan device: the depth layer checked on the CPU only");
     }
 }
+
+/// A layer named twice is refused before the render, naming the flag (not by the EXR writer
+/// after the work); a single-scattering integrator's image part is `radiance`.
+#[test]
+fn a_layer_named_twice_is_refused_and_parts_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = run(dir.path(), &["--spp", "4", "--layers", "samples,samples"]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("--layers: samples is named twice"), "{err}");
+    assert!(!dir.path().join("out/render.exr").exists());
+    let o = run(
+        dir.path(),
+        &[
+            "--spp",
+            "2",
+            "--integrator",
+            "mis-jackknife",
+            "--out",
+            "s.exr",
+        ],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let parts: Vec<String> = layers(&dir.path().join("s.exr"))
+        .into_iter()
+        .map(|(name, _)| name)
+        .collect();
+    assert_eq!(parts, ["radiance"]);
+}

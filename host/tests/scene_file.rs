@@ -438,3 +438,83 @@ fn report_takes_the_scene_keys_it_has() {
         );
     }
 }
+
+/// `host render SCENE` takes the scene file anywhere among the flags: after them it renders the
+/// same bytes as first.
+#[test]
+fn a_positional_scene_may_follow_the_flags() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("s.toml"), "seed = 9\nspp = 2\n").unwrap();
+    let mut first = vec!["render", "s.toml"];
+    first.extend(SMALL.iter().filter(|a| **a != "--spp" && **a != "1"));
+    first.extend(["--out", "a.exr"]);
+    run(d, &first);
+    let mut last = vec!["render"];
+    last.extend(SMALL.iter().filter(|a| **a != "--spp" && **a != "1"));
+    last.extend(["--out", "b.exr", "s.toml"]);
+    run(d, &last);
+    assert_eq!(bytes(&d.join("a.exr")), bytes(&d.join("b.exr")));
+    // Without a subcommand too.
+    let mut bare: Vec<&str> = SMALL
+        .iter()
+        .filter(|a| **a != "--spp" && **a != "1")
+        .copied()
+        .collect();
+    bare.extend(["--out", "c.exr", "s.toml"]);
+    run(d, &bare);
+    assert_eq!(bytes(&d.join("a.exr")), bytes(&d.join("c.exr")));
+}
+
+/// A render's summary (which holds `json`) shards: the scene's `json` is a run key, not a
+/// `--json` typed with `--shard`; the merge writes the summary there.
+#[test]
+fn a_summary_with_json_shards_and_merges_into_its_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut args = vec!["render"];
+    args.extend(SMALL);
+    args.extend(["--out", "r.exr", "--json", "r.json"]);
+    run(d, &args);
+    let summary = bytes(&d.join("r.json"));
+    run(d, &["render", "r.json", "--shard", "all.shard", "--quiet"]);
+    assert_eq!(bytes(&d.join("r.json")), summary, "the scene was changed");
+    let e = refused(
+        d,
+        &["render", "r.json", "--shard", "x.shard", "--json", "x.json"],
+    );
+    assert!(e.contains("--json"), "{e}");
+    std::fs::rename(d.join("r.json"), d.join("first.json")).unwrap();
+    run(d, &["merge", "all.shard", "--out", "m.exr", "--quiet"]);
+    assert_eq!(bytes(&d.join("m.exr")), bytes(&d.join("r.exr")));
+    assert!(
+        d.join("r.json").is_file(),
+        "the merge wrote no summary to the scene's json"
+    );
+}
+
+/// `--write-scene` refuses what `host render` of the written scene would refuse, so every
+/// written scene renders.
+#[test]
+fn written_scenes_always_render() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let e = refused(d, &["render", "--hg-g", "0.5", "--write-scene", "w.toml"]);
+    assert!(e.contains("--hg-g"), "{e}");
+    assert!(!d.join("w.toml").exists());
+    let mut args = vec!["render", "--integrator", "path", "--hg-g", "0.5"];
+    args.extend(SMALL);
+    args.extend(["--write-scene", "w.toml"]);
+    run(d, &args);
+    run(d, &["render", "w.toml", "--out", "w.exr"]);
+}
+
+/// A scene file is read through a bound, whatever size the file system reports: /proc files
+/// report 0 bytes.
+#[test]
+fn scene_reads_are_bounded() {
+    let dir = tempfile::tempdir().unwrap();
+    let e = refused(dir.path(), &["render", "--scene", "/proc/self/maps"]);
+    assert!(e.contains("/proc/self/maps"), "{e}");
+    assert!(!e.contains("panicked"), "{e}");
+}

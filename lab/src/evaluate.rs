@@ -396,6 +396,17 @@ fn plan_eval_outputs(
     for image in images {
         plan.file("an image of --out-dir", image);
     }
+    match &args.reference_source {
+        crate::reference::ReferenceSource::WriteShard { path, .. } => {
+            plan.file("--reference-shard", path);
+        }
+        crate::reference::ReferenceSource::Shards(paths) => {
+            for shard in paths {
+                plan.input("--reference-from", shard);
+            }
+        }
+        crate::reference::ReferenceSource::Render => {}
+    }
     plan.file("--json", &json).check()?;
     Ok(json)
 }

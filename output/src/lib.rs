@@ -1,7 +1,12 @@
 //! Image and summary output: linear EXR, tone-mapped PNG preview, JSON summary.
 
 use anyhow::{bail, Context, Result};
-use std::path::{Component, Path, PathBuf};
+use std::path::{Path, PathBuf};
+
+pub mod inputs;
+pub mod partials;
+
+use inputs::{file_id, normalize};
 
 /// Writes a single-channel linear image as an RGB EXR (all channels equal), f32, ZIP-compressed
 /// scan lines in increasing order, written on one thread so equal images give equal bytes.
@@ -87,8 +92,13 @@ pub fn write_text(path: &Path, text: &str) -> Result<()> {
 /// directory (same extension, for writers that choose the format by it), then renames that into
 /// place: an interrupted or failed write leaves the previous file, never a half-written one,
 /// and no other name of the old file (a hard link) changes. A symbolic link at `path` is
-/// written through: its target is replaced, the link stays.
+/// written through: its target is replaced, the link stays. Refused, before anything is
+/// written: a path that is an input of this process ([`inputs::protect`]) by any name, and an
+/// existing path that is no regular file (a device, a FIFO, a socket), which the rename would
+/// replace.
 pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    inputs::refuse_input("writing", path)?;
+    inputs::refuse_special("writing", path)?;
     let is_link = std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink());
     let target = if is_link {
         std::fs::canonicalize(path).unwrap_or_else(|_| path.to_owned())
@@ -102,11 +112,8 @@ pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) ->
     let name = target
         .file_name()
         .with_context(|| format!("{}: not a file path", path.display()))?;
-    let suffix = target
-        .extension()
-        .map(|e| format!(".{}", e.to_string_lossy()))
-        .unwrap_or_default();
-    let prefix = format!(".{}.partial-", name.to_string_lossy());
+    let suffix = temp_suffix(&target);
+    let prefix = partials::prefix(&name.to_string_lossy());
     let mut builder = tempfile::Builder::new();
     builder.prefix(&prefix).suffix(&suffix);
     #[cfg(unix)]
@@ -122,16 +129,33 @@ pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) ->
             dir.display()
         )
     })?;
+    let tmp_path = tmp.path().to_owned();
+    partials::begin(&tmp_path);
     // Dropping `tmp` on an error removes the temporary file.
-    write(tmp.path())?;
-    tmp.persist(&target).map_err(|e| e.error).with_context(|| {
-        format!(
-            "writing {}: renaming the finished file into place",
-            path.display()
-        )
-    })?;
-    Ok(())
+    let written = write(tmp.path()).and_then(|()| {
+        tmp.persist(&target).map_err(|e| e.error).with_context(|| {
+            format!(
+                "writing {}: renaming the finished file into place",
+                path.display()
+            )
+        })
+    });
+    partials::end(&tmp_path);
+    written.map(drop)
 }
+
+/// The extension of a temporary file for `path` (".exr": writers choose the format by it);
+/// none for an extension longer than 16 bytes, so the temporary name stays short.
+fn temp_suffix(path: &Path) -> String {
+    path.extension()
+        .map(|e| format!(".{}", e.to_string_lossy()))
+        .filter(|s| s.len() <= 16)
+        .unwrap_or_default()
+}
+
+/// The longest file name written ([`OutputPlan::check`] refuses longer ones before any work):
+/// NAME_MAX of Linux's file systems.
+pub const MAX_NAME_BYTES: usize = 255;
 
 /// Creates the parent directory of `path` if needed.
 pub fn ensure_parent(path: &Path) -> Result<()> {
@@ -153,32 +177,12 @@ enum Kind {
 
 /// Every path a command will write, gathered before any work so that clashes and unwritable
 /// paths are refused up front instead of after a long render (or by overwriting an output).
+/// Outputs are compared with every input of the process ([`inputs::protect`]: the command
+/// line's inputs and those named to any plan), by path and by file identity.
 #[derive(Debug, Default)]
 pub struct OutputPlan {
     /// (what writes it, for messages; the path as given; its absolute, normalized form; kind)
     entries: Vec<(String, PathBuf, PathBuf, Kind)>,
-    /// Files that are read and must never be written (the input volume, light probes, ...):
-    /// (what reads it, its normalized path, its file identity).
-    inputs: Vec<(String, PathBuf, Option<FileId>)>,
-}
-
-/// A file's identity (device, inode) after following links: two names of one file, through a
-/// symbolic or a hard link, have the same identity.
-type FileId = (u64, u64);
-
-/// The identity of the file `path` names, following links (None where it does not exist, or
-/// off Unix).
-fn file_id(path: &Path) -> Option<FileId> {
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::MetadataExt;
-        std::fs::metadata(path).ok().map(|m| (m.dev(), m.ino()))
-    }
-    #[cfg(not(unix))]
-    {
-        let _ = path;
-        None
-    }
 }
 
 impl OutputPlan {
@@ -197,13 +201,10 @@ impl OutputPlan {
         self.push(what, path, Kind::Dir)
     }
 
-    /// Records a file the command reads (`what`, e.g. "--volume"), so no output may replace it,
-    /// by any name (links included).
+    /// Records a file the command reads (`what`, e.g. "--volume"), so no output of this
+    /// process may replace it, by any name (links included): [`inputs::protect`].
     pub fn input(&mut self, what: &str, path: &Path) -> &mut Self {
-        if path.is_file() {
-            self.inputs
-                .push((what.to_owned(), normalize(path), file_id(path)));
-        }
+        inputs::protect(what, path);
         self
     }
 
@@ -214,8 +215,10 @@ impl OutputPlan {
         self
     }
 
-    /// Refuses clashes (two outputs on one path, an output on an input), then checks that every
-    /// output can be written, creating missing parent directories and output directories.
+    /// Refuses clashes (two outputs on one path, an output on an input, an output that is a
+    /// device, FIFO or socket, a file name too long to write), then checks that every output
+    /// can be written, creating missing parent directories and output directories. Warns of
+    /// temporary files that an interrupted earlier write left beside an output.
     pub fn check(&self) -> Result<()> {
         self.check_clashes()?;
         for (what, path, _, kind) in &self.entries {
@@ -224,32 +227,35 @@ impl OutputPlan {
                 Kind::Dir => check_dir(what, path)?,
             }
         }
+        for (what, path, _, kind) in &self.entries {
+            if *kind == Kind::File {
+                for stale in partials::stale(path) {
+                    eprintln!(
+                        "warning: {what} {}: {} is left from an interrupted write (or is being \
+                         written by another process); remove it when no other run writes there",
+                        path.display(),
+                        stale.display()
+                    );
+                }
+            }
+        }
         Ok(())
     }
 
     /// Refuses two outputs on the same path and outputs on inputs.
     fn check_clashes(&self) -> Result<()> {
         for (i, (what, path, norm, kind)) in self.entries.iter().enumerate() {
-            if let Some((other, _, _)) = self.inputs.iter().find(|(_, input, _)| input == norm) {
+            if *kind == Kind::File {
+                inputs::refuse_input(what, path)?;
+                inputs::refuse_special(what, path)?;
+            } else if let Some(input) = inputs::all().iter().find(|inp| inp.path == *norm) {
                 bail!(
-                    "{what} {} would overwrite the input {other}; choose another output path",
-                    path.display()
-                );
-            }
-            // An existing output that is an input under another name (a symbolic or hard link).
-            let id = file_id(path).filter(|_| *kind == Kind::File);
-            if let Some((other, input, _)) = self
-                .inputs
-                .iter()
-                .find(|(_, _, i)| id.is_some() && *i == id)
-            {
-                bail!(
-                    "{what} {} would overwrite the input {other} ({}): they are the same file \
-                     (a link); choose another output path",
+                    "{what} {} would overwrite the input {}; choose another output path",
                     path.display(),
-                    input.display()
+                    input.what
                 );
             }
+            let id = file_id(path).filter(|_| *kind == Kind::File);
             for (what2, path2, norm2, kind2) in &self.entries[..i] {
                 let linked = id.is_some() && *kind2 == Kind::File && file_id(path2) == id;
                 let same = linked || norm == norm2 && (*kind == Kind::File || *kind2 == Kind::File);
@@ -267,31 +273,6 @@ impl OutputPlan {
     }
 }
 
-/// `path` made absolute (against the current directory) with `.` and `..` resolved lexically,
-/// and its existing parent's symlinks resolved, so equal files compare equal.
-fn normalize(path: &Path) -> PathBuf {
-    let absolute = std::env::current_dir()
-        .map(|cwd| cwd.join(path))
-        .unwrap_or_else(|_| path.to_owned());
-    let mut out = PathBuf::new();
-    for part in absolute.components() {
-        match part {
-            Component::CurDir => {}
-            Component::ParentDir => {
-                out.pop();
-            }
-            other => out.push(other),
-        }
-    }
-    match (out.parent(), out.file_name()) {
-        (Some(dir), Some(name)) => match dir.canonicalize() {
-            Ok(dir) => dir.join(name),
-            Err(_) => out,
-        },
-        _ => out,
-    }
-}
-
 /// Checks that file `path` can be written: not a directory, its directory exists (created if
 /// missing) and accepts a new file, or the existing file opens for writing (not truncated).
 fn check_file(what: &str, path: &Path) -> Result<()> {
@@ -305,12 +286,21 @@ fn check_file(what: &str, path: &Path) -> Result<()> {
         "{what} {} is a directory; give a file path",
         path.display()
     );
+    let name_bytes = path.file_name().map_or(0, |n| n.as_encoded_bytes().len());
+    anyhow::ensure!(
+        name_bytes <= MAX_NAME_BYTES,
+        "{what} {}: the file name is {name_bytes} bytes, longer than file systems allow \
+         ({MAX_NAME_BYTES}); give a shorter name",
+        path.display()
+    );
+    // Metadata only: opening a FIFO would block.
+    inputs::refuse_special(what, path)?;
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_owned(),
         _ => PathBuf::from("."),
     };
     create_dir(what, path, &dir)?;
-    if path.exists() {
+    if path.is_file() {
         std::fs::OpenOptions::new()
             .append(true)
             .open(path)

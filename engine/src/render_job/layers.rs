@@ -114,6 +114,13 @@ pub struct LayerInputs<'a> {
 /// Refuses layers the render cannot give: a standard error needs two samples per pixel, an
 /// albedo a medium that scatters (an integrator render).
 pub fn check(layers: &[Layer], spp: u32, integrator: bool) -> anyhow::Result<()> {
+    for (k, layer) in layers.iter().enumerate() {
+        anyhow::ensure!(
+            !layers[..k].contains(layer),
+            "--layers: {} is named twice; name each layer once",
+            layer.name()
+        );
+    }
     anyhow::ensure!(
         !(layers.contains(&Layer::StdErr) && spp < 2),
         "--layers stderr needs at least 2 samples per pixel (the standard error of one sample \

@@ -132,7 +132,7 @@ pub struct EvalArgs {
     pub reference_shard: Option<PathBuf>,
     /// The samples A..B of the reference that --reference-shard renders: A and B multiples of
     /// 256, B at most --reference-spp.
-    #[arg(long, value_name = "A..B", value_parser = super::parsers::parse_samples, requires = "reference_shard")]
+    #[arg(long, value_name = "A..B", allow_hyphen_values = true, value_parser = super::parsers::parse_samples, requires = "reference_shard")]
     pub reference_samples: Option<(u32, u32)>,
     /// Take the reference from these shards (--reference-shard of the same evaluation, covering
     /// its samples once each) instead of rendering it.
@@ -183,17 +183,27 @@ impl EvalArgs {
         })
     }
 
-    /// Where the reference comes from (`--reference-shard`, `--reference-from`).
+    /// Where the reference comes from (`--reference-shard`, `--reference-from`), with the input
+    /// files whose identity its shards record and are checked against.
     fn reference_source(&self) -> lab::reference::ReferenceSource {
-        use lab::reference::ReferenceSource;
+        use lab::reference::{ReferenceSource, ShardSet};
+        let inputs = engine::render_job::shard::input_paths(
+            &self.scene.volume,
+            self.env.as_ref(),
+            self.scene_file.as_deref(),
+        );
         if let Some(path) = &self.reference_shard {
             return ReferenceSource::WriteShard {
                 path: path.clone(),
                 samples: self.reference_samples,
+                inputs,
             };
         }
         if !self.reference_from.is_empty() {
-            return ReferenceSource::Shards(self.reference_from.clone());
+            return ReferenceSource::Shards(ShardSet {
+                paths: self.reference_from.clone(),
+                inputs,
+            });
         }
         ReferenceSource::Render
     }

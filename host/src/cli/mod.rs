@@ -4,6 +4,7 @@
 pub mod applicable;
 pub mod bench;
 pub mod eval;
+pub mod inputs;
 pub mod merge;
 pub mod parsers;
 pub mod probe;
@@ -43,6 +44,10 @@ pub struct Cli {
 #[derive(Subcommand, Debug)]
 pub enum Command {
     /// Render a primary-ray transmittance image (like the paper's Fig. 8): EXR + PNG + JSON.
+    #[command(
+        override_usage = "host render [OPTIONS] [SCENE]\n       SCENE: a TOML scene file or \
+        a render's JSON summary (the same as --scene SCENE)"
+    )]
     Render(RenderArgs),
     /// Evaluate Eq. 4 on simulated normal optical-depth pairs and compare with exp(-tau).
     Probe(ProbeArgs),
@@ -67,10 +72,29 @@ pub enum Command {
 
 /// Parses the command line like `Cli::parse`, recording which render flags the user gave.
 pub fn parse() -> Result<Cli, clap::Error> {
-    let argv = scene_file::expand(std::env::args_os().collect()).map_err(|e| {
+    let raw: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    let typed = typed_flags(&raw);
+    let argv = scene_file::expand(raw).map_err(|e| {
         clap::Error::raw(clap::error::ErrorKind::ValueValidation, format!("{e:#}\n"))
     })?;
-    parse_from(argv)
+    let mut cli = parse_from(argv)?;
+    match &mut cli.command {
+        None => cli.render.typed = typed,
+        Some(Command::Render(args)) => args.typed = typed,
+        Some(Command::View(args)) => args.render.typed = typed,
+        Some(_) => {}
+    }
+    Ok(cli)
+}
+
+/// The long flag names (`json` for `--json` or `--json=FILE`) typed in `argv` itself, before a
+/// scene file's settings are inserted.
+fn typed_flags(argv: &[std::ffi::OsString]) -> Vec<String> {
+    argv.iter()
+        .skip(1)
+        .filter_map(|a| a.to_str()?.strip_prefix("--"))
+        .map(|a| a.split('=').next().unwrap_or(a).to_owned())
+        .collect()
 }
 
 /// Parses `argv` (a scene file's settings already expanded into it), recording which render
@@ -103,6 +127,8 @@ fn parse_from(argv: Vec<std::ffi::OsString>) -> Result<Cli, clap::Error> {
 pub fn run(cli: &Cli) -> Result<()> {
     // The environment is input too: checked before any work.
     engine::gpu::forced_max_buffer_bytes()?;
+    // Every input the command names, protected from every output before any work.
+    inputs::protect(cli);
     match &cli.command {
         None => render(&cli.render),
         Some(Command::Render(args)) => render(args),
@@ -133,7 +159,11 @@ pub const OUR_CRATES: [&str; 10] = [
 
 /// `host render`: the flags the user gave must apply, then the library renders.
 fn render(args: &RenderArgs) -> Result<()> {
+    let options = args.options();
+    applicable::check(&options, &args.given)?;
     if let Some(path) = &args.write_scene {
+        // A written scene always renders: the checks `host render` makes of it come first.
+        engine::render_job::check_render_flags(&options)?;
         let mut plan = engine::output::OutputPlan::new();
         if let Some(scene) = &args.scene_file {
             plan.input("--scene", scene);
@@ -147,11 +177,11 @@ fn render(args: &RenderArgs) -> Result<()> {
         );
         return Ok(());
     }
-    let options = args.options();
-    applicable::check(&options, &args.given)?;
     if let Some(shard) = args.shard_output() {
+        // A scene's `json` (every written summary holds one) is a run key: the merge writes
+        // the summary there; only a --json typed here asks for a summary the shard cannot write.
         anyhow::ensure!(
-            !args.given.iter().any(|g| g == "json"),
+            !args.typed.iter().any(|g| g == "json"),
             "--json: a shard writes no summary; `host merge` writes the render's JSON when the \
              shards are added up"
         );

@@ -238,7 +238,8 @@ pub struct RenderArgs {
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
-    /// Extra layers of the EXR beside the image, comma-separated: stderr (the standard error of
+    /// Extra parts of the EXR beside the image's part (`transmittance`, or `radiance` with
+    /// --integrator), one layer each, comma-separated: stderr (the standard error of
     /// the pixel's mean, of the luminance for RGB; needs --spp 2 or more), samples (per pixel),
     /// lookups (mean high-resolution lookups per sample), camera-transmittance (of the camera rays by
     /// --estimator, 1 - alpha; with --integrator a second render of the same rays), albedo
@@ -260,7 +261,7 @@ pub struct RenderArgs {
     /// Render only samples A..B (A included, B not) of the --spp, into the --shard file: a
     /// shard of a render split over machines. A and B are multiples of 256 (B may be --spp);
     /// `host merge` adds the shards into the bytes one render gives (docs/guide/scale-out.md).
-    #[arg(long, value_name = "A..B", value_parser = super::parsers::parse_samples, requires = "shard")]
+    #[arg(long, value_name = "A..B", allow_hyphen_values = true, value_parser = super::parsers::parse_samples, requires = "shard")]
     pub samples: Option<(u32, u32)>,
     /// Write the exact per-pixel sums of the samples rendered (all, or --samples) to FILE
     /// instead of the images: a shard for `host merge`.
@@ -272,6 +273,10 @@ pub struct RenderArgs {
     /// The resolved scene (filled by [`parse`], not a flag).
     #[arg(skip)]
     pub record: engine::render_job::scene_record::SceneRecord,
+    /// Long names of the flags typed on the command line itself, without those a --scene file
+    /// gave (filled by [`parse`], not a flag): a scene's run keys (`json`) never block a shard.
+    #[arg(skip)]
+    pub typed: Vec<String>,
 }
 
 impl RenderArgs {

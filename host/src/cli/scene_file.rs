@@ -35,8 +35,9 @@ const NO_SCENE: &[&str] = &["probe", "study", "merge", "help"];
 const ALIASES: &[(&str, &str, &str)] = &[("report", "volume", "volumes")];
 
 /// Scene keys whose flag of the same name means something else in a command: `host report
-/// --out` is a folder, not the image.
-const FOREIGN: &[(&str, &str)] = &[("report", "out")];
+/// --out` is a folder, not the image; `json` is the render's summary, not an evaluation's or a
+/// benchmark's report (which would otherwise replace the summary a scene was read from).
+const FOREIGN: &[(&str, &str)] = &[("report", "out"), ("eval", "json"), ("bench", "json")];
 
 /// Keys whose text values are input files (unless one of the listed names).
 const INPUT_PATHS: &[(&str, &[&str])] = &[
@@ -84,10 +85,17 @@ pub fn expand(args: Vec<OsString>) -> Result<Vec<OsString>> {
     let named = ["render", "eval", "bench", "report", "view"].contains(&first.as_str());
     let start = if named { 2 } else { 1 };
     let name = if named { first.as_str() } else { "render" };
-    if (name == "render" || name == "view") && start == 2 {
-        if let Some(a) = args.get(2).and_then(|a| a.to_str()) {
-            if !a.starts_with('-') {
-                args.insert(2, "--scene".into());
+    if name == "render" || name == "view" {
+        if let Some(k) = positional(&command_of(name), &args[start..]) {
+            // Without a subcommand, only a scene file is taken for one (not a mistyped
+            // subcommand, which clap names).
+            let tok = Path::new(&args[start + k]);
+            let scene_like = tok.is_file()
+                || tok.extension().is_some_and(|e| {
+                    e.eq_ignore_ascii_case("toml") || e.eq_ignore_ascii_case("json")
+                });
+            if named || scene_like {
+                args.insert(start + k, "--scene".into());
             }
         }
     }
@@ -148,6 +156,41 @@ pub fn expand(args: Vec<OsString>) -> Result<Vec<OsString>> {
     Ok(out)
 }
 
+/// The index in `user` of the first token that is neither a flag nor a flag's value: the
+/// positional SCENE of `host render SCENE` (anywhere among the flags).
+fn positional(cmd: &Command, user: &[OsString]) -> Option<usize> {
+    let mut value_next = false;
+    for (k, a) in user.iter().enumerate() {
+        let a = a.to_string_lossy();
+        if value_next {
+            value_next = false;
+            continue;
+        }
+        if a == "--" {
+            return None;
+        }
+        if let Some(long) = a.strip_prefix("--") {
+            if !long.contains('=') {
+                value_next = cmd
+                    .get_arguments()
+                    .find(|x| x.get_long() == Some(long))
+                    .is_some_and(|x| x.get_action().takes_values());
+            }
+        } else if let Some(short) = a.strip_prefix('-').filter(|s| !s.is_empty()) {
+            let mut chars = short.chars();
+            let first = chars.next();
+            value_next = chars.next().is_none()
+                && cmd
+                    .get_arguments()
+                    .find(|x| x.get_short() == first)
+                    .is_some_and(|x| x.get_action().takes_values());
+        } else {
+            return Some(k);
+        }
+    }
+    None
+}
+
 /// "FILE:LINE: key `k`: message" (JSON summaries have no lines: "FILE: key ...").
 fn at(file: &Path, s: &Setting, message: &str) -> anyhow::Error {
     match s.line {
@@ -177,13 +220,27 @@ fn load(file: &Path) -> Result<Vec<Setting>> {
             );
         }
     }
-    let text = std::fs::read_to_string(file).with_context(|| {
-        format!(
-            "--scene {}: cannot read the scene file (a TOML scene, or the JSON summary of a \
-             render)",
-            file.display()
-        )
-    })?;
+    // The read itself is bounded: files such as /proc's report a size of 0 and can be longer.
+    let mut text = String::new();
+    std::fs::File::open(file)
+        .and_then(|f| {
+            use std::io::Read;
+            f.take(MAX_SCENE_BYTES + 1).read_to_string(&mut text)
+        })
+        .with_context(|| {
+            format!(
+                "--scene {}: cannot read the scene file (a TOML scene, or the JSON summary of a \
+                 render)",
+                file.display()
+            )
+        })?;
+    if text.len() as u64 > MAX_SCENE_BYTES {
+        bail!(
+            "--scene {}: longer than {} MiB, so not a scene file",
+            file.display(),
+            MAX_SCENE_BYTES >> 20
+        );
+    }
     if file
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("json"))
