@@ -283,10 +283,14 @@ fn write_insets(pngs: &[String], out: &Path) -> Result<()> {
             }
         }
     }
+    // Encoded in memory, then one checked write (a buffered writer's last flush would lose a
+    // full disk's error).
+    let mut png = std::io::Cursor::new(Vec::new());
+    out_img
+        .write_to(&mut png, image::ImageFormat::Png)
+        .map_err(|e| anyhow::anyhow!("encoding {}: {e}", out.display()))?;
     engine::output::write_atomically(out, |tmp| {
-        out_img
-            .save(tmp)
-            .with_context(|| format!("writing {}", out.display()))
+        std::fs::write(tmp, png.get_ref()).with_context(|| format!("writing {}", out.display()))
     })
 }
 

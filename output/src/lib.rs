@@ -43,7 +43,7 @@ fn write_exr_layer(
             .write()
             .non_parallel()
             .to_file(tmp)
-            .with_context(|| format!("writing {}", path.display()))
+            .map_err(|e| write_error(path, &e))
     })
 }
 
@@ -58,20 +58,39 @@ pub fn srgb8(v: f32) -> u8 {
     (s * 255.0 + 0.5) as u8
 }
 
+/// The error of an image encoder writing `path`: its message once (the exr and image crates'
+/// I/O errors repeat their cause as their source, which `{:#}` would print twice).
+fn write_error(path: &Path, e: &dyn std::fmt::Display) -> anyhow::Error {
+    anyhow::anyhow!("writing {}: {e}", path.display())
+}
+
 /// Writes a grayscale sRGB PNG preview of linear values (clamped to [0, 1]).
 pub fn write_png(path: &Path, w: u32, h: u32, values: &[f32]) -> Result<()> {
     let bytes: Vec<u8> = values.iter().map(|&v| srgb8(v)).collect();
-    write_atomically(path, |tmp| {
-        image::save_buffer(tmp, &bytes, w, h, image::ColorType::L8)
-            .with_context(|| format!("writing {}", path.display()))
-    })
+    write_png_bytes(path, w, h, &bytes, image::ExtendedColorType::L8)
 }
 
 /// Writes an RGB8 PNG (false-colour images).
 pub fn write_rgb_png(path: &Path, w: u32, h: u32, rgb: &[u8]) -> Result<()> {
+    write_png_bytes(path, w, h, rgb, image::ExtendedColorType::Rgb8)
+}
+
+/// Encodes a PNG in memory, then writes it with one checked write: an encoder writing through
+/// a buffer would lose an error of its last flush (a full disk) and leave a truncated file.
+fn write_png_bytes(
+    path: &Path,
+    w: u32,
+    h: u32,
+    pixels: &[u8],
+    color: image::ExtendedColorType,
+) -> Result<()> {
+    use image::ImageEncoder;
+    let mut png = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut png)
+        .write_image(pixels, w, h, color)
+        .map_err(|e| write_error(path, &e))?;
     write_atomically(path, |tmp| {
-        image::save_buffer(tmp, rgb, w, h, image::ColorType::Rgb8)
-            .with_context(|| format!("writing {}", path.display()))
+        std::fs::write(tmp, &png).map_err(|e| write_error(path, &e))
     })
 }
 
@@ -84,7 +103,7 @@ pub fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<()> {
 /// Writes a text file ([`write_atomically`]).
 pub fn write_text(path: &Path, text: &str) -> Result<()> {
     write_atomically(path, |tmp| {
-        std::fs::write(tmp, text).with_context(|| format!("writing {}", path.display()))
+        std::fs::write(tmp, text).map_err(|e| write_error(path, &e))
     })
 }
 
@@ -472,7 +491,7 @@ pub fn write_exr_layers(
             .write()
             .non_parallel()
             .to_file(tmp)
-            .with_context(|| format!("writing {}", path.display()))
+            .map_err(|e| write_error(path, &e))
     })
 }
 

@@ -107,16 +107,14 @@ pub fn save(path: &Path, figure: &impl Figure) -> Result<()> {
 fn write_png(path: &Path, rgb: &[u8], w: u32, h: u32) -> Result<()> {
     use image::codecs::png::{CompressionType, FilterType, PngEncoder};
     use image::ImageEncoder;
-    output::write_atomically(path, |tmp| {
-        let file =
-            std::fs::File::create(tmp).with_context(|| format!("creating {}", path.display()))?;
-        PngEncoder::new_with_quality(
-            std::io::BufWriter::new(file),
-            CompressionType::Best,
-            FilterType::Adaptive,
-        )
+    // Encoded in memory, then one checked write: a buffered writer's last flush would lose a
+    // full disk's error and leave a truncated file.
+    let mut png = Vec::new();
+    PngEncoder::new_with_quality(&mut png, CompressionType::Best, FilterType::Adaptive)
         .write_image(rgb, w, h, image::ExtendedColorType::Rgb8)
-        .with_context(|| format!("writing {}", path.display()))
+        .map_err(|e| anyhow::anyhow!("encoding {}: {e}", path.display()))?;
+    output::write_atomically(path, |tmp| {
+        std::fs::write(tmp, &png).with_context(|| format!("writing {}", path.display()))
     })
 }
 
