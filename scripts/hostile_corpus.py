@@ -938,7 +938,8 @@ def cases():
         "either", setup=real_eval(), protect=["ev0/eval.json"])
     for flag, name in [("--json", "o.json"), ("-o", "o.exr"), ("--write-scene", "o.toml"),
                        ("--shard", "o.shard")]:
-        argv = render(flag, name) if flag != "-o" else render(out=False) + ["-o", name]
+        argv = {"-o": render(out=False) + ["-o", name],
+                "--shard": render(out=False) + ["--shard", name]}.get(flag, render(flag, name))
         add(f"fifo_output_{flag.strip('-')}", argv, "refuse", setup=fifo(name), timeout=20,
             words=["FIFO"])
         add(f"chardev_output_{flag.strip('-')}", argv, "either", setup=mknod_null(name),
@@ -954,7 +955,8 @@ def cases():
         words=["255"], max_seconds=10)
     add("layers_twice", render("--layers", "samples,samples"), "refuse",
         words=["--layers", "twice"], max_seconds=10)
-    add("scene_from_proc", render("--scene", "/proc/self/maps"), "refuse", words=["--scene"])
+    add("scene_from_proc", render("--scene", "/proc/self/maps"), "refuse",
+        words=["/proc/self/maps"])
     add("scene_positional_after_flags", RENDER + vol_args(None) + ["-o", "r.exr", "s.toml"],
         "ok", setup=toml(), outputs=["r.exr"])
     add("shard_of_a_summary_scene", ["render", "r.json", "--shard", "x.shard", "-q"], "ok",

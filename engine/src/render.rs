@@ -320,16 +320,28 @@ pub fn render_lit(
 pub struct Resident<'a> {
     vol: &'a PackedVolume,
     backend: Box<dyn RenderBackend + 'a>,
+    /// The backend it was uploaded to (named in outputs: who rendered a shard).
+    on: &'a Backend,
 }
 
 impl<'a> Resident<'a> {
+    /// The backend the volume is resident on.
+    pub fn backend(&self) -> &'a Backend {
+        self.on
+    }
+
     /// Uploads `vol` if `backend` is a GPU.
     pub fn new(backend: &'a Backend, vol: &'a PackedVolume) -> Result<Self> {
+        let backend_of = backend;
         let backend: Box<dyn RenderBackend + 'a> = match backend {
             Backend::Cpu => Box::new(crate::cpu::CpuVolume::new(vol)),
             Backend::Gpu(gpu) => Box::new(crate::gpu::render::GpuVolume::upload(gpu, vol)?),
         };
-        Ok(Resident { vol, backend })
+        Ok(Resident {
+            vol,
+            backend,
+            on: backend_of,
+        })
     }
 
     /// The stored words of the sun's moment shadow map of `lighting` on this backend.

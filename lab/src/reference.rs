@@ -2,10 +2,10 @@
 //! (`host eval --reference-shard FILE --reference-samples A..B` on any machines) and added up
 //! (`host eval --reference-from SHARD...`), byte for byte the reference one machine renders.
 
-use anyhow::{ensure, Result};
+use anyhow::{ensure, Context, Result};
 use engine::lighting::SceneLights;
 use engine::render::Resident;
-use engine::render_job::shard::{self, ShardHeader};
+use engine::render_job::shard::{self, InputPaths, ShardHeader};
 use engine::totals::PixelTotals;
 use rayon::prelude::*;
 use shared::kernels::render::PixelOut;
@@ -19,13 +19,41 @@ pub enum ReferenceSource {
     #[default]
     Render,
     /// Render samples `samples` of the reference only (None: all), write them as a shard to
-    /// `path`, and evaluate nothing.
+    /// `path` with the identity of the evaluation's input files `inputs`
+    /// ([`shard::input_paths`]), and evaluate nothing.
     WriteShard {
         path: PathBuf,
         samples: Option<(u32, u32)>,
+        inputs: InputPaths,
     },
     /// Added up from these shards of the reference instead of rendered.
-    Shards(Vec<PathBuf>),
+    Shards(ShardSet),
+}
+
+/// The shards an evaluation's reference is added up from, and the evaluation's input files
+/// ([`shard::input_paths`]), which must be those the shards were rendered from. Reads as the
+/// list of the shards' paths.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ShardSet {
+    pub paths: Vec<PathBuf>,
+    pub inputs: InputPaths,
+}
+
+impl std::ops::Deref for ShardSet {
+    type Target = [PathBuf];
+
+    fn deref(&self) -> &[PathBuf] {
+        &self.paths
+    }
+}
+
+impl<'a> IntoIterator for &'a ShardSet {
+    type Item = &'a PathBuf;
+    type IntoIter = std::slice::Iter<'a, PathBuf>;
+
+    fn into_iter(self) -> Self::IntoIter {
+        self.paths.iter()
+    }
 }
 
 /// The error that ends an evaluation after its reference shard is written (`run_eval` turns
@@ -55,24 +83,45 @@ pub fn reference_pixels(
 ) -> Result<Vec<PixelOut>> {
     match source {
         ReferenceSource::Render => render(),
-        ReferenceSource::WriteShard { path, samples } => {
-            write_shard(path, *samples, label, resident, params, lights, progress)?;
+        ReferenceSource::WriteShard {
+            path,
+            samples,
+            inputs,
+        } => {
+            let shard = Reference {
+                label,
+                params,
+                lights,
+            };
+            write_shard(path, *samples, inputs, &shard, resident, progress)?;
             Err(ShardWritten.into())
         }
-        ReferenceSource::Shards(paths) => from_shards(paths, label, params, lights),
+        ReferenceSource::Shards(set) => from_shards(set, label, params, lights),
     }
 }
 
-/// Renders samples `samples` of the reference and writes their totals to `path`.
+/// What a reference is of.
+struct Reference<'a> {
+    label: &'a str,
+    params: &'a RenderParams,
+    lights: &'a SceneLights,
+}
+
+/// Renders samples `samples` of the reference and writes their totals to `path`, with the
+/// identity of the input files `inputs`.
 fn write_shard(
     path: &Path,
     samples: Option<(u32, u32)>,
-    label: &str,
+    inputs: &InputPaths,
+    reference: &Reference,
     resident: &Resident,
-    params: &RenderParams,
-    lights: &SceneLights,
     progress: bool,
 ) -> Result<()> {
+    let Reference {
+        label,
+        params,
+        lights,
+    } = *reference;
     let block = shared::kernels::render::SAMPLE_BLOCK;
     let spp = params.spp;
     let (a, b) = samples.unwrap_or((0, spp));
@@ -86,6 +135,8 @@ fn write_shard(
         "--reference-samples {a}..{b}: a shard starts and ends at a multiple of {block} samples \
          (or ends at the reference's {spp}), so that shards add up to the bytes of one reference"
     );
+    // The input files' identity, read before hours of rendering.
+    let inputs = shard::record_inputs(inputs)?;
     let t = std::time::Instant::now();
     let totals = engine::render::render_totals(resident, params, lights, a..b, progress)?;
     let header = ShardHeader {
@@ -98,10 +149,11 @@ fn write_shard(
         sample_block: block,
         images: vec![label.to_owned()],
         render_fnv1a: shard::render_fnv1a(params, lights),
+        inputs,
         payload_bytes: 0,
         payload_fnv1a: String::new(),
-        backend: String::new(),
-        device: String::new(),
+        backend: resident.backend().kind().into(),
+        device: resident.backend().device(),
         elapsed_ms: t.elapsed().as_secs_f64() * 1e3,
         host_version: env!("CARGO_PKG_VERSION").into(),
         command_line: std::env::args().collect(),
@@ -117,43 +169,53 @@ fn write_shard(
     Ok(())
 }
 
-/// The reference added up from `paths`, which must be shards of exactly this reference.
+/// The reference added up from the shards `set`, which must be shards of exactly this
+/// reference, rendered from the evaluation's input files as they are now.
 fn from_shards(
-    paths: &[PathBuf],
+    set: &ShardSet,
     label: &str,
     params: &RenderParams,
     lights: &SceneLights,
 ) -> Result<Vec<PixelOut>> {
-    let paths: Vec<&Path> = paths.iter().map(PathBuf::as_path).collect();
+    let paths: Vec<&Path> = set.paths.iter().map(PathBuf::as_path).collect();
     let headers = paths
         .iter()
         .map(|p| shard::read_header(p))
         .collect::<Result<Vec<_>>>()?;
     let order = shard::plan_merge(&paths, &headers, shard::EVAL_REFERENCE)?;
+    let first = *order.first().context("give the reference's shard files")?;
+    let (path, h) = (paths[first], &headers[first]);
+    // The input files first: a changed volume changes the parameters' hash too.
+    shard::check_inputs(path, h, &set.inputs)?;
     let want = shard::render_fnv1a(params, lights);
-    let h = &headers[0];
     ensure!(
-        h.images == [label] && h.render_fnv1a == want && h.spp == params.spp,
-        "{}: a shard of the reference `{}` ({} spp, hash {}), but this evaluation's reference is \
-         `{label}` ({} spp, hash {want}): render the shards with the same flags as this \
-         evaluation (volume, camera, image, lookups, --reference-spp, seed, lights)",
-        paths[0].display(),
+        h.images == [label]
+            && h.render_fnv1a == want
+            && (h.width, h.height, h.spp) == (params.width, params.height, params.spp),
+        "{}: a shard of the reference `{}` ({}x{}, {} spp, hash {}), but this evaluation's \
+         reference is `{label}` ({}x{}, {} spp, hash {want}): render the shards with the same \
+         flags as this evaluation (volume, camera, image, lookups, --reference-spp, seed, lights)",
+        path.display(),
         h.images.join(","),
+        h.width,
+        h.height,
         h.spp,
         h.render_fnv1a,
+        params.width,
+        params.height,
         params.spp
     );
     let mut sum = vec![PixelTotals::default(); params.width as usize * params.height as usize];
     for i in order {
         let (header, images) = shard::read(paths[i])?;
-        ensure!(
-            header == headers[i] && images.len() == 1 && images[0].len() == sum.len(),
-            "{}: the file changed while it was read",
-            paths[i].display()
-        );
-        sum.par_iter_mut()
-            .zip(&images[0])
-            .for_each(|(t, s)| t.add(s));
+        let image = match images.as_slice() {
+            [image] if header == headers[i] && image.len() == sum.len() => image,
+            _ => anyhow::bail!(
+                "{}: the file changed while it was read; evaluate again",
+                paths[i].display()
+            ),
+        };
+        sum.par_iter_mut().zip(image).for_each(|(t, s)| t.add(s));
     }
     tracing::info!(
         "reference `{label}` added up from {} shard{}",

@@ -20,7 +20,7 @@ use crate::backend::{Backend, BackendChoice};
 use crate::diagnostics::RayFlags;
 use crate::job::Job;
 use crate::lighting::SceneLights;
-use crate::output::{write_exr, write_json, write_png};
+use crate::output::{write_json, write_png};
 use crate::render::{occupied_world_bounds, Resident};
 use crate::scene::{prepare_scene, Scene};
 use crate::shadow_map::ShadowSummary;
@@ -104,6 +104,12 @@ pub fn run_shard(args: &RenderOptions, out: &ShardOutput) -> Result<shard::Shard
     out.check(args.spp)?;
     crate::render::check_image_memory(args.width, args.height, 1, true)?;
     plan_shard_output(args, &out.path)?;
+    // The input files' identity, read before they are loaded (and not after hours of rendering).
+    let inputs = shard::record_inputs(&shard::input_paths(
+        &args.scene.volume,
+        args.env.as_ref(),
+        args.scene_file.as_deref(),
+    ))?;
     // `--backend auto` weighs the shard's samples, not the whole render's.
     let mut setup = Setup::new(args, out.samples.1 - out.samples.0)?;
     let resident = Resident::new(&setup.backend, &setup.scene.packed)?;
@@ -143,6 +149,7 @@ pub fn run_shard(args: &RenderOptions, out: &ShardOutput) -> Result<shard::Shard
         sample_block: shared::kernels::render::SAMPLE_BLOCK,
         images: names,
         render_fnv1a: shard::render_fnv1a(params, lights),
+        inputs,
         payload_bytes: 0,
         payload_fnv1a: String::new(),
         backend: backend.kind().into(),
@@ -470,13 +477,15 @@ pub fn write_images(
         crate::output::write_png_rgb_exposed(png, args.width, args.height, &rgb, args.exposure)?;
         return Ok(mean);
     }
-    if extra.is_empty() {
-        write_exr(&args.out, args.width, args.height, &t)?;
+    // The image's part: the single-scattering integrators' grey image is radiance too.
+    let part = if args.integrator.is_some() {
+        "radiance"
     } else {
-        let rgb: Vec<[f32; 3]> = t.iter().map(|&v| [v, v, v]).collect();
-        let (w, h) = (args.width, args.height);
-        crate::output::write_exr_layers(&args.out, w, h, "transmittance", &rgb, &extra)?;
-    }
+        "transmittance"
+    };
+    let rgb: Vec<[f32; 3]> = t.iter().map(|&v| [v, v, v]).collect();
+    let (w, h) = (args.width, args.height);
+    crate::output::write_exr_layers(&args.out, w, h, part, &rgb, &extra)?;
     let tone = preview::Preview::of(args.integrator, args.exposure);
     let preview: Vec<f32> = t.iter().map(|&v| tone.grey(v)).collect();
     write_png(png, args.width, args.height, &preview)?;

@@ -26,7 +26,8 @@ pub struct MergeArgs {
 }
 
 /// Reads the scene of the shard with the first samples, makes it the render's command line with
-/// this command's outputs, and renders it from the shards' totals instead of from the volume.
+/// this command's outputs, checks the input files it reads against those the shards were
+/// rendered from, and renders it from the shards' totals instead of from the volume.
 pub fn run(args: &MergeArgs) -> Result<()> {
     // The scene of the shard with the first samples (its backend and outputs become the
     // merged render's defaults, whatever order the shards are given in).
@@ -62,6 +63,8 @@ pub fn run(args: &MergeArgs) -> Result<()> {
     })?;
     let mut options = render.options();
     options.merge = args.shards.clone();
+    // Before the volume is loaded: a changed or missing input file is refused by name.
+    engine::render_job::merge::check_inputs(&options)?;
     engine::render_job::run_render(&options)
         .with_context(|| format!("merging {} shard files", args.shards.len()))
         .map(|_| ())
