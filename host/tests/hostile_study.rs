@@ -244,3 +244,23 @@ fn bad_jk_vulkan_device_falls_back_under_auto_and_fails_under_gpu() {
         );
     }
 }
+
+/// A `JK_VULKAN_DEVICE` that is not UTF-8 is a bad index like any other (it was read as unset,
+/// silently choosing the default device): `--backend gpu` refuses it naming the variable.
+#[test]
+fn a_non_utf8_jk_vulkan_device_is_refused_not_ignored() {
+    use std::os::unix::ffi::OsStrExt;
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_host"))
+        .args(["probe", "--count", "64", "--backend", "gpu"])
+        .env("JK_VULKAN_DEVICE", std::ffi::OsStr::from_bytes(b"\xff"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    // Without any Vulkan driver the error says so instead of naming the variable.
+    assert!(
+        err.contains("JK_VULKAN_DEVICE") || err.contains("no Vulkan"),
+        "{err}"
+    );
+}

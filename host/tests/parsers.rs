@@ -311,3 +311,40 @@ fn every_numeric_flag_of_every_subcommand_parses_or_errors_cleanly() {
         result.unwrap_or_else(|e| panic!("{command:?} {flag}: {e}"));
     }
 }
+
+/// Paths that are not UTF-8 are refused naming the flag and the fix (clap's own message named
+/// neither), and `--samples` with a negative start gets the flag's own message.
+#[test]
+fn non_utf8_paths_and_negative_samples_name_their_flag() {
+    use std::os::unix::ffi::OsStrExt;
+    let bad = std::ffi::OsStr::from_bytes(b"v\xff.vdb");
+    for (args, flag) in [
+        (vec!["render", "--volume"], "--volume"),
+        (vec!["render", "--integrator", "direct", "--env"], "--env"),
+        (vec!["eval", "--volume"], "--volume"),
+        (vec!["report", "--volumes"], "--volumes"),
+        (vec!["study", "profile", "--profile"], "--profile"),
+    ] {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_host"))
+            .args(&args)
+            .arg(bad)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+        assert!(
+            err.contains(flag) && err.contains("UTF-8"),
+            "{args:?}: {err}"
+        );
+    }
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_host"))
+        .args(["render", "--samples", "-256..0", "--shard", "x.shard"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("--samples") && err.contains("not a sample index"),
+        "{err}"
+    );
+}

@@ -299,7 +299,8 @@ impl DeviceOwner {
         } else {
             devices
         };
-        let forced = std::env::var("JK_VULKAN_DEVICE").ok();
+        // A value that is not UTF-8 is a bad index too (never silently the default device).
+        let forced = std::env::var_os("JK_VULKAN_DEVICE").map(|v| v.to_string_lossy().into_owned());
         let physical = match forced {
             Some(s) => devices[forced_index(&s, devices.len())?],
             None => *devices

@@ -59,7 +59,7 @@ pub struct EvalArgs {
     pub albedo: f32,
     /// `--integrators direct`: environment light (`sky`, `none` or a .exr / .hdr probe) [default:
     /// sky, unless --sun or --light is given].
-    #[arg(long, value_parser = super::parsers::parse_env)]
+    #[arg(long, value_parser = super::parsers::EnvParser)]
     pub env: Option<engine::lighting::EnvSource>,
     /// `--integrators direct`: multiplier of the environment map, finite and >= 0.
     #[arg(long, default_value_t = 1.0, allow_hyphen_values = true, value_parser = f32_in(0.0, 3.0e38))]

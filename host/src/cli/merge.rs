@@ -17,7 +17,8 @@ pub struct MergeArgs {
     /// own --out].
     #[arg(long, short)]
     pub out: Option<PathBuf>,
-    /// Also write the JSON summary here [default: the render's own --json, if it had one].
+    /// Also write the JSON summary here [default: the `json` key of the shards' scene (when
+    /// they rendered a scene file or summary that names one); else no summary].
     #[arg(long)]
     pub json: Option<PathBuf>,
     /// No info lines.

@@ -439,3 +439,66 @@ impl clap::builder::TypedValueParser for IntegratorParser {
         ))
     }
 }
+
+/// The error of a flag given a value that is not UTF-8, naming the flag and the fix (clap's own
+/// message names neither).
+fn not_utf8(cmd: &clap::Command, arg: Option<&clap::Arg>, value: &std::ffi::OsStr) -> clap::Error {
+    let flag = arg
+        .and_then(|a| a.get_long())
+        .map_or_else(|| "a value".to_owned(), |l| format!("--{l}"));
+    clap::Error::raw(
+        clap::error::ErrorKind::InvalidUtf8,
+        format!(
+            "{flag} {:?}: not valid UTF-8, which this flag takes (it is recorded in the scene and \
+             the JSON summary as text); rename the file, or link it under a UTF-8 name\n",
+            value
+        ),
+    )
+    .with_cmd(cmd)
+}
+
+/// A flag's text that may name a file (`--volume`, `--volumes`, `--profile`): a value that is
+/// not UTF-8 is refused naming the flag ([`not_utf8`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Utf8Text;
+
+impl clap::builder::TypedValueParser for Utf8Text {
+    type Value = String;
+
+    fn parse_ref(
+        &self,
+        cmd: &clap::Command,
+        arg: Option<&clap::Arg>,
+        value: &std::ffi::OsStr,
+    ) -> Result<String, clap::Error> {
+        value
+            .to_str()
+            .map(str::to_owned)
+            .ok_or_else(|| not_utf8(cmd, arg, value))
+    }
+}
+
+/// `--env`: [`parse_env`] of a UTF-8 value; one that is not UTF-8 is refused naming the flag.
+#[derive(Clone, Copy, Debug)]
+pub struct EnvParser;
+
+impl clap::builder::TypedValueParser for EnvParser {
+    type Value = engine::lighting::EnvSource;
+
+    fn parse_ref(
+        &self,
+        cmd: &clap::Command,
+        arg: Option<&clap::Arg>,
+        value: &std::ffi::OsStr,
+    ) -> Result<Self::Value, clap::Error> {
+        let text = value.to_str().ok_or_else(|| not_utf8(cmd, arg, value))?;
+        parse_env(text).map_err(|e| {
+            let flag = arg.map_or_else(|| "--env".to_owned(), |a| a.to_string());
+            clap::Error::raw(
+                clap::error::ErrorKind::ValueValidation,
+                format!("invalid value '{text}' for '{flag}': {e}\n"),
+            )
+            .with_cmd(cmd)
+        })
+    }
+}

@@ -1,9 +1,9 @@
 //! Flags of `host render` and the scene flags it shares with `host eval` and `host bench`.
 
 use super::parsers::{
-    f32_in, f32_open, parse_albedo, parse_density_scale, parse_env, parse_f_delta,
-    parse_msm_filter, parse_positive, parse_split_ratio, parse_sun, parse_vec3, BackendArg,
-    LookupArg, MsmStorageArg, ShadowsArg, SupervoxelFormatArg, SupervoxelsArg, THatArg, UpArg,
+    f32_in, f32_open, parse_albedo, parse_density_scale, parse_f_delta, parse_msm_filter,
+    parse_positive, parse_split_ratio, parse_sun, parse_vec3, BackendArg, LookupArg, MsmStorageArg,
+    ShadowsArg, SupervoxelFormatArg, SupervoxelsArg, THatArg, UpArg,
 };
 use clap::Args;
 use engine::defaults;
@@ -15,7 +15,7 @@ use std::path::PathBuf;
 #[derive(Args, Debug, Clone)]
 pub struct SceneArgs {
     /// Embedded volume (cloud, explosion, constant) or a .vdb / .nvdb file.
-    #[arg(long, default_value = defaults::VOLUME)]
+    #[arg(long, default_value = defaults::VOLUME, value_parser = super::parsers::Utf8Text)]
     pub volume: String,
     /// Grid to read from a file (default: "density", else the first float grid).
     #[arg(long)]
@@ -165,7 +165,7 @@ pub struct RenderArgs {
     /// Environment light of `direct`, `path`, `restir`: `sky` (the embedded Preetham daylight sky
     /// with its sun), `none`, or an equirectangular .exr / .hdr light probe [default: sky, unless
     /// --sun, --light or --lights is given].
-    #[arg(long, value_parser = parse_env)]
+    #[arg(long, value_parser = super::parsers::EnvParser)]
     pub env: Option<engine::lighting::EnvSource>,
     /// Multiplier of the environment map's radiance, finite and >= 0.
     #[arg(long, default_value_t = 1.0, allow_hyphen_values = true, value_parser = f32_in(0.0, 3.0e38))]

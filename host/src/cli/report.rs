@@ -19,7 +19,7 @@ pub struct ReportArgs {
     pub scene_file: Option<PathBuf>,
     /// Comma-separated volumes to evaluate now (embedded names or files; default: cloud unless
     /// --from-eval is given).
-    #[arg(long)]
+    #[arg(long, value_parser = super::parsers::Utf8Text)]
     pub volumes: Option<String>,
     /// Comma-separated estimators for the new evaluations, or "all".
     #[arg(long, default_value = "all")]

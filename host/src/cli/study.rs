@@ -91,7 +91,7 @@ pub struct DistributionsArgs {
 #[derive(Args, Debug, Clone)]
 pub struct ProfileFlag {
     /// Extinction profile: `smooth`, `cloud`, `sparse` (built in) or a CSV file of `t,mu` lines.
-    #[arg(long, default_value = "smooth")]
+    #[arg(long, default_value = "smooth", value_parser = super::parsers::Utf8Text)]
     pub profile: String,
 }
 
