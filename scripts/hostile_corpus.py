@@ -159,6 +159,37 @@ def render_shard(name="part.shard"):
     return setup
 
 
+def fnv1a64(data, h=0xcbf29ce484222325):
+    for b in data:
+        h = ((h ^ b) * 0x100000001b3) & 0xFFFFFFFFFFFFFFFF
+    return h
+
+
+def forged_shard(name, edit, rehash=True):
+    """After `render_shard(name)`: the header JSON edited by `edit(dict)`; with `rehash`, the
+    header hash recomputed so that only the field checks can refuse it (format 2: magic, u32
+    header length, u64 FNV-1a of magic + length + header, header, totals)."""
+    def setup(d):
+        p = os.path.join(d, name)
+        raw = open(p, "rb").read()
+        n = struct.unpack("<I", raw[8:12])[0]
+        header = json.loads(raw[20:20 + n])
+        edit(header)
+        text = json.dumps(header, separators=(",", ":")).encode()
+        length = struct.pack("<I", len(text))
+        h = fnv1a64(b"JKSHARD2" + length + text) if rehash else struct.unpack("<Q", raw[12:20])[0]
+        open(p, "wb").write(b"JKSHARD2" + length + struct.pack("<Q", h) + text + raw[20 + n:])
+    return setup
+
+
+def cut_file(name, keep):
+    def setup(d):
+        p = os.path.join(d, name)
+        data = open(p, "rb").read()
+        open(p, "wb").write(data[:keep])
+    return setup
+
+
 def symlink(target, name):
     return lambda d: os.symlink(target, os.path.join(d, name))
 
@@ -961,6 +992,34 @@ def cases():
         "ok", setup=toml(), outputs=["r.exr"])
     add("shard_of_a_summary_scene", ["render", "r.json", "--shard", "x.shard", "-q"], "ok",
         setup=summary_json(), outputs=["x.shard"], protect=["r.json"])
+    # Shards that lie: forged headers (with a correct header hash), edited or cut files, and a
+    # changed volume file behind them.
+    shard_set = lambda *more: both(vol_copy, lambda d: subprocess.run(
+        [HOST, "render", "--backend", "cpu", "--width", "8", "--height", "4", "--spp", "1", "-q",
+         "--volume", "v.vdb", "--shard", "part.shard"], cwd=d, check=True, capture_output=True),
+        *more)
+    merge_argv = ["merge", "part.shard", "-q", "-o", "m.exr"]
+
+    def setkey(k, v):
+        return lambda h: h.__setitem__(k, v)
+    for label, edit in [("no_images", setkey("images", [])),
+                        ("huge_image", lambda h: h.update(width=100000, height=100000)),
+                        ("samples_past_spp", setkey("samples", [0, 9])),
+                        ("zero_spp", setkey("spp", 0)),
+                        ("unknown_kind", setkey("kind", "bogus")),
+                        ("payload_bytes_huge", setkey("payload_bytes", 1 << 62))]:
+        add(f"shard_forged_{label}", merge_argv, "refuse",
+            setup=shard_set(forged_shard("part.shard", edit)), protect=["part.shard"],
+            max_seconds=10)
+    add("shard_header_edited_unhashed", merge_argv, "refuse",
+        setup=shard_set(forged_shard("part.shard", setkey("seed_note", 1), rehash=False)),
+        words=["changed or damaged"])
+    add("shard_cut_short", merge_argv, "refuse", setup=shard_set(cut_file("part.shard", 300)))
+    add("shard_volume_changed", merge_argv, "refuse",
+        setup=shard_set(lambda d: open(os.path.join(d, "v.vdb"), "ab").write(b"\0")),
+        words=["v.vdb"])
+    add("shard_volume_missing", merge_argv, "refuse",
+        setup=shard_set(lambda d: os.remove(os.path.join(d, "v.vdb"))), words=["v.vdb"])
     return C
 
 
