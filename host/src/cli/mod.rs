@@ -33,7 +33,12 @@ use clap::{Parser, Subcommand};
 ///
 /// Without a subcommand, `host` renders (same flags as `host render`).
 #[derive(Parser, Debug)]
-#[command(version, about, args_conflicts_with_subcommands = true)]
+#[command(
+    version,
+    about,
+    args_conflicts_with_subcommands = true,
+    override_usage = "host [OPTIONS] [SCENE]\n       host <COMMAND>"
+)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Option<Command>,
@@ -64,6 +69,7 @@ pub enum Command {
     /// An interactive window: the render accumulating sample by sample, the camera on the mouse
     /// and keys, estimators switched live and side by side; screenshots and scene files that
     /// `host render` reproduces.
+    #[command(override_usage = "host view [OPTIONS] [SCENE]")]
     View(view::ViewArgs),
     /// Add the shard files of a render (`host render --samples A..B --shard FILE`) into its
     /// images and JSON summary: the bytes one render of all samples gives.
