@@ -283,15 +283,12 @@ fn write_insets(pngs: &[String], out: &Path) -> Result<()> {
             }
         }
     }
-    // Encoded in memory, then one checked write (a buffered writer's last flush would lose a
-    // full disk's error).
+    // Encoded in memory, then one checked write (`output::write_bytes`).
     let mut png = std::io::Cursor::new(Vec::new());
     out_img
         .write_to(&mut png, image::ImageFormat::Png)
         .map_err(|e| anyhow::anyhow!("encoding {}: {e}", out.display()))?;
-    engine::output::write_atomically(out, |tmp| {
-        std::fs::write(tmp, png.get_ref()).with_context(|| format!("writing {}", out.display()))
-    })
+    engine::output::write_bytes(out, png.get_ref())
 }
 
 /// Per-pixel luminance mean and variance of one sample.

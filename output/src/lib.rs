@@ -89,8 +89,15 @@ fn write_png_bytes(
     image::codecs::png::PngEncoder::new(&mut png)
         .write_image(pixels, w, h, color)
         .map_err(|e| write_error(path, &e))?;
+    write_bytes(path, &png)
+}
+
+/// Writes `bytes` (an encoded image, a text) to `path` with one checked write
+/// ([`write_atomically`]): for encoders, encode in memory and call this, so that no buffered
+/// writer's last flush can lose an error and leave a truncated file in place.
+pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<()> {
     write_atomically(path, |tmp| {
-        std::fs::write(tmp, &png).map_err(|e| write_error(path, &e))
+        std::fs::write(tmp, bytes).map_err(|e| write_error(path, &e))
     })
 }
 
@@ -102,9 +109,7 @@ pub fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<()> {
 
 /// Writes a text file ([`write_atomically`]).
 pub fn write_text(path: &Path, text: &str) -> Result<()> {
-    write_atomically(path, |tmp| {
-        std::fs::write(tmp, text).map_err(|e| write_error(path, &e))
-    })
+    write_bytes(path, text.as_bytes())
 }
 
 /// Writes file `path` through `write`, which is given a new temporary file in the same
@@ -266,7 +271,6 @@ impl OutputPlan {
         for (i, (what, path, norm, kind)) in self.entries.iter().enumerate() {
             if *kind == Kind::File {
                 inputs::refuse_input(what, path)?;
-                inputs::refuse_special(what, path)?;
             } else if let Some(input) = inputs::all().iter().find(|inp| inp.path == *norm) {
                 bail!(
                     "{what} {} would overwrite the input {}; choose another output path",

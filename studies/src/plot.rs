@@ -2,7 +2,7 @@
 //! by the file extension. Text uses a font compiled into the binary (Ubuntu Light from
 //! `epaint_default_fonts`, rasterised by ab_glyph), so no system font library is needed.
 
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{anyhow, bail, Result};
 use plotters::coord::ranged1d::{Ranged, ValueFormatter};
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -107,15 +107,12 @@ pub fn save(path: &Path, figure: &impl Figure) -> Result<()> {
 fn write_png(path: &Path, rgb: &[u8], w: u32, h: u32) -> Result<()> {
     use image::codecs::png::{CompressionType, FilterType, PngEncoder};
     use image::ImageEncoder;
-    // Encoded in memory, then one checked write: a buffered writer's last flush would lose a
-    // full disk's error and leave a truncated file.
+    // Encoded in memory, then one checked write (`output::write_bytes`).
     let mut png = Vec::new();
     PngEncoder::new_with_quality(&mut png, CompressionType::Best, FilterType::Adaptive)
         .write_image(rgb, w, h, image::ExtendedColorType::Rgb8)
         .map_err(|e| anyhow::anyhow!("encoding {}: {e}", path.display()))?;
-    output::write_atomically(path, |tmp| {
-        std::fs::write(tmp, &png).with_context(|| format!("writing {}", path.display()))
-    })
+    output::write_bytes(path, &png)
 }
 
 /// How a series is drawn.

@@ -93,14 +93,13 @@ pub fn parse() -> Result<Cli, clap::Error> {
     Ok(cli)
 }
 
-/// The long flag names (`json` for `--json` or `--json=FILE`) typed in `argv` itself, before a
-/// scene file's settings are inserted.
+/// The long flag names (`json` for `--json` or `--json=FILE`, `out` for `-o`) typed in `argv`
+/// itself, before a scene file's settings are inserted.
 fn typed_flags(argv: &[std::ffi::OsString]) -> Vec<String> {
-    argv.iter()
-        .skip(1)
-        .filter_map(|a| a.to_str()?.strip_prefix("--"))
-        .map(|a| a.split('=').next().unwrap_or(a).to_owned())
-        .collect()
+    scene_file::given_keys(
+        &scene_file::render_command(),
+        argv.get(1..).unwrap_or_default(),
+    )
 }
 
 /// Parses `argv` (a scene file's settings already expanded into it), recording which render

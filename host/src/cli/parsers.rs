@@ -491,8 +491,8 @@ impl clap::builder::TypedValueParser for EnvParser {
         arg: Option<&clap::Arg>,
         value: &std::ffi::OsStr,
     ) -> Result<Self::Value, clap::Error> {
-        let text = value.to_str().ok_or_else(|| not_utf8(cmd, arg, value))?;
-        parse_env(text).map_err(|e| {
+        let text = Utf8Text.parse_ref(cmd, arg, value)?;
+        parse_env(&text).map_err(|e| {
             let flag = arg.map_or_else(|| "--env".to_owned(), |a| a.to_string());
             clap::Error::raw(
                 clap::error::ErrorKind::ValueValidation,

@@ -53,7 +53,7 @@ struct Setting {
 }
 
 /// `host render`'s flags as clap sees them.
-fn render_command() -> Command {
+pub(super) fn render_command() -> Command {
     <super::render::RenderArgs as clap::Args>::augment_args(Command::new("render"))
 }
 
@@ -383,7 +383,7 @@ fn edits(a: &str, b: &str) -> usize {
 }
 
 /// The keys the command line gives itself (`--key`, `--key=v`, `-o`, `-q`).
-fn given_keys(cmd: &Command, user: &[OsString]) -> Vec<String> {
+pub(super) fn given_keys(cmd: &Command, user: &[OsString]) -> Vec<String> {
     let mut keys = Vec::new();
     for a in user {
         let a = a.to_string_lossy();
