@@ -36,6 +36,8 @@ fn main() -> ExitCode {
         }
     };
     host::cli::init_tracing();
+    // Every input the command names, protected from every output before any work.
+    host::cli::inputs::protect(&cli);
     match host::cli::run(&cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

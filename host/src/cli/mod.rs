@@ -128,12 +128,11 @@ fn parse_from(argv: Vec<std::ffi::OsString>) -> Result<Cli, clap::Error> {
     Ok(cli)
 }
 
-/// Runs the parsed command through the library.
+/// Runs the parsed command through the library. The caller records its inputs first
+/// ([`inputs::protect`]), so that no output can replace one.
 pub fn run(cli: &Cli) -> Result<()> {
     // The environment is input too: checked before any work.
     engine::gpu::forced_max_buffer_bytes()?;
-    // Every input the command names, protected from every output before any work.
-    inputs::protect(cli);
     match &cli.command {
         None => render(&cli.render),
         Some(Command::Render(args)) => render(args),
