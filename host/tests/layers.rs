@@ -149,6 +149,24 @@ fn stderr_of_one_sample_is_refused() {
     assert!(!dir.path().join("out/render.exr").exists());
 }
 
+/// A standard error from stratified (sobol) samples is refused before any work: their sample
+/// variance does not give the mean's error.
+#[test]
+fn stderr_of_stratified_samples_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = run(
+        dir.path(),
+        &["--spp", "4", "--layers", "stderr", "--sampler", "sobol"],
+    );
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("--layers stderr needs --sampler independent"),
+        "{err}"
+    );
+    assert!(!dir.path().join("out/render.exr").exists());
+}
+
 /// The `camera-transmittance` layer is the camera rays' transmittance: for an integrator render the
 /// same values as a transmittance render of the same rays and estimator, for a transmittance
 /// render the image itself.

@@ -508,6 +508,8 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
         height: args.height,
         spp: args.spp,
         seed: args.seed,
+        // Eval reports standard errors from per-pixel sample variances: independent samples.
+        sampler: shared::params::Sampler::Independent,
         backend: args.backend,
         out: PathBuf::from("unused.exr"),
         json: None,

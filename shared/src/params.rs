@@ -95,6 +95,29 @@ pub enum Jitter {
     Uniform = 1,
 }
 
+/// Where a sample's uniforms come from ([`crate::sampling::sampler`]).
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Sampler {
+    /// Every number from the sample's hash generator: independent samples.
+    Independent = 0,
+    /// The pixel jitter and each path vertex's leading dimensions from Owen-scrambled Sobol
+    /// patterns (stratified within a pixel); the rest independent.
+    Sobol = 1,
+}
+
+impl Sampler {
+    /// From the stored u32 (unknown values read as independent).
+    #[inline]
+    pub fn from_u32(v: u32) -> Self {
+        if v == Sampler::Sobol as u32 {
+            Sampler::Sobol
+        } else {
+            Sampler::Independent
+        }
+    }
+}
+
 /// Light transport integrators selectable at run time (`RenderParams::integrator`).
 #[repr(u32)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -280,6 +303,8 @@ pub struct RenderParams {
     pub max_depth: u32,
     /// `restir`'s resampling settings.
     pub restir: RestirParams,
+    /// [`Sampler`] as u32 (0: independent samples).
+    pub sampler: u32,
 }
 
 use crate::spec::or_keep;

@@ -39,7 +39,7 @@ fn shared_struct_layouts() {
     assert_eq!(std::mem::offset_of!(GridDesc, brick_stepping), 68);
     assert_eq!(size_of::<Brick>(), 24);
     assert_eq!(std::mem::offset_of!(Brick, cells), 20);
-    assert_eq!(size_of::<RenderParams>(), 228);
+    assert_eq!(size_of::<RenderParams>(), 232);
     assert_eq!(size_of::<RenderPass>(), 32);
     assert_eq!(size_of::<PixelSums>(), 36);
     assert_eq!(size_of::<PixelOut>(), 36);
@@ -47,7 +47,7 @@ fn shared_struct_layouts() {
     assert_eq!(size_of::<EquiangularIn>(), 48);
     assert_eq!(size_of::<EquiangularOut>(), 32);
     assert_eq!(size_of::<PathPass>(), 32);
-    assert_eq!(size_of::<PathState>(), 80);
+    assert_eq!(size_of::<PathState>(), 88);
     assert_eq!(size_of::<Lighting>(), 192);
     assert_eq!(size_of::<MsmDesc>(), 112);
     assert_eq!(size_of::<MsmPass>(), 32);

@@ -21,6 +21,7 @@ mod pool;
 mod progressive;
 mod rays;
 mod restir;
+mod sampler;
 mod skip;
 mod tracking;
 mod wide;

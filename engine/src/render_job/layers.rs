@@ -111,9 +111,14 @@ pub struct LayerInputs<'a> {
     pub albedo: [f32; 3],
 }
 
-/// Refuses layers the render cannot give: a standard error needs two samples per pixel, an
-/// albedo a medium that scatters (an integrator render).
-pub fn check(layers: &[Layer], spp: u32, integrator: bool) -> anyhow::Result<()> {
+/// Refuses layers the render cannot give: a standard error needs two independent samples per
+/// pixel, an albedo a medium that scatters (an integrator render).
+pub fn check(
+    layers: &[Layer],
+    spp: u32,
+    integrator: bool,
+    sampler: shared::params::Sampler,
+) -> anyhow::Result<()> {
     for (k, layer) in layers.iter().enumerate() {
         anyhow::ensure!(
             !layers[..k].contains(layer),
@@ -125,6 +130,11 @@ pub fn check(layers: &[Layer], spp: u32, integrator: bool) -> anyhow::Result<()>
         !(layers.contains(&Layer::StdErr) && spp < 2),
         "--layers stderr needs at least 2 samples per pixel (the standard error of one sample \
          is undefined); raise --spp or drop stderr"
+    );
+    anyhow::ensure!(
+        !(layers.contains(&Layer::StdErr) && sampler != shared::params::Sampler::Independent),
+        "--layers stderr needs --sampler independent: stratified (sobol) samples of a pixel \
+         are not independent, so their sample variance does not give the mean's standard error"
     );
     anyhow::ensure!(
         !(layers.contains(&Layer::Albedo) && !integrator),

@@ -315,6 +315,7 @@ pub fn render_params(
         f_delta: args.f_delta,
         pixel_jitter: 1,
         roulette: args.ratio_roulette as u32,
+        sampler: args.sampler as u32,
         ..scene.params(args.width, args.height, args.spp, args.seed)
     };
     args.estimator.apply(&mut params);

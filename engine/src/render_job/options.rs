@@ -6,7 +6,7 @@ use crate::output::OutputPlan;
 use crate::scene::SceneOptions;
 use anyhow::Result;
 use shared::integrators::unit::OwnSettings;
-use shared::params::{Integrator, RenderParams, TransmittanceHat};
+use shared::params::{Integrator, RenderParams, Sampler, TransmittanceHat};
 use shared::sampling::lights::PointLight;
 use shared::volume::grid::Lookup;
 use std::path::{Path, PathBuf};
@@ -49,6 +49,8 @@ pub struct RenderOptions {
     pub height: u32,
     pub spp: u32,
     pub seed: u32,
+    /// Where each sample's uniforms come from (independent or Owen-scrambled Sobol).
+    pub sampler: Sampler,
     pub backend: BackendChoice,
     /// Output EXR; the PNG preview goes next to it.
     pub out: PathBuf,
@@ -115,7 +117,12 @@ pub fn check_render_flags(args: &RenderOptions) -> Result<()> {
         args.restir.check_image(args.width, args.height)?;
     }
     args.shadows.check()?;
-    super::layers::check(&args.layers, args.spp, args.integrator.is_some())?;
+    super::layers::check(
+        &args.layers,
+        args.spp,
+        args.integrator.is_some(),
+        args.sampler,
+    )?;
     let is_exr = args
         .out
         .extension()

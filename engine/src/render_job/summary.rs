@@ -30,6 +30,9 @@ pub struct RenderSummary {
     pub height: u32,
     pub spp: u32,
     pub seed: u32,
+    /// Where each sample's uniforms came from: "independent" or "sobol" (stratified within a
+    /// pixel: per-pixel sample variances then overstate the error of the mean).
+    pub sampler: String,
     pub n: u32,
     pub density_scale: f32,
     pub brick_size: u32,
@@ -353,6 +356,7 @@ pub(super) fn summarize(r: &Rendered) -> Result<RenderSummary> {
         height: args.height,
         spp: args.spp,
         seed: args.seed,
+        sampler: sampler_name(args.sampler).into(),
         n: args.n,
         density_scale: scene.density_scale,
         brick_size: args.scene.brick_size,
@@ -412,5 +416,13 @@ impl CameraSummary {
             forward: [f.x, f.y, f.z],
             fov_deg,
         }
+    }
+}
+
+/// A sampler's name as the CLI spells it.
+pub fn sampler_name(s: shared::params::Sampler) -> &'static str {
+    match s {
+        shared::params::Sampler::Independent => "independent",
+        shared::params::Sampler::Sobol => "sobol",
     }
 }

@@ -7,7 +7,7 @@ use engine::render_job::layers::Layer;
 use engine::shadow_map::{MsmStorage, ShadowKind};
 use jackknife::SupervoxelFormat;
 use lab::bench::BenchBackend;
-use shared::params::TransmittanceHat;
+use shared::params::{Sampler, TransmittanceHat};
 use shared::shadows::map::{MsmFilter, MAX_FILTER_RADIUS};
 use shared::volume::grid::Lookup;
 use studies::distributions::Distribution;
@@ -114,6 +114,17 @@ value_enum! {
         Jackknife,
         /// Ratio tracking (unbiased).
         Ratio,
+    }
+}
+
+value_enum! {
+    /// Where a sample's uniforms come from.
+    SamplerArg => Sampler {
+        /// Every number independent (a hash generator per sample).
+        Independent,
+        /// The pixel jitter and each path vertex's leading dimensions from Owen-scrambled Sobol
+        /// patterns, stratified within each pixel; the rest independent.
+        Sobol,
     }
 }
 

@@ -3,7 +3,7 @@
 use super::parsers::{
     f32_in, f32_open, parse_albedo, parse_density_scale, parse_f_delta, parse_msm_filter,
     parse_positive, parse_split_ratio, parse_sun, parse_vec3, BackendArg, LookupArg, MsmStorageArg,
-    ShadowsArg, SupervoxelFormatArg, SupervoxelsArg, THatArg, UpArg,
+    SamplerArg, ShadowsArg, SupervoxelFormatArg, SupervoxelsArg, THatArg, UpArg,
 };
 use clap::Args;
 use engine::defaults;
@@ -224,6 +224,13 @@ pub struct RenderArgs {
     /// Seed, 0 to 2^32 - 1; the same seed gives the same image on every backend.
     #[arg(long, default_value_t = 0, allow_hyphen_values = true)]
     pub seed: u32,
+    /// Where each sample's uniforms come from: independent (every number from a hash
+    /// generator) or sobol (the pixel jitter and every path vertex's free flight, light, phase
+    /// and roulette numbers from Owen-scrambled Sobol patterns, stratified within the pixel:
+    /// less noise per sample; per-pixel standard errors then do not hold, so `--layers stderr`
+    /// needs independent).
+    #[arg(long, value_enum, default_value_t = SamplerArg::Independent)]
+    pub sampler: SamplerArg,
     /// Where kernels run: auto (a hardware Vulkan GPU if there is one, else the CPU; on a
     /// software device such as lavapipe, the one that finishes sooner for this job), gpu, or cpu.
     #[arg(long, value_enum, default_value_t = BackendArg::Auto)]
@@ -324,6 +331,7 @@ impl RenderArgs {
             height: self.height,
             spp: self.spp,
             seed: self.seed,
+            sampler: self.sampler.into(),
             backend: self.backend.into(),
             out: self.out.clone(),
             json: self.json.clone(),

@@ -4,6 +4,7 @@
 //! (`estimate`).
 
 pub mod estimate;
+pub mod inverted_tracking;
 pub mod lane_volume;
 pub mod optical_depth;
 pub mod ray_marching;

@@ -17,7 +17,7 @@
 //! shadow map instead (`map_shadow`); every other query keeps its shadow ray.
 
 use crate::estimators::estimate;
-use crate::estimators::tracking::delta_tracking_capped;
+use crate::estimators::inverted_tracking::vertex_flight;
 use crate::geometry::{to_index_space, Ray, V3};
 use crate::params::{Config, Estimator, RenderParams};
 use crate::rgb::Rgb;
@@ -25,6 +25,7 @@ use crate::rng::HashRng;
 use crate::sampling::lighting::{LightKind, Scene};
 use crate::sampling::lights::{sample_power, unshadowed};
 use crate::sampling::phase::{phase_hg, sample_hg};
+use crate::sampling::sampler::{Lead, SampleDims, VertexPattern};
 use crate::shadows::map::{map_transmittance, Shadows};
 use crate::tally::Tally;
 use crate::volume::dda::clip_to_box;
@@ -107,9 +108,10 @@ pub fn direct_radiance(
     params: &RenderParams,
     scene: &Scene,
     world: &Ray,
+    dims: SampleDims,
     rng: HashRng,
 ) -> (Rgb, Tally, HashRng) {
-    let mut st = direct_start(vol, cfg, params, scene, world, rng);
+    let mut st = direct_start(vol, cfg, params, scene, world, dims, rng);
     let mut k = 0;
     while k < 3 {
         st = direct_estimate(vol, cfg, params, scene, st, k);
@@ -119,16 +121,18 @@ pub fn direct_radiance(
 }
 
 /// Stage 1 of a camera sample: the free flight, the light and phase samples at its vertex, and
-/// the three queries (the background's weight is the radiance behind the volume).
+/// the three queries (the background's weight is the radiance behind the volume). The free
+/// flight, light and phase samples lead with `dims`' patterns of vertex 0.
 pub fn direct_start(
     vol: &VolumeView<impl Texels>,
     cfg: &Config,
     params: &RenderParams,
     scene: &Scene,
     world: &Ray,
+    dims: SampleDims,
     rng: HashRng,
 ) -> DirectState {
-    start_at_vertex(vol, cfg, params, scene, world, rng).0
+    start_at_vertex(vol, cfg, params, scene, world, dims, rng).0
 }
 
 /// [`direct_start`], and whether the free flight collided and where (the scattering vertex).
@@ -138,6 +142,7 @@ pub(super) fn start_at_vertex(
     params: &RenderParams,
     scene: &Scene,
     world: &Ray,
+    dims: SampleDims,
     rng: HashRng,
 ) -> (DirectState, bool, V3) {
     let background = scene.directional_radiance(world.d);
@@ -151,7 +156,7 @@ pub(super) fn start_at_vertex(
         st.total = background;
         return (st, false, V3::new(0.0, 0.0, 0.0));
     }
-    let (ff, rng) = delta_tracking_capped(
+    let (ff, rng) = vertex_flight(
         vol,
         &ray,
         ta,
@@ -159,7 +164,7 @@ pub(super) fn start_at_vertex(
         cfg.lookup,
         FLIGHT_SALT,
         cfg.max_collisions,
-        true,
+        dims.lead_2d(SampleDims::vertex(0, VertexPattern::Flight)),
         rng,
     );
     st.set_tally(ff.tally);
@@ -174,9 +179,10 @@ pub(super) fn start_at_vertex(
     if ff.found {
         let wo = world.d * -1.0;
         let albedo = scene.lighting.albedo;
-        let (light, to_sun, r) = light_sample(scene, params.hg_g, x, wo, rng);
+        let (light, to_sun, r) = light_sample(scene, params.hg_g, x, wo, dims.lights(0), rng);
         st.map_query = (to_sun && scene.lighting.shadows != 0) as u32;
-        let (phase, r) = phase_sample(scene, params.hg_g, x, wo, r);
+        let phase_lead = dims.lead_2d(SampleDims::vertex(0, VertexPattern::Phase));
+        let (phase, r) = phase_sample(scene, params.hg_g, x, wo, phase_lead, r);
         rng = r;
         st.queries[1] = ShadowQuery {
             weight: light.weight.mul_rgb(albedo),
@@ -305,18 +311,20 @@ pub(super) fn map_shadow(scene: &Scene, q: &ShadowQuery, rng: HashRng) -> (f32, 
 }
 
 /// Strategy 1 at x (per unit albedo, before T): a light drawn by the pmf over kinds, then a
-/// direction (or a point light by power) on it; true if the light is the sun.
+/// direction (or a point light by power) on it; true if the light is the sun. The kind and the
+/// 2D sample lead with `lead`'s two patterns when the sampler is on.
 pub(super) fn light_sample(
     scene: &Scene,
     g: f32,
     x: V3,
     wo: V3,
+    lead: (Lead, Lead),
     rng: HashRng,
 ) -> (ShadowQuery, bool, HashRng) {
     let l = scene.lighting;
-    let (u_kind, rng) = rng.next_f32();
-    let (u0, rng) = rng.next_f32();
-    let (u1, rng) = rng.next_f32();
+    let (u_kind, rng) = lead.0.take(0, rng);
+    let (u0, rng) = lead.1.take(0, rng);
+    let (u1, rng) = lead.1.take(1, rng);
     let kind = scene.select_kind(u_kind);
     let query = match kind {
         LightKind::None => ShadowQuery::NONE,
@@ -378,10 +386,11 @@ pub(super) fn phase_sample(
     g: f32,
     x: V3,
     wo: V3,
+    lead: Lead,
     rng: HashRng,
 ) -> (ShadowQuery, HashRng) {
-    let (u0, rng) = rng.next_f32();
-    let (u1, rng) = rng.next_f32();
+    let (u0, rng) = lead.take(0, rng);
+    let (u1, rng) = lead.take(1, rng);
     let (w, p_phase) = sample_hg(wo, g, u0, u1);
     let radiance = scene.directional_radiance(w);
     if radiance.is_black() || !(p_phase > 0.0) {

@@ -12,13 +12,14 @@
 //! weight p_phase / (p_phase + p_light), the counterpart of the light sample's.
 
 use super::direct::{light_sample, map_shadow, shadow};
-use crate::estimators::tracking::delta_tracking_capped;
+use crate::estimators::inverted_tracking::vertex_flight;
 use crate::geometry::{to_index_space, Ray, V3};
 use crate::params::{Config, RenderParams};
 use crate::rgb::Rgb;
 use crate::rng::HashRng;
 use crate::sampling::lighting::Scene;
 use crate::sampling::phase::sample_hg;
+use crate::sampling::sampler::{SampleDims, VertexPattern};
 use crate::tally::Tally;
 use crate::volume::dda::clip_to_box;
 use crate::volume::grid::VolumeView;
@@ -30,7 +31,7 @@ const FLIGHT_SALT: u32 = 0x2f6b_3c1d;
 /// Smallest survival probability of Russian roulette.
 const MIN_SURVIVAL: f32 = 0.05;
 
-/// One path between bounces (80 bytes).
+/// One path between bounces (88 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct PathState {
@@ -56,6 +57,9 @@ pub struct PathState {
     pub outside: u32,
     /// 1 if a moment-shadow-map lookup of the path fell back.
     pub fallback: u32,
+    /// The sampler's pixel seed and the sample's index ([`SampleDims`]).
+    pub pixel_seed: u32,
+    pub sample: u32,
 }
 
 impl PathState {
@@ -81,15 +85,17 @@ impl PathState {
     }
 }
 
-/// A path leaving the camera along `world` with generator `rng`.
+/// A path leaving the camera along `world` with generator `rng` and sampler dimensions `dims`.
 #[inline]
-pub fn path_start(world: &Ray, rng: HashRng) -> PathState {
+pub fn path_start(world: &Ray, dims: SampleDims, rng: HashRng) -> PathState {
     PathState {
         o: world.o,
         d: world.d,
         alive: 1,
         throughput: Rgb::splat(1.0),
         rng: rng.state,
+        pixel_seed: dims.seed,
+        sample: dims.index,
         ..Default::default()
     }
 }
@@ -107,13 +113,17 @@ pub fn path_bounce(
     }
     let mut st = st;
     let mut rng = HashRng { state: st.rng };
+    // The sampler's patterns of this bounce: its free flight, the vertex it reaches, the
+    // continuation from there.
+    let dims = SampleDims::from_parts(params, st.pixel_seed, st.sample);
+    let v = st.depth;
     let world = Ray { o: st.o, d: st.d };
     let ray = to_index_space(&world, &params.world_to_index);
     let (ta, tb) = clip_to_box(&ray, super::direct::grid_hi(vol), 0.0, f32::INFINITY);
     let mut found = false;
     let mut t = 0.0f32;
     if ta < tb {
-        let (ff, r) = delta_tracking_capped(
+        let (ff, r) = vertex_flight(
             vol,
             &ray,
             ta,
@@ -121,7 +131,7 @@ pub fn path_bounce(
             cfg.lookup,
             FLIGHT_SALT,
             cfg.max_collisions,
-            true,
+            dims.lead_2d(SampleDims::vertex(v, VertexPattern::Flight)),
             rng,
         );
         rng = r;
@@ -156,7 +166,7 @@ pub fn path_bounce(
     st.throughput = st.throughput.mul_rgb(scene.lighting.albedo);
     st.depth += 1;
     // Next-event estimation.
-    let (q, to_sun, r) = light_sample(scene, params.hg_g, x, wo, rng);
+    let (q, to_sun, r) = light_sample(scene, params.hg_g, x, wo, dims.lights(v), rng);
     rng = r;
     if !q.weight.is_black() {
         let (tr, tally, r) = if to_sun && scene.lighting.shadows != 0 {
@@ -169,9 +179,12 @@ pub fn path_bounce(
         st.radiance = st.radiance + q.weight.mul_rgb(st.throughput) * tr;
     }
     // Continuation: phase sampling (phase / pdf = 1), roulette, depth limit.
-    let (u0, r) = rng.next_f32();
-    let (u1, r) = r.next_f32();
-    let (u2, r) = r.next_f32();
+    let phase = dims.lead_2d(SampleDims::vertex(v, VertexPattern::Phase));
+    let (u0, r) = phase.take(0, rng);
+    let (u1, r) = phase.take(1, r);
+    let (u2, r) = dims
+        .lead_1d(SampleDims::vertex(v, VertexPattern::Roulette))
+        .take(0, r);
     rng = r;
     let (wi, p_phase) = sample_hg(wo, params.hg_g, u0, u1);
     st.o = x;

@@ -30,6 +30,7 @@ use crate::rgb::Rgb;
 use crate::rng::{pcg_hash, HashRng};
 use crate::sampling::lighting::Scene;
 use crate::sampling::lights::{sample_power, unshadowed};
+use crate::sampling::sampler::SampleDims;
 use crate::tally::Tally;
 use crate::volume::grid::VolumeView;
 use crate::volume::texels::Texels;
@@ -171,7 +172,8 @@ pub fn restir_radiance(
     world: &Ray,
     rng: HashRng,
 ) -> (Rgb, Tally, HashRng) {
-    let mut st = restir_start(vol, cfg, params, scene, world, rng);
+    let dims = SampleDims::new(params, id, sample);
+    let mut st = restir_start(vol, cfg, params, scene, world, dims, rng);
     // The M candidate stages at once: the same numbers, without moving the whole state through
     // each.
     st = stream_candidates(
@@ -193,16 +195,18 @@ pub fn restir_radiance(
     (d.total, d.tally(), HashRng { state: d.rng })
 }
 
-/// Stage 0: `direct`'s start (free flight, map/sun light sample, phase sample) and the vertex.
+/// Stage 0: `direct`'s start (free flight, map/sun light sample, phase sample, leading with
+/// `dims`' patterns) and the vertex.
 pub fn restir_start(
     vol: &VolumeView<impl Texels>,
     cfg: &Config,
     params: &RenderParams,
     scene: &Scene,
     world: &Ray,
+    dims: SampleDims,
     rng: HashRng,
 ) -> RestirState {
-    let (direct, found, x) = start_at_vertex(vol, cfg, params, scene, world, rng);
+    let (direct, found, x) = start_at_vertex(vol, cfg, params, scene, world, dims, rng);
     RestirState {
         direct,
         query: ShadowQuery::NONE,

@@ -20,11 +20,12 @@ use crate::integrators::restir_reuse::reuse;
 use crate::integrators::restir_reuse::store_reuse;
 use crate::integrators::stages::Wavefront;
 use crate::integrators::unit::Family;
-use crate::params::{Config, Estimator, Integrator, RenderParams};
+use crate::params::{Config, Estimator, Integrator, RenderParams, Sampler};
 use crate::rgb::Rgb;
 use crate::rng::HashRng;
 use crate::sampling::lighting::Scene;
 use crate::sampling::lights::PointLight;
+use crate::sampling::sampler::{SampleDims, PIXEL};
 use crate::tally::Tally;
 use crate::volume::dda::clip_to_box;
 use crate::volume::grid::VolumeView;
@@ -139,13 +140,20 @@ pub struct RenderPass {
 }
 
 /// The camera ray of sample s of pixel `id` (row-major) and the sample's generator, after the
-/// two pixel-jitter draws.
+/// two pixel-jitter draws (the jitter is the sampler's pixel pattern when it is on; the
+/// generator draws the same two numbers either way).
 #[inline]
 pub fn camera_ray(params: &RenderParams, id: u32, s: u32) -> (Ray, HashRng) {
     let (y, x) = crate::math::div_rem_small(id, params.width);
     let rng = HashRng::for_sample(id, s, params.seed);
     let (jx, rng) = rng.next_f32();
     let (jy, rng) = rng.next_f32();
+    let (jx, jy) = if params.sampler == Sampler::Sobol as u32 {
+        let j = SampleDims::new(params, id, s).get_2d(PIXEL);
+        (j[0], j[1])
+    } else {
+        (jx, jy)
+    };
     let (jx, jy) = if params.pixel_jitter == 0 {
         (0.5, 0.5)
     } else {
@@ -342,8 +350,9 @@ pub fn direct_pixel_pass(
     prev: PixelSums,
 ) -> PixelSums {
     let cfg = Config::decode(params, &vol.desc);
-    radiance_pass(params, id, s_begin, s_end, prev, |_, world, rng| {
-        direct_radiance(vol, &cfg, params, scene, world, rng)
+    radiance_pass(params, id, s_begin, s_end, prev, |s, world, rng| {
+        let dims = SampleDims::new(params, id, s);
+        direct_radiance(vol, &cfg, params, scene, world, dims, rng)
     })
 }
 
@@ -437,8 +446,9 @@ pub fn direct_wave_step(
     let cfg = Config::decode(params, &vol.desc);
     if at.kind == 0 {
         let (world, rng) = camera_ray(params, at.id, at.sample);
+        let dims = SampleDims::new(params, at.id, at.sample);
         return (
-            direct_start(vol, &cfg, params, scene, &world, rng),
+            direct_start(vol, &cfg, params, scene, &world, dims, rng),
             sums_before(at.sample, &sums),
         );
     }
@@ -518,8 +528,9 @@ pub fn restir_start_step(
 ) -> (RestirState, PixelSums) {
     let cfg = Config::decode(params, &vol.desc);
     let (world, rng) = camera_ray(params, at.id, at.sample);
+    let dims = SampleDims::new(params, at.id, at.sample);
     (
-        restir_start(vol, &cfg, params, scene, &world, rng),
+        restir_start(vol, &cfg, params, scene, &world, dims, rng),
         sums_before(at.sample, &sums),
     )
 }
@@ -623,7 +634,8 @@ pub fn path_wave_step(
 ) -> (PathState, PixelSums) {
     if at.kind == 0 {
         let (world, rng) = camera_ray(params, at.id, at.sample);
-        return (path_start(&world, rng), sums_before(at.sample, &sums));
+        let dims = SampleDims::new(params, at.id, at.sample);
+        return (path_start(&world, dims, rng), sums_before(at.sample, &sums));
     }
     if st.alive == 0 {
         return (st, sums);
@@ -653,7 +665,8 @@ pub fn path_pixel_pass(
     let mut s = s_begin;
     while s < s_end {
         let (world, rng) = camera_ray(params, id, s);
-        let st = path_radiance(vol, &cfg, params, scene, path_start(&world, rng));
+        let start = path_start(&world, SampleDims::new(params, id, s), rng);
+        let st = path_radiance(vol, &cfg, params, scene, start);
         acc = acc.add(st.radiance, st.radiance.luminance(), st.tally());
         s += 1;
     }

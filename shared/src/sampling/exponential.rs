@@ -146,13 +146,25 @@ impl MajorantSampler {
     /// returns `rng` unchanged (its draw decided nothing), so zero majorants take no random
     /// number, as they take no sample. Sets `done` (and returns `found == false`) once past the
     /// end of the ray.
+    #[inline]
     pub fn next_collision(
         &mut self,
         vol: &VolumeView<impl Texels>,
         rng: HashRng,
     ) -> (Collision, HashRng) {
-        let before = rng;
-        let (u, rng) = rng.next_f32();
+        let (u, next) = rng.next_f32();
+        let (c, drew) = self.next_collision_at(vol, u);
+        (c, if drew { next } else { rng })
+    }
+
+    /// [`MajorantSampler::next_collision`] with its uniform `u` given; also says whether `u`
+    /// decided anything (false: the flight met no majorant optical depth, so a generator's draw
+    /// is put back).
+    pub fn next_collision_at(
+        &mut self,
+        vol: &VolumeView<impl Texels>,
+        u: f32,
+    ) -> (Collision, bool) {
         let target = -math::ln(1.0 - u);
         // Majorant optical depth from the flight's start to self.t (at most `target`).
         let mut depth = 0.0f32;
@@ -215,6 +227,6 @@ impl MajorantSampler {
             Collision::default()
         };
         let drew = out.found || depth > 0.0;
-        (out, if drew { rng } else { before })
+        (out, drew)
     }
 }
