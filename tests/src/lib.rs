@@ -185,3 +185,34 @@ pub fn many_lights(count: u32, sky: bool, restir: bool) -> engine::lighting::Sce
     }
     s
 }
+
+/// The white furnace's lights: albedo 1 and a constant white map (radiance 1 from every
+/// direction, no sun or point light), around [-1, 1]^3: every pixel's expected radiance is 1.
+pub fn white_furnace() -> engine::lighting::SceneLights {
+    use engine::lighting::env::EnvMap;
+    use engine::lighting::{build, EnvSource, LightingOptions};
+    let mut l = build(
+        &LightingOptions {
+            env: EnvSource::None,
+            env_scale: 1.0,
+            env_rotate_deg: 0.0,
+            sun: None,
+            points: vec![],
+            albedo: [1.0; 3],
+        },
+        [0.0; 3],
+        1.7,
+    )
+    .unwrap();
+    let map = EnvMap::constant([1.0, 1.0, 1.0]);
+    let (data, _) = map.clone().data(1.0).unwrap();
+    l.env = data;
+    l.lighting.env = shared::sampling::env::EnvDesc {
+        width: map.width,
+        height: map.height,
+        cos_rotation: 1.0,
+        sin_rotation: 0.0,
+    };
+    l.lighting.p_env = 1.0;
+    l
+}

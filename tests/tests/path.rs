@@ -2,14 +2,12 @@
 //! light types and every shadow-ray estimator, and the white furnace.
 
 use engine::bricks::pack;
-use engine::lighting::env::EnvMap;
 use engine::lighting::{build, EnvSource, LightingOptions, SceneLights, SunSpec};
 use engine::render::{fit_collision_cap, render_lit};
 use engine::volume::DenseVolume;
 use engine::Backend;
 use integration_tests::{assert_bytes_equal, camera_params, gpu, lumpy_blobs};
 use shared::params::{Estimator, Integrator, RenderParams};
-use shared::sampling::env::EnvDesc;
 use shared::sampling::lights::PointLight;
 use shared::volume::grid::Lookup;
 
@@ -101,20 +99,7 @@ fn path_is_bit_identical_on_gpu_and_cpu_for_its_lights_and_estimators() {
 fn path_passes_the_white_furnace() {
     let vol = lumpy_blobs(20, 5);
     let packed = pack(&vol, 4.0, 8, Lookup::Nearest).unwrap();
-    let mut l = lights(&LightingOptions {
-        albedo: [1.0; 3],
-        ..no_lights()
-    });
-    let map = EnvMap::constant([1.0, 1.0, 1.0]);
-    let (data, _) = map.clone().data(1.0).unwrap();
-    l.env = data;
-    l.lighting.env = EnvDesc {
-        width: map.width,
-        height: map.height,
-        cos_rotation: 1.0,
-        sin_rotation: 0.0,
-    };
-    l.lighting.p_env = 1.0;
+    let l = integration_tests::white_furnace();
     let mut p = params(&vol, 24, 24, 64, Estimator::RatioTracking);
     p.hg_g = 0.5;
     p.rr_depth = 5;
