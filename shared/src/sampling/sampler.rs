@@ -158,11 +158,10 @@ impl Lead {
     /// unchanged), else the generator's next.
     #[inline]
     pub fn take(self, k: u32, rng: HashRng) -> (f32, HashRng) {
-        let (drawn, next) = rng.next_f32();
         if self.on != 0 {
             (if k == 0 { self.u0 } else { self.u1 }, rng)
         } else {
-            (drawn, next)
+            rng.next_f32()
         }
     }
 }
