@@ -29,7 +29,8 @@ hash_file() { # name file
   printf '%s %s\n' "$1" "$(sha256sum "$2" | cut -d' ' -f1)" >> "$list"
 }
 
-small=(--resolution 48 --width 24 --height 20 --spp 3 --seed 7 --quiet)
+# Independent samples for the long list (the default sampler, sobol, has its own entries below).
+small=(--resolution 48 --width 24 --height 20 --spp 3 --seed 7 --quiet --sampler independent)
 estimators=(jackknife naive naive-m1 jackknife-adaptive jackknife-mean jackknife-uniform
   biased-rm biased-rm2 unbiased-rm unbiased-rm2 track-length ratio regular)
 integrators=(free-flight equiangular mis-jackknife mis-naive combined-jackknife combined-naive
@@ -63,8 +64,23 @@ done
 for backend in "${backends[@]}"; do
   f="$out/r.exr"
   "$host" render --backend "$backend" --volume cloud --resolution 48 --width 8 --height 6 \
-    --spp 600 --seed 7 --quiet --out "$f" >/dev/null
+    --spp 600 --seed 7 --quiet --sampler independent --out "$f" >/dev/null
   hash_file "render/cloud/blocks/jackknife-600spp" "$f"
+done
+# The default sampler (sobol): a transmittance render, each integrator family, and more than one
+# sample block, on each backend.
+for backend in "${backends[@]}"; do
+  sobol=(--backend "$backend" --volume cloud --lookup nearest --resolution 48 --width 24
+    --height 20 --spp 3 --seed 7 --quiet --out "$out/r.exr")
+  "$host" render "${sobol[@]}" >/dev/null
+  hash_file "render/cloud/sobol/transmittance" "$out/r.exr"
+  for i in free-flight mis-jackknife direct path restir; do
+    "$host" render "${sobol[@]}" --integrator "$i" >/dev/null
+    hash_file "render/cloud/sobol/$i" "$out/r.exr"
+  done
+  "$host" render --backend "$backend" --volume cloud --resolution 48 --width 8 --height 6 \
+    --spp 600 --seed 7 --quiet --integrator path --out "$out/r.exr" >/dev/null
+  hash_file "render/cloud/sobol/path-600spp" "$out/r.exr"
 done
 "$host" eval --backend cpu --volume cloud --resolution 48 --width 16 --height 16 --spp 8 \
   --estimators jackknife,ratio,unbiased-rm --out-dir "$out/eval" --quiet >/dev/null

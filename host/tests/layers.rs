@@ -72,7 +72,8 @@ fn channel<'a>(all: &'a [(String, Channels)], layer: &str, ch: &str) -> &'a [f32
 /// At 2 spp the standard error of a pixel's mean m of samples x0, x1 is |x0 - m|: the layer
 /// agrees with a 1-spp render (sample 0) and the 2-spp mean to f32 rounding of the moments; the
 /// image layer equals the render without layers; `samples` is the spp; `lookups` is the JSON's
-/// mean when averaged. Transmittance (jackknife, track-length) and single scattering.
+/// mean when averaged. Transmittance (jackknife, track-length) and single scattering. A render
+/// asking for stderr without `--sampler` takes independent samples (the default is sobol).
 #[test]
 fn layers_agree_with_the_renders_they_summarize() {
     let dir = tempfile::tempdir().unwrap();
@@ -86,7 +87,11 @@ fn layers_agree_with_the_renders_they_summarize() {
             let mut a: Vec<&str> = case.to_vec();
             a.extend(["--spp", spp, "--out", out]);
             if layers {
+                // No --sampler: asking for stderr makes the default sampler independent, so
+                // the image equals the independent renders below.
                 a.extend(["--layers", "stderr,samples,lookups", "--json", "l.json"]);
+            } else {
+                a.extend(["--sampler", "independent"]);
             }
             let o = run(d, &a);
             assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -127,6 +132,8 @@ fn layers_agree_with_the_renders_they_summarize() {
         let mean = lookups.iter().map(|&v| v as f64).sum::<f64>() / lookups.len() as f64;
         let j: serde_json::Value =
             serde_json::from_slice(&std::fs::read(d.join("l.json")).unwrap()).unwrap();
+        assert_eq!(j["sampler"], "independent", "{case:?}");
+        assert_eq!(j["scene"]["sampler"], "independent", "{case:?}");
         let reported = j["mean_samples_per_ray"].as_f64().unwrap();
         assert!(
             (mean - reported).abs() <= 1e-4 * (1.0 + reported),

@@ -530,8 +530,11 @@ pub struct IntegratorEvalReport {
     /// The reference radiance: linear EXR and PNG (tone-mapped like every `png`).
     pub reference_exr: String,
     pub reference_png: String,
-    /// The PNGs show x / (1 + x) of x = `exposure` * radiance, sRGB-encoded.
+    /// `--exposure`: the PNGs show radiance times `preview_gain` (this times the reference's
+    /// automatic exposure), filmic, sRGB-encoded (`engine::render_job::preview`).
     pub exposure: f32,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub preview_gain: Option<f32>,
     pub integrators: Vec<IntegratorReport>,
 }
 
@@ -549,14 +552,6 @@ pub fn evaluate_integrators(
     std::fs::create_dir_all(setup.out_dir)
         .with_context(|| format!("creating {}", setup.out_dir.display()))?;
     let (w, h) = (setup.params.width, setup.params.height);
-    let tone = |v: &[f32]| -> Vec<f32> {
-        v.iter()
-            .map(|&x| {
-                let y = x * exposure;
-                y / (1.0 + y)
-            })
-            .collect()
-    };
     let mut ref_params = setup.params;
     ref_params.integrator = Integrator::MisJackknife as u32;
     ref_params.t_hat = TransmittanceHat::Ratio as u32;
@@ -576,6 +571,14 @@ pub fn evaluate_integrators(
     )
     .context("rendering the reference")?;
     check_reference_sees_the_volume(&reference)?;
+    // One gain for every image of the evaluation: the reference's automatic exposure.
+    let view = engine::render_job::preview::Preview::of(
+        Some(Integrator::MisJackknife),
+        exposure,
+        true,
+        &reference,
+    );
+    let tone = |v: &[f32]| -> Vec<f32> { v.iter().map(|&x| view.grey(x)).collect() };
     let ref_l: Vec<f32> = reference.iter().map(|p| p.t_mean).collect();
     let (reference_exr, reference_png) = (
         setup.out_dir.join("reference.exr"),
@@ -644,6 +647,7 @@ pub fn evaluate_integrators(
         reference_exr: reference_exr.display().to_string(),
         reference_png: reference_png.display().to_string(),
         exposure,
+        preview_gain: view.gain(),
         integrators: reports,
     })
 }

@@ -20,8 +20,9 @@ use crate::eval::{EvalHeader, EvalSetup};
 use anyhow::{Context, Result};
 use engine::estimators::EstimatorSpec;
 use engine::lighting::SceneLights;
-use engine::output::{write_exr_rgb, write_png_rgb_exposed};
+use engine::output::write_exr_rgb;
 use engine::render::Resident;
+use engine::render_job::preview::Preview;
 use engine::shadow_map::{self, MapSummary, ShadowKind, ShadowOptions};
 use shared::integrators::unit::OwnSettings;
 use shared::kernels::render::PixelOut;
@@ -225,6 +226,10 @@ pub struct DirectEvalReport {
     /// Probability of sampling the sun, the map and the point lights.
     pub light_pmf: [f32; 3],
     pub entries: Vec<DirectEntry>,
+    /// The gain of every PNG: `--exposure` times the first reference's automatic exposure,
+    /// before the filmic curve and sRGB (`engine::render_job::preview`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub preview_gain: Option<f32>,
 }
 
 /// File stem of an entry's images (`direct-jackknife`, `path-ratio`, ...).
@@ -305,11 +310,23 @@ fn moments(pixels: &[PixelOut]) -> Vec<(f64, f64)> {
 /// One rendered and written image: its pixels, its render time without the GPU pipeline builds
 /// it waited for, those builds' time, and its EXR and PNG paths.
 struct Rendered {
+    /// The preview's gain of the image.
+    gain: f32,
     pixels: Vec<PixelOut>,
     elapsed_ms: f64,
     pipeline_build_ms: f64,
     exr: String,
     png: String,
+}
+
+/// How an evaluation's PNGs show radiance: `--exposure` times the automatic exposure of the
+/// first reference, the same gain for every image (so they compare), filmic, sRGB
+/// ([`engine::render_job::preview`]).
+#[derive(Clone, Copy, Debug)]
+pub struct View {
+    pub exposure: f32,
+    /// The gain once the first reference set it.
+    pub gain: Option<f32>,
 }
 
 /// Renders and writes one image.
@@ -319,7 +336,7 @@ fn render_one(
     params: &shared::params::RenderParams,
     lights: &SceneLights,
     stem: &str,
-    exposure: f32,
+    view: View,
     reference: bool,
 ) -> Result<Rendered> {
     // Without the GPU pipeline builds (a kernel variant compiles on first use): the equal-time
@@ -358,8 +375,19 @@ fn render_one(
     );
     let (w, h) = (params.width, params.height);
     write_exr_rgb(&exr, w, h, &rgb)?;
-    write_png_rgb_exposed(&png, w, h, &rgb, exposure)?;
+    let tone = match view.gain {
+        Some(g) => Preview::Rgb(g),
+        None => Preview::of(
+            Some(Integrator::from_u32(params.integrator)),
+            view.exposure,
+            true,
+            &pixels,
+        ),
+    };
+    let bytes: Vec<u8> = pixels.iter().flat_map(|p| tone.rgb8(p)).collect();
+    engine::output::write_rgb_png(&png, w, h, &bytes)?;
     Ok(Rendered {
+        gain: tone.gain().unwrap_or(view.exposure),
         pixels,
         elapsed_ms,
         pipeline_build_ms: built.ms(),
@@ -384,7 +412,7 @@ struct DirectRun<'a> {
     setup: &'a EvalSetup<'a>,
     resident: Resident<'a>,
     bounds: ([f64; 3], [f64; 3]),
-    exposure: f32,
+    view: View,
     equal_time: bool,
     budget_ms: Option<f64>,
     done: usize,
@@ -421,9 +449,10 @@ impl DirectRun<'_> {
             &ref_params,
             lights,
             &stem(label, "reference"),
-            self.exposure,
+            self.view,
             true,
         )?;
+        self.view.gain.get_or_insert(rendered.gain);
         Ok((
             moments(&rendered.pixels),
             ref_params,
@@ -452,7 +481,7 @@ impl DirectRun<'_> {
             &p,
             lights,
             &stem(label, "exact"),
-            self.exposure,
+            self.view,
             false,
         )?;
         Ok(rendered.pixels)
@@ -550,7 +579,7 @@ impl DirectRun<'_> {
             ref_params,
             label,
             &entry.name(),
-            self.exposure,
+            self.view,
             exact,
         )?;
         if let Some(m) = &map {
@@ -599,7 +628,10 @@ pub fn evaluate_direct(
         setup,
         resident: Resident::new(setup.backend, setup.volume)?,
         bounds,
-        exposure,
+        view: View {
+            exposure,
+            gain: None,
+        },
         equal_time,
         budget_ms: None,
         done: 0,
@@ -662,6 +694,7 @@ pub fn evaluate_direct(
         references,
         light_pmf: [l.p_sun, l.p_env, l.p_points],
         entries,
+        preview_gain: run.view.gain,
     })
 }
 
@@ -676,7 +709,7 @@ fn measure(
     ref_params: &shared::params::RenderParams,
     label: &str,
     estimator: &str,
-    exposure: f32,
+    view: View,
     exact: Option<&[PixelOut]>,
 ) -> Result<DirectEntry> {
     let name = format!("{label}/{estimator}");
@@ -686,13 +719,14 @@ fn measure(
         pipeline_build_ms,
         exr,
         png,
+        ..
     } = render_one(
         setup,
         resident,
         params,
         lights,
         &stem(label, estimator),
-        exposure,
+        view,
         false,
     )?;
     let paired: Option<(f64, f64)> = exact.map(|ex| {

@@ -504,6 +504,7 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
         hg_g: args.hg_g.unwrap_or(0.0),
         t_hat: TransmittanceHat::Jackknife,
         exposure: args.exposure,
+        fixed_exposure: false,
         width: args.width,
         height: args.height,
         spp: args.spp,

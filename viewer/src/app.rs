@@ -245,8 +245,9 @@ impl<'a> App<'a> {
         let (full_w, full_h) = (o.width, o.height);
         let (w, h) = self.session.image_size();
         let preview = self.session.preview();
-        let tone = Preview::of(o.integrator, o.exposure);
         let (pixels, split) = self.session.pixels()?;
+        // The split view's right half shows with the left image's gain (one exposure for both).
+        let tone = Preview::of(o.integrator, o.exposure, !o.fixed_exposure, &pixels);
         let right = split
             .as_deref()
             .map(|r| (r, (self.split_x / preview).min(w)));

@@ -111,6 +111,17 @@ pub struct LayerInputs<'a> {
     pub albedo: [f32; 3],
 }
 
+/// The sampler of a render whose command line names none: sobol (stratified, less noise per
+/// sample), or independent where `layers` ask for a standard error (which needs independent
+/// samples of each pixel).
+pub fn default_sampler(layers: &[Layer]) -> shared::params::Sampler {
+    if layers.contains(&Layer::StdErr) {
+        shared::params::Sampler::Independent
+    } else {
+        shared::params::Sampler::Sobol
+    }
+}
+
 /// Refuses layers the render cannot give: a standard error needs two independent samples per
 /// pixel, an albedo a medium that scatters (an integrator render).
 pub fn check(

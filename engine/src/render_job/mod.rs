@@ -68,7 +68,7 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
     flags.warn(params);
     crate::diagnostics::check_finite(&pixels, args.width)?;
     let direct = args.integrator.is_some_and(Integrator::is_lit);
-    let mean = write_images(args, &png, &pixels, &extra, direct)?;
+    let (mean, tone) = write_images(args, &png, &pixels, &extra, direct)?;
     let rays = pixels.len() as f64 * args.spp as f64;
     let samples: f64 = pixels.iter().map(|p| p.samples as f64).sum();
     let mut summary = summary::summarize(&summary::Rendered {
@@ -88,6 +88,7 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         per_ray: setup.per_ray,
     })?;
     summary.shards = shards;
+    summary.preview = summary::PreviewSummary::of(args, tone);
     summary.layer_passes = layer_pass_flags(args, &extra);
     if let Some(path) = &args.json {
         write_json(path, &summary)?;
@@ -436,15 +437,15 @@ fn layer_pass_flags(
         .collect()
 }
 
-/// Writes the EXR (linear) and its PNG preview; returns the image's mean (T, or L's luminance
-/// channel for integrators).
+/// Writes the EXR (linear) and its PNG preview ([`preview`]); returns the image's mean (T, or
+/// L's luminance channel for integrators) and the preview's view transform.
 pub fn write_images(
     args: &RenderOptions,
     png: &Path,
     pixels: &[PixelOut],
     extra: &[(&'static str, Vec<PixelOut>)],
     direct: bool,
-) -> Result<f64> {
+) -> Result<(f64, preview::Preview)> {
     let pass = |name: &str| {
         extra
             .iter()
@@ -468,6 +469,7 @@ pub fn write_images(
             (l.name().to_owned(), values)
         })
         .collect();
+    let tone = preview::Preview::of(args.integrator, args.exposure, !args.fixed_exposure, pixels);
     if direct {
         let rgb: Vec<[f32; 3]> = pixels
             .iter()
@@ -475,8 +477,9 @@ pub fn write_images(
             .collect();
         let (w, h) = (args.width, args.height);
         crate::output::write_exr_layers(&args.out, w, h, "radiance", &rgb, &extra)?;
-        crate::output::write_png_rgb_exposed(png, args.width, args.height, &rgb, args.exposure)?;
-        return Ok(mean);
+        let bytes: Vec<u8> = pixels.iter().flat_map(|p| tone.rgb8(p)).collect();
+        crate::output::write_rgb_png(png, w, h, &bytes)?;
+        return Ok((mean, tone));
     }
     // The image's part: the single-scattering integrators' grey image is radiance too.
     let part = if args.integrator.is_some() {
@@ -487,10 +490,9 @@ pub fn write_images(
     let rgb: Vec<[f32; 3]> = t.iter().map(|&v| [v, v, v]).collect();
     let (w, h) = (args.width, args.height);
     crate::output::write_exr_layers(&args.out, w, h, part, &rgb, &extra)?;
-    let tone = preview::Preview::of(args.integrator, args.exposure);
     let preview: Vec<f32> = t.iter().map(|&v| tone.grey(v)).collect();
     write_png(png, args.width, args.height, &preview)?;
-    Ok(mean)
+    Ok((mean, tone))
 }
 
 /// The one line a render prints when it is done.

@@ -44,7 +44,11 @@ pub struct RenderOptions {
     pub max_depth: u32,
     pub hg_g: f32,
     pub t_hat: TransmittanceHat,
+    /// Gain of the preview before its filmic curve (times the automatic exposure unless
+    /// `fixed_exposure`; [`super::preview`]).
     pub exposure: f32,
+    /// The preview's gain is `exposure` alone (no automatic exposure).
+    pub fixed_exposure: bool,
     pub width: u32,
     pub height: u32,
     pub spp: u32,

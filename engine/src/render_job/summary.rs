@@ -131,6 +131,35 @@ pub struct RenderSummary {
     /// with their rays that a loop bound changed.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub layer_passes: Vec<LayerPass>,
+    /// How the PNG preview shows the linear image (radiance renders).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub preview: Option<PreviewSummary>,
+}
+
+/// The view transform of a radiance render's PNG preview ([`super::preview`]).
+#[derive(serde::Serialize)]
+pub struct PreviewSummary {
+    /// `filmic` (the curve after the gain, then sRGB).
+    pub transform: &'static str,
+    /// `--exposure`.
+    pub exposure: f32,
+    /// The automatic exposure the gain includes (None with `--fixed-exposure`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub auto_exposure: Option<f32>,
+    /// The gain applied to radiance: exposure times auto_exposure.
+    pub gain: f32,
+}
+
+impl PreviewSummary {
+    /// The summary of `tone`, the preview of a render with `args` (None for transmittance).
+    pub fn of(args: &RenderOptions, tone: super::preview::Preview) -> Option<Self> {
+        tone.gain().map(|gain| PreviewSummary {
+            transform: super::preview::TRANSFORM,
+            exposure: args.exposure,
+            auto_exposure: (!args.fixed_exposure).then(|| gain / args.exposure),
+            gain,
+        })
+    }
 }
 
 /// One extra pass of a render's layers in its JSON summary.
@@ -192,7 +221,7 @@ pub struct IntegratorSettings {
     pub max_depth: Option<u32>,
     pub hg_g: f32,
     pub t_hat: String,
-    /// The PNG shows x / (1 + x) of x = exposure * radiance, sRGB-encoded; the EXR is linear.
+    /// `--exposure` (the preview's view transform: the summary's `preview`).
     pub exposure: f32,
 }
 
@@ -404,6 +433,7 @@ pub(super) fn summarize(r: &Rendered) -> Result<RenderSummary> {
         scene: args.scene_record.clone(),
         shards: None,
         layer_passes: Vec::new(),
+        preview: None,
     })
 }
 

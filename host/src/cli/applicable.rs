@@ -15,6 +15,7 @@ const INTEGRATOR_ONLY: &[(&str, &str)] = &[
     ("hg_g", "--hg-g"),
     ("t_hat", "--t-hat"),
     ("exposure", "--exposure"),
+    ("fixed_exposure", "--fixed-exposure"),
     ("env", "--env"),
     ("env_scale", "--env-scale"),
     ("env_rotate", "--env-rotate"),

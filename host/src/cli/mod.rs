@@ -44,7 +44,25 @@ pub struct Cli {
     pub command: Option<Command>,
     #[command(flatten)]
     pub render: RenderArgs,
+    /// `host` was run without any argument: it renders [`QUICK_START`].
+    #[arg(skip)]
+    pub quick_start: bool,
 }
+
+/// What `host` without any argument renders: the embedded cloud lit by the default sky and sun
+/// (direct illumination, the paper's Fig. 1 setting, shadow rays by the jackknife), sized to
+/// take a few seconds on two CPU cores.
+pub const QUICK_START: [&str; 9] = [
+    "render",
+    "--integrator",
+    "direct",
+    "--width",
+    "384",
+    "--height",
+    "384",
+    "--spp",
+    "16",
+];
 
 #[derive(Subcommand, Debug)]
 pub enum Command {
@@ -78,12 +96,17 @@ pub enum Command {
 
 /// Parses the command line like `Cli::parse`, recording which render flags the user gave.
 pub fn parse() -> Result<Cli, clap::Error> {
-    let raw: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    let mut raw: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    let quick_start = raw.len() == 1;
+    if quick_start {
+        raw.extend(QUICK_START.iter().map(Into::into));
+    }
     let typed = typed_flags(&raw);
     let argv = scene_file::expand(raw).map_err(|e| {
         clap::Error::raw(clap::error::ErrorKind::ValueValidation, format!("{e:#}\n"))
     })?;
     let mut cli = parse_from(argv)?;
+    cli.quick_start = quick_start;
     match &mut cli.command {
         None => cli.render.typed = typed,
         Some(Command::Render(args)) => args.typed = typed,
@@ -133,6 +156,15 @@ fn parse_from(argv: Vec<std::ffi::OsString>) -> Result<Cli, clap::Error> {
 pub fn run(cli: &Cli) -> Result<()> {
     // The environment is input too: checked before any work.
     engine::gpu::forced_max_buffer_bytes()?;
+    if cli.quick_start {
+        eprintln!(
+            "host: no command given, so the quick start: the embedded cloud under the default \
+             sky and sun, direct illumination with jackknife shadow rays (`host {}`); `host \
+             render` renders the camera rays' transmittance by any --estimator, `host --help` \
+             lists every command",
+            QUICK_START.join(" ")
+        );
+    }
     match &cli.command {
         None => render(&cli.render),
         Some(Command::Render(args)) => render(args),

@@ -208,10 +208,15 @@ pub struct RenderArgs {
     /// Estimate of T(t0) for the equiangular strategy of Eq. 9: jackknife or ratio (unbiased).
     #[arg(long, value_enum, default_value_t = THatArg::Jackknife)]
     pub t_hat: THatArg,
-    /// Multiplier applied before the PNG preview's tone mapping (the EXR stays linear), a finite
-    /// number > 0.
+    /// Multiplier of the PNG preview's automatic exposure (radiance renders: the image's
+    /// log-average luminance to middle grey, then a filmic curve; the EXR stays linear), a finite
+    /// number > 0. With --fixed-exposure, the preview's gain itself.
     #[arg(long, default_value_t = 1.0, allow_hyphen_values = true, value_parser = parse_positive)]
     pub exposure: f32,
+    /// The preview's gain is --exposure alone, without automatic exposure (the same gain for
+    /// every render, e.g. the frames of an animation).
+    #[arg(long)]
+    pub fixed_exposure: bool,
     /// Image width in pixels, 1 to 16384.
     #[arg(long, allow_hyphen_values = true, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
     pub width: u32,
@@ -224,13 +229,13 @@ pub struct RenderArgs {
     /// Seed, 0 to 2^32 - 1; the same seed gives the same image on every backend.
     #[arg(long, default_value_t = 0, allow_hyphen_values = true)]
     pub seed: u32,
-    /// Where each sample's uniforms come from: independent (every number from a hash
-    /// generator) or sobol (the pixel jitter and every path vertex's free flight, light, phase
-    /// and roulette numbers from Owen-scrambled Sobol patterns, stratified within the pixel:
-    /// less noise per sample; per-pixel standard errors then do not hold, so `--layers stderr`
-    /// needs independent).
-    #[arg(long, value_enum, default_value_t = SamplerArg::Independent)]
-    pub sampler: SamplerArg,
+    /// Where each sample's uniforms come from: sobol (the pixel jitter and every path vertex's
+    /// free flight, light, phase and roulette numbers from Owen-scrambled Sobol patterns,
+    /// stratified within the pixel: less noise per sample) or independent (every number from a
+    /// hash generator). Default: sobol, or independent when `--layers stderr` is asked for (a
+    /// pixel's standard error needs independent samples; stderr with sobol is refused).
+    #[arg(long, value_enum)]
+    pub sampler: Option<SamplerArg>,
     /// Where kernels run: auto (a hardware Vulkan GPU if there is one, else the CPU; on a
     /// software device such as lavapipe, the one that finishes sooner for this job), gpu, or cpu.
     #[arg(long, value_enum, default_value_t = BackendArg::Auto)]
@@ -297,6 +302,17 @@ impl RenderArgs {
             })
     }
 
+    /// The sampler the flags give: `--sampler`, else [`engine::render_job::layers::default_sampler`].
+    pub fn sampler(&self) -> shared::params::Sampler {
+        match self.sampler {
+            Some(s) => s.into(),
+            None => {
+                let layers: Vec<_> = self.layers.iter().map(|&l| l.into()).collect();
+                engine::render_job::layers::default_sampler(&layers)
+            }
+        }
+    }
+
     /// The library's render options.
     pub fn options(&self) -> RenderOptions {
         RenderOptions {
@@ -327,11 +343,12 @@ impl RenderArgs {
             hg_g: self.hg_g,
             t_hat: self.t_hat.into(),
             exposure: self.exposure,
+            fixed_exposure: self.fixed_exposure,
             width: self.width,
             height: self.height,
             spp: self.spp,
             seed: self.seed,
-            sampler: self.sampler.into(),
+            sampler: self.sampler(),
             backend: self.backend.into(),
             out: self.out.clone(),
             json: self.json.clone(),

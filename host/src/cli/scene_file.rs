@@ -432,6 +432,13 @@ pub fn note_given(render: &mut super::render::RenderArgs, m: &ArgMatches) {
         .map(|id| id.as_str().to_owned())
         .collect();
     render.record = record(m);
+    // The sampler has no clap default (it follows `--layers`): the record names the one used.
+    if !render.record.contains_key("sampler") {
+        let name = engine::render_job::summary::sampler_name(render.sampler());
+        render
+            .record
+            .insert("sampler".into(), SceneValue::Text(name.into()));
+    }
 }
 
 /// The clap id of the `host render` flag a scene key names (None: not a setting).

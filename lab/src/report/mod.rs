@@ -492,6 +492,15 @@ fn url_escape(s: &str) -> String {
     out
 }
 
+/// How an evaluation's PNGs show radiance (reports written before the view transform had a
+/// gain say their exposure).
+fn view_caption(gain: Option<f32>, exposure: f32) -> String {
+    match gain {
+        Some(g) => format!("shown as filmic({g:.3} x L) (automatic exposure of the reference)"),
+        None => format!("shown at exposure {exposure}"),
+    }
+}
+
 /// The grey ramp of the transmittance PNGs: T in [0, 1], sRGB-encoded (`output::write_png`).
 fn transmittance_map() -> ColourMap {
     crate::eval::colour_map("transmittance, sRGB-encoded", 0.0, 1.0, |v| {
@@ -756,8 +765,9 @@ fn integrator_set(
             id: "render",
             label: "render",
             caption: format!(
-                "radiance L, {} spp, shown as x / (1 + x) with x = {} x L, sRGB-encoded",
-                r.header.spp, r.exposure
+                "radiance L, {} spp, {}, sRGB-encoded",
+                r.header.spp,
+                view_caption(r.preview_gain, r.exposure)
             ),
             colour_map: None,
         }],
@@ -883,8 +893,9 @@ fn lit_sets(r: &DirectEvalReport, files: &mut Files, id: &str, json: &str) -> Re
                 id: "render",
                 label: "render",
                 caption: format!(
-                    "RGB radiance, {} spp, exposure x radiance clamped, sRGB-encoded",
-                    r.header.spp
+                    "RGB radiance, {} spp, {}, sRGB-encoded",
+                    r.header.spp,
+                    view_caption(r.preview_gain, 1.0)
                 ),
                 colour_map: None,
             }],
