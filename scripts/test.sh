@@ -2,8 +2,8 @@
 # Runs every test of the workspace on a fresh Debian machine: installs the apt packages the GPU
 # tests need (lavapipe, the Vulkan loader, a C++ compiler for SPIRV-Tools, Xvfb and xdotool for
 # the viewer), the browser of the
-# `host report` test (chromium and chromedriver) and the pinned Rust toolchain, then
-# `cargo test --workspace --release`, then the `jackknife` library crate on stable Rust. Extra
+# `host report` test (chromium and chromedriver) and the pinned Rust toolchain, checks the
+# committed kernels against a fresh rust-gpu build, then `cargo test --workspace --release`, then the `jackknife` library crate on stable Rust. Extra
 # arguments go to the workspace `cargo test`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -37,6 +37,10 @@ for src in shared/src host/src engine/src lab/src jackknife/src volume-io/src ke
   studies/src vulkan-backend/src viewer/src; do
   python3 scripts/module_cycles.py "$src"
 done
+
+# The committed SPIR-V modules (vulkan-backend/spirv) are exactly what the sources build to:
+# rust-gpu compiles the kernels here, once, as it did inside the workspace build before.
+./scripts/build_kernels.sh --check
 
 cargo test --workspace --release "$@"
 

@@ -288,10 +288,15 @@ fn render_reads_openvdb_and_nanovdb_files_with_identical_results() {
 }
 
 #[test]
-fn running_without_flags_renders_the_embedded_cloud() {
-    // What `cargo run -p host --release` does: the default cloud, default size, out/render.*.
+fn render_without_flags_renders_the_embedded_cloud() {
+    // `host render` alone: the default cloud's transmittance, default size, out/render.*
+    // (`host` without any argument renders the lit quick start: tests/preview.rs).
     let dir = tempfile::tempdir().unwrap();
-    let out = host().current_dir(dir.path()).output().unwrap();
+    let out = host()
+        .current_dir(dir.path())
+        .arg("render")
+        .output()
+        .unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
         out.status.success(),

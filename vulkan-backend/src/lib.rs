@@ -13,6 +13,11 @@ mod pipelines;
 mod plan;
 pub mod present;
 mod resources;
+/// The kernels' source hash, as build.rs computes it (a test compares the build's choice).
+#[cfg(test)]
+#[path = "../build/source_hash.rs"]
+#[allow(dead_code)]
+mod source_hash;
 
 pub use device::{pick_memory_type, DeviceOwner, Display, MemoryChoice, MemoryRole};
 pub use error::GpuError;

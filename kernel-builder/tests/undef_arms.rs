@@ -1,7 +1,7 @@
-//! The build script's selection rewrite ([`undef_arms::undef_arms_last`]) on hand-assembled
+//! The kernel build's selection rewrite ([`undef_arms::undef_arms_last`]) on hand-assembled
 //! modules: which selections it swaps, how, and what it leaves alone.
 
-#[path = "../build/undef_arms.rs"]
+#[path = "../src/undef_arms.rs"]
 mod undef_arms;
 
 use undef_arms::undef_arms_last;
