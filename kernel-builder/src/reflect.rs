@@ -13,8 +13,6 @@ use std::path::PathBuf;
 
 /// What the host needs to know about one entry point.
 struct EntryInfo {
-    /// Its optimized module.
-    module: PathBuf,
     name: String,
     /// Element stride of each storage buffer, by binding number (0: not a runtime array), or the
     /// size of a uniform buffer's block.
@@ -42,10 +40,7 @@ pub fn kernel_items(
             .into_iter()
             .find(|i| &i.name == name)
             .ok_or_else(|| format!("entry point {name} is missing from its module"))?;
-        entries.push(EntryInfo {
-            module: module.clone(),
-            ..info
-        });
+        entries.push(info);
     }
     if entries.is_empty() {
         return Err("the kernels module has no entry points".into());
@@ -286,7 +281,6 @@ fn entry_info(m: &Module, name: String, interface: &[u32]) -> Result<EntryInfo, 
         }
     }
     Ok(EntryInfo {
-        module: PathBuf::new(),
         name,
         strides,
         uniforms,
