@@ -34,7 +34,7 @@ python3 scripts/results_check.py
 
 # No crate's modules import each other in a cycle.
 for src in shared/src host/src engine/src lab/src jackknife/src volume-io/src kernels/src output/src \
-  studies/src vulkan-backend/src viewer/src; do
+  studies/src vulkan-backend/src viewer/src kernel-builder/src; do
   python3 scripts/module_cycles.py "$src"
 done
 
