@@ -17,5 +17,7 @@ case "${1:-}" in
   "") write=1 ;;
   *) echo "usage: $0 [--check]" >&2; exit 2 ;;
 esac
+# rust-gpu builds against the compiler's own crates and rebuilds `core` for SPIR-V.
+rustup component add rust-src rustc-dev llvm-tools
 JK_WRITE_KERNELS="$write" cargo test --workspace --release --test committed_kernels -- \
   --ignored --nocapture

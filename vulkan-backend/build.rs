@@ -106,6 +106,12 @@ fn check_modules(dir: &Path, manifest: &str) -> Result<(), BoxError> {
 /// Builds the kernels into `out` with `cargo run -p kernel-builder`, in a target folder of its
 /// own (this build holds the workspace's).
 fn rebuild(root: &Path, out: &Path) -> Result<(), BoxError> {
+    // rust-gpu builds against the compiler's own crates and rebuilds `core` for SPIR-V: the
+    // components rust-toolchain.toml leaves out (a missing rustup leaves it to cargo's error).
+    let _ = Command::new("rustup")
+        .current_dir(root)
+        .args(["component", "add", "rust-src", "rustc-dev", "llvm-tools"])
+        .status();
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let status = Command::new(cargo)
         .current_dir(root)
