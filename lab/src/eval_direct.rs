@@ -384,8 +384,7 @@ fn render_one(
             &pixels,
         ),
     };
-    let bytes: Vec<u8> = pixels.iter().flat_map(|p| tone.rgb8(p)).collect();
-    engine::output::write_rgb_png(&png, w, h, &bytes)?;
+    engine::output::write_rgb_png(&png, w, h, &tone.rgb_bytes(&pixels))?;
     Ok(Rendered {
         gain: tone.gain().unwrap_or(view.exposure),
         pixels,

@@ -507,22 +507,6 @@ pub fn write_exr_rgb(path: &Path, w: u32, h: u32, rgb: &[[f32; 3]]) -> Result<()
     })
 }
 
-/// Writes an sRGB PNG preview of linear RGB radiance: exposure x radiance, clamped to [0, 1],
-/// sRGB OETF.
-pub fn write_png_rgb_exposed(
-    path: &Path,
-    w: u32,
-    h: u32,
-    rgb: &[[f32; 3]],
-    exposure: f32,
-) -> Result<()> {
-    let bytes: Vec<u8> = rgb
-        .iter()
-        .flat_map(|p| p.map(|v| srgb8(v * exposure)))
-        .collect();
-    write_rgb_png(path, w, h, &bytes)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

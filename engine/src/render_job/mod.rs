@@ -477,8 +477,7 @@ pub fn write_images(
             .collect();
         let (w, h) = (args.width, args.height);
         crate::output::write_exr_layers(&args.out, w, h, "radiance", &rgb, &extra)?;
-        let bytes: Vec<u8> = pixels.iter().flat_map(|p| tone.rgb8(p)).collect();
-        crate::output::write_rgb_png(png, w, h, &bytes)?;
+        crate::output::write_rgb_png(png, w, h, &tone.rgb_bytes(pixels))?;
         return Ok((mean, tone));
     }
     // The image's part: the single-scattering integrators' grey image is radiance too.

@@ -85,6 +85,11 @@ impl Preview {
         }
     }
 
+    /// The sRGB bytes (RGB, row-major) of `pixels`' preview.
+    pub fn rgb_bytes(self, pixels: &[PixelOut]) -> Vec<u8> {
+        pixels.iter().flat_map(|p| self.rgb8(p)).collect()
+    }
+
     /// The sRGB byte of one channel of linear value `v`.
     pub fn rgb8_of(self, v: f32) -> u8 {
         crate::output::srgb8(self.grey(v))
