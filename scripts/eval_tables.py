@@ -2,7 +2,10 @@
 """Prints the `host eval` tables (markdown) of docs/results/transmittance.md (transmittance evals)
 docs/results/scattering.md (integrator evals) and docs/results/direct.md (lit integrator evals) from eval JSON files written by `host eval`.
 
-Usage: scripts/eval_tables.py docs/results/eval_cloud.json [more.json ...]
+Usage: scripts/eval_tables.py [--merit] docs/results/eval_cloud.json [more.json ...]
+
+With --merit, transmittance evals print the equal-time table of docs/results/transmittance.md's
+telescoping section instead: MSE x time per estimate, relative to the jackknife's.
 Transmittance evals (key `estimators`), single-scattering integrator evals (key `integrators`) and
 lit integrator evals (key `entries`: docs/results/direct.md; with moment shadow maps,
 docs/results/shadows.md) are accepted.
@@ -28,6 +31,31 @@ def transmittance_table(d):
         f"| `{e['name']}` | {e['mean_bias']:+.5f} | {e['mean_abs_bias']:.5f} | "
         f"{e['abs_bias_noise_floor']:.5f} | {e['mean_std']:.4f} | {e['rmse']:.4f} | "
         f"{e['mean_samples_per_ray']:.2f} | {e.get('capped_rays', 0)} | {e['elapsed_ms']:.0f} |"
+        for e in d["estimators"]
+    ]
+    return "\n".join([head] + rows)
+
+
+def merit_table(d):
+    """Equal-time figure of merit of a transmittance eval: MSE of one estimate (RMSE^2) times the
+    time of one estimate (the entry's elapsed time over width x height x spp), and its ratio to
+    the jackknife's (below 1: better than the jackknife at equal time)."""
+    head = (
+        f"**{name_of(d)}** ({d['width']}x{d['height']}, {d['spp']} estimates per pixel, "
+        f"{d['lookup']} lookups, {d['evaluated_pixels']} pixels; {d['backend']})\n\n"
+        "| estimator | mean bias | mean std | RMSE | samples/ray | ns / estimate | MSE x ns | vs jackknife |\n"
+        "|---|---|---|---|---|---|---|---|"
+    )
+    count = d["width"] * d["height"] * d["spp"]
+
+    def merit(e):
+        return e["rmse"] ** 2 * e["elapsed_ms"] * 1e6 / count
+
+    jk = next(e for e in d["estimators"] if e["name"] == "jackknife")
+    rows = [
+        f"| `{e['name']}` | {e['mean_bias']:+.5f} | {e['mean_std']:.4f} | {e['rmse']:.4f} | "
+        f"{e['mean_samples_per_ray']:.2f} | {e['elapsed_ms'] * 1e6 / count:.0f} | "
+        f"{merit(e):.4f} | {merit(e) / merit(jk):.2f}x |"
         for e in d["estimators"]
     ]
     return "\n".join([head] + rows)
@@ -102,16 +130,20 @@ def msm_table(d):
 
 
 def main():
-    if len(sys.argv) < 2:
+    args = sys.argv[1:]
+    merit = bool(args) and args[0] == "--merit"
+    if merit:
+        args = args[1:]
+    if not args:
         sys.exit(__doc__)
-    for path in sys.argv[1:]:
+    for path in args:
         try:
             with open(path) as f:
                 d = json.load(f)
         except (OSError, ValueError) as e:
             sys.exit(f"error: {path}: {e}")
         if "estimators" in d:
-            print(transmittance_table(d))
+            print(merit_table(d) if merit else transmittance_table(d))
         elif "integrators" in d:
             print(integrator_table(d))
         elif "entries" in d and all("paired_rms" in e for e in d["entries"]):

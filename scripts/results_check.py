@@ -6,7 +6,8 @@ A page edited by hand, or a JSON re-recorded without regenerating its page, fail
 Usage: scripts/results_check.py   (run by scripts/test.sh; exits 1 naming each missing row)
 
 Pages and generators:
-  docs/results/transmittance.md  scripts/eval_tables.py docs/results/eval_{cloud,explosion,constant}.json
+  docs/results/transmittance.md  scripts/eval_tables.py docs/results/eval_{cloud,explosion,constant}.json,
+                                 and --merit docs/results/eval_telescoping_{cloud,explosion,constant}.json
   docs/results/scattering.md     scripts/eval_tables.py docs/results/eval_integrators_cloud.json
   docs/results/direct.md         scripts/eval_tables.py docs/results/eval_{direct,path}_cloud.json
   docs/results/shadows.md        scripts/eval_tables.py docs/results/eval_msm_{cloud,explosion,constant}.json
@@ -48,6 +49,12 @@ checks = [
         "transmittance.md",
         ["scripts/eval_tables.py"]
         + [f"docs/results/eval_{v}.json" for v in ("cloud", "explosion", "constant")],
+        lambda r: r,
+    ),
+    (
+        "transmittance.md",
+        ["scripts/eval_tables.py", "--merit"]
+        + [f"docs/results/eval_telescoping_{v}.json" for v in ("cloud", "explosion", "constant")],
         lambda r: r,
     ),
     (

@@ -161,6 +161,7 @@ fn traversal(c: &mut Criterion) {
         ("track-length", Estimator::TrackLength),
         ("ratio", Estimator::RatioTracking),
         ("unbiased-rm", Estimator::UnbiasedRayMarching),
+        ("telescoping", Estimator::Telescoping),
     ] {
         let p = RenderParams {
             estimator: e as u32,

@@ -172,6 +172,18 @@ fn estimator_advice(params: &RenderParams) -> String {
              N_CMF's count (still unbiased, more variance), or its power series overflowed f32 \
              (the estimate is then 0); lower --density-scale"
         ),
+        Estimator::Telescoping => format!(
+            "the telescoping series was cut at its cap of {} samples (n 2^L) or level {}, \
+             or its corrections overflowed f32 (the estimate is then 0); lower --n or \
+             --density-scale",
+            shared::estimators::telescoping::MAX_TELESCOPING_SAMPLES,
+            shared::estimators::telescoping::MAX_LEVEL
+        ),
+        Estimator::TelescopingCycles => format!(
+            "Cycles' telescoping used its cap of {} lookups per ray (fewer steps than \
+             round(range x length)); lower --density-scale",
+            shared::estimators::telescoping::MAX_CYCLES_SAMPLES
+        ),
         Estimator::JackknifeAdaptive => format!(
             "F / F_delta exceeded {} strata, so the CDF step was widened (fewer samples than \
              --f-delta asks for); raise --f-delta",

@@ -155,6 +155,26 @@ pub const ESTIMATORS: &[EstimatorSpec] = &[
         "ratio tracking, per-brick majorants, no roulette (--ratio-roulette: pbrt-v4's)",
     ),
     spec(
+        "telescoping",
+        E::Telescoping,
+        Var,
+        Strat,
+        1.0,
+        true,
+        "Misso et al. 2022 telescoping series over nested stratified estimates (N, 2N, 4N, ... \
+         samples with the jackknife's importance and control variate), unbiased",
+    ),
+    spec(
+        "telescoping-cycles",
+        E::TelescopingCycles,
+        Mean,
+        Unif,
+        1.0,
+        false,
+        "Blender Cycles 5.0's telescoping shadow rays: k = round(range x length) steps per merged \
+         segment, order <= 4 (truncated: biased)",
+    ),
+    spec(
         "regular",
         E::RegularTracking,
         Var,

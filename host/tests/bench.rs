@@ -54,6 +54,7 @@ fn bench_reports_every_estimator_on_both_backends_and_the_sweep() {
         "naive-m1",
         "biased-rm",
         "unbiased-rm",
+        "telescoping",
         "track-length",
         "ratio",
     ];

@@ -59,6 +59,8 @@ fn flags_scene_files_and_summaries_render_the_same_bytes() {
         "naive-m1",
         "biased-rm",
         "unbiased-rm",
+        "telescoping",
+        "telescoping-cycles",
         "track-length",
         "ratio",
         "regular",

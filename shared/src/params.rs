@@ -41,11 +41,17 @@ pub enum Estimator {
     /// tracking, whose distance the `depth` layer's pass sums ([`crate::kernels::render`]); as
     /// a transmittance estimate, track-length's. Not in [`Estimator::ALL`].
     FirstCollision = 9,
+    /// Misso et al.'s telescoping series over nested stratified estimates with Alg. 2's
+    /// importance and control variate, unbiased ([`crate::estimators::telescoping::telescoping`]).
+    Telescoping = 10,
+    /// Blender Cycles 5.0's telescoping shadow rays, truncated at order 4: biased
+    /// ([`crate::estimators::telescoping::telescoping_cycles`]).
+    TelescopingCycles = 11,
 }
 
 impl Estimator {
     /// Every estimator, in enum order.
-    pub const ALL: [Estimator; 9] = [
+    pub const ALL: [Estimator; 11] = [
         Estimator::Jackknife,
         Estimator::NaiveMean,
         Estimator::NaiveSingle,
@@ -55,6 +61,8 @@ impl Estimator {
         Estimator::RegularTracking,
         Estimator::TrackLength,
         Estimator::RatioTracking,
+        Estimator::Telescoping,
+        Estimator::TelescopingCycles,
     ];
 
     /// From the stored u32 (unknown values read as the jackknife).
@@ -70,6 +78,8 @@ impl Estimator {
             7 => Estimator::TrackLength,
             8 => Estimator::RatioTracking,
             9 => Estimator::FirstCollision,
+            10 => Estimator::Telescoping,
+            11 => Estimator::TelescopingCycles,
             _ => Estimator::Jackknife,
         }
     }

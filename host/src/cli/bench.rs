@@ -22,7 +22,7 @@ pub struct BenchArgs {
     /// Comma-separated estimators, or "all".
     #[arg(
         long,
-        default_value = "jackknife,naive-m1,biased-rm,unbiased-rm,track-length,ratio"
+        default_value = "jackknife,naive-m1,biased-rm,unbiased-rm,telescoping,track-length,ratio"
     )]
     pub estimators: String,
     /// Backends to time.

@@ -125,7 +125,7 @@ pub struct RenderArgs {
     pub lookup: LookupArg,
     /// Transmittance estimator: jackknife, naive, naive-m1, jackknife-adaptive, jackknife-mean,
     /// jackknife-uniform, biased-rm, biased-rm2, unbiased-rm, unbiased-rm2, track-length, ratio,
-    /// regular (docs/reference/estimators.md).
+    /// telescoping, telescoping-cycles, regular (docs/reference/estimators.md).
     #[arg(long, default_value = "jackknife", value_parser = engine::estimators::parse)]
     pub estimator: &'static engine::estimators::EstimatorSpec,
     /// Samples per optical depth estimate (N; two estimates per ray), 1 to 4096.

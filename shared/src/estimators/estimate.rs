@@ -6,6 +6,7 @@ use crate::estimators::optical_depth::{
     prepare,
 };
 use crate::estimators::ray_marching::{biased_ray_marching, unbiased_ray_marching};
+use crate::estimators::telescoping::{telescoping, telescoping_cycles};
 use crate::estimators::tracking::{
     ratio_tracking_capped, regular_tracking_tau, track_length_capped,
 };
@@ -84,6 +85,8 @@ pub fn transmittance(
             track_length_capped(vol, ray, t0, t1, cfg.lookup, cfg.max_collisions, rng)
         }
         Estimator::RatioTracking => ratio_transmittance(vol, cfg, ray, t0, t1, rng),
+        Estimator::Telescoping => telescoping(vol, ray, t0, t1, n, cfg.importance, cfg.lookup, rng),
+        Estimator::TelescopingCycles => telescoping_cycles(vol, ray, t0, t1, cfg.lookup, rng),
     }
 }
 

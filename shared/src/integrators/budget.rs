@@ -6,6 +6,7 @@
 use super::stages::Wavefront;
 use super::unit::Family;
 use crate::estimators::ray_marching::{MAX_BIASED_SAMPLES, MAX_DEGREE, MAX_UNBIASED_SAMPLES};
+use crate::estimators::telescoping::{MAX_CYCLES_SAMPLES, MAX_LEVEL, MAX_TELESCOPING_SAMPLES};
 use crate::estimators::wide::MAX_ADAPTIVE_STRATA;
 use crate::params::{Estimator, Integrator, RenderParams};
 use crate::sampling::lights::MAX_LIGHTS;
@@ -85,5 +86,15 @@ fn estimator_iterations(params: &RenderParams, bricks: u64, voxels: u64, trackin
                 + SERIES_ITERATIONS
         }
         E::TrackLength | E::RatioTracking | E::FirstCollision => bricks + tracking,
+        // Alg. 2's traversal, the sample walk and the control variate's rest (as the
+        // jackknife's), each sample's level walk (<= MAX_LEVEL), and the series.
+        E::Telescoping => {
+            3 * bricks
+                + (ITERATIONS_PER_SAMPLE + MAX_LEVEL as u64 + 1) * MAX_TELESCOPING_SAMPLES as u64
+                + 4 * MAX_LEVEL as u64
+        }
+        // One traversal; per merged segment (at most one per brick) the order's loop, the
+        // sample loop's entry and the loop over the N <= 16 marches; one iteration per sample.
+        E::TelescopingCycles => bricks * (1 + 4 + 1 + 16 + 2) + MAX_CYCLES_SAMPLES as u64,
     }
 }
