@@ -32,6 +32,9 @@ rustup toolchain install
 # The results pages' generated tables match their JSONs.
 python3 scripts/results_check.py
 
+# Every file, folder, link and Rust item the docs name exists.
+python3 scripts/docs_check.py
+
 # No crate's modules import each other in a cycle.
 for src in shared/src host/src engine/src lab/src jackknife/src volume-io/src kernels/src output/src \
   studies/src vulkan-backend/src viewer/src kernel-builder/src; do
