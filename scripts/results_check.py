@@ -6,14 +6,14 @@ A page edited by hand, or a JSON re-recorded without regenerating its page, fail
 Usage: scripts/results_check.py   (run by scripts/test.sh; exits 1 naming each missing row)
 
 Pages and generators:
-  docs/results/transmittance.md  scripts/eval_tables.py docs/results/eval_{cloud,explosion,constant}.json,
+  docs/results/transmittance.md  scripts/results/eval_tables.py docs/results/eval_{cloud,explosion,constant}.json,
                                  and --merit docs/results/eval_telescoping_{cloud,explosion,constant}.json
-  docs/results/scattering.md     scripts/eval_tables.py docs/results/eval_integrators_cloud.json
-  docs/results/direct.md         scripts/eval_tables.py docs/results/eval_{direct,path}_cloud.json
-  docs/results/shadows.md        scripts/eval_tables.py docs/results/eval_msm_{cloud,explosion,constant}.json
-  docs/results/restir.md         scripts/restir_tables.py (the two CPU tables)
-  docs/results/performance.md    scripts/bench_tables.py (the default bench, its goals, the H200)
-  docs/results/adaptive.md       scripts/adaptive_table.py (its f32 nearest rows appear in the
+  docs/results/scattering.md     scripts/results/eval_tables.py docs/results/eval_integrators_cloud.json
+  docs/results/direct.md         scripts/results/eval_tables.py docs/results/eval_{direct,path}_cloud.json
+  docs/results/shadows.md        scripts/results/eval_tables.py docs/results/eval_msm_{cloud,explosion,constant}.json
+  docs/results/restir.md         scripts/results/restir_tables.py (the two CPU tables)
+  docs/results/performance.md    scripts/results/bench_tables.py (the default bench, its goals, the H200)
+  docs/results/adaptive.md       scripts/results/adaptive_table.py (its f32 nearest rows appear in the
                                  page's first adaptive table without the lookup and format columns)
 """
 import os
@@ -47,36 +47,36 @@ def condensed_adaptive(row):
 checks = [
     (
         "transmittance.md",
-        ["scripts/eval_tables.py"]
+        ["scripts/results/eval_tables.py"]
         + [f"docs/results/eval_{v}.json" for v in ("cloud", "explosion", "constant")],
         lambda r: r,
     ),
     (
         "transmittance.md",
-        ["scripts/eval_tables.py", "--merit"]
+        ["scripts/results/eval_tables.py", "--merit"]
         + [f"docs/results/eval_telescoping_{v}.json" for v in ("cloud", "explosion", "constant")],
         lambda r: r,
     ),
     (
         "scattering.md",
-        ["scripts/eval_tables.py", "docs/results/eval_integrators_cloud.json"],
+        ["scripts/results/eval_tables.py", "docs/results/eval_integrators_cloud.json"],
         lambda r: r,
     ),
     (
         "direct.md",
-        ["scripts/eval_tables.py"]
+        ["scripts/results/eval_tables.py"]
         + [f"docs/results/eval_{i}_cloud.json" for i in ("direct", "path")],
         lambda r: r,
     ),
     (
         "shadows.md",
-        ["scripts/eval_tables.py"]
+        ["scripts/results/eval_tables.py"]
         + [f"docs/results/eval_msm_{v}.json" for v in ("cloud", "explosion", "constant")],
         lambda r: r,
     ),
-    ("restir.md", ["scripts/restir_tables.py"], lambda r: r),
-    ("performance.md", ["scripts/bench_tables.py"], lambda r: r),
-    ("adaptive.md", ["scripts/adaptive_table.py"], condensed_adaptive),
+    ("restir.md", ["scripts/results/restir_tables.py"], lambda r: r),
+    ("performance.md", ["scripts/results/bench_tables.py"], lambda r: r),
+    ("adaptive.md", ["scripts/results/adaptive_table.py"], condensed_adaptive),
 ]
 
 missing = 0

@@ -25,7 +25,7 @@ pub fn costliest(kinds: &[WorkKind]) -> WorkKind {
 
 /// CPU core-nanoseconds per sample on the embedded cloud at its defaults, and a software
 /// device's time per sample over the CPU backend's on the same cores: the mean of two runs of
-/// `scripts/speed_integrators.sh target/release/host OUT 256` on 2 cores after a first that
+/// `scripts/results/speed_integrators.sh target/release/host OUT 256` on 2 cores after a first that
 /// warms lavapipe's shader cache (docs/results/speed.md, "`--backend auto` on a software
 /// device").
 pub fn costs(kind: WorkKind) -> (f64, f64) {
@@ -41,7 +41,7 @@ pub fn costs(kind: WorkKind) -> (f64, f64) {
 
 /// [`costs`] of a primary-ray transmittance render that the CPU backend runs eight pixels per
 /// instruction ([`Job::wide`]: the jackknife and the naive mean on the fixed grid): CPU
-/// core-nanoseconds per sample from the mean of two runs of `scripts/speed_integrators.sh
+/// core-nanoseconds per sample from the mean of two runs of `scripts/results/speed_integrators.sh
 /// target/release/host OUT 256` (after a first), and the software device's time per sample over
 /// the CPU's from `host bench --backend both` (min frames, 256x256 at 8 spp, two rounds: the
 /// marginal times of two renders scattered by +-30 % on this VM), docs/results/speed.md.

@@ -1,5 +1,5 @@
 //! Volume loaders against fixtures written by OpenVDB 10.0.1 and NanoVDB's `nanovdb_convert`
-//! (`scripts/make_fixtures.sh`): values, bounding boxes and transforms must match what OpenVDB's
+//! (`scripts/fixtures/make_fixtures.sh`): values, bounding boxes and transforms must match what OpenVDB's
 //! own accessors report (the `.expected` sidecars) and the analytic pattern the fixtures hold;
 //! broken, unsupported and missing files must give errors that name the file.
 
@@ -41,7 +41,7 @@ fn assert_mentions(msg: &str, parts: &[&str]) {
     }
 }
 
-/// What OpenVDB reported for a fixture grid (see `scripts/make_fixtures.cpp`).
+/// What OpenVDB reported for a fixture grid (see `scripts/fixtures/make_fixtures.cpp`).
 struct Expected {
     bbox_min: [i32; 3],
     bbox_max: [i32; 3],
@@ -441,7 +441,7 @@ fn the_topology_check_sees_the_box_before_any_value_is_read() {
     // Without a check the same files load (or fail) as before.
     assert!(load_volume_with(&fixture("density_zip.vdb"), &LoadOptions::default()).is_ok());
     // Active tiles of nonzero value are counted before any leaf is read: `root_tile.vdb`'s
-    // one 4096^3 root tile, `tiles.vdb`'s 8^3 and 128^3 tiles (see scripts/make_fixtures.cpp).
+    // one 4096^3 root tile, `tiles.vdb`'s 8^3 and 128^3 tiles (see scripts/fixtures/make_fixtures.cpp).
     let (seen, _) = refused_by_topology_check(&fixture("root_tile.vdb"), true);
     assert_eq!(
         seen[..],

@@ -1,4 +1,4 @@
-//! Every file in `tests/fixtures/malformed/` (written by `scripts/make_malformed.py`, plus the
+//! Every file in `tests/fixtures/malformed/` (written by `scripts/fixtures/make_malformed.py`, plus the
 //! inputs fuzzing found, `fuzz_*`) must fail to load with an error that names the file and
 //! contains the words its line of `EXPECTED` lists: never a panic, never a silent success.
 

@@ -3,9 +3,9 @@
 # lookups against the exact (regular-tracking) reference at 1024 estimates per pixel, with
 # 16^3 (the paper's), 12^3 (its pragmatic fix for the explosion) and 8^3 bricks, on the three
 # embedded volumes. Writes docs/results/eval_bricks_<B>_<volume>.json and prints excess bias
-# (mean |bias| minus its noise floor) and time. Usage: scripts/eval_bricks.sh [host binary]
+# (mean |bias| minus its noise floor) and time. Usage: scripts/results/eval_bricks.sh [host binary]
 set -euo pipefail
-cd "$(dirname "$0")/.."
+cd "$(dirname "$0")/../.."
 host=${1:-target/release/host}
 mkdir -p docs/results
 echo "| volume | bricks | mean bias | mean abs bias | noise floor | excess | ms | lookups/ray | brick table |"

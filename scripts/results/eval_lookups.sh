@@ -2,7 +2,7 @@
 # The lookup-mode comparison of docs/results/adaptive.md (issue 17, `--lookup trilinear`): the jackknife and
 # ratio tracking with stochastic and trilinear lookups on the cloud and the explosion, each
 # against a ratio-tracking reference of the same lookup. Writes
-# docs/results/eval_lookup_<lookup>_<volume>.json. Usage: scripts/eval_lookups.sh [host binary]
+# docs/results/eval_lookup_<lookup>_<volume>.json. Usage: scripts/results/eval_lookups.sh [host binary]
 set -euo pipefail
 host=${1:-target/release/host}
 for vol in cloud explosion; do

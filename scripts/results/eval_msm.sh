@@ -3,7 +3,7 @@
 # delta sun, jackknife / ratio / track-length shadow rays against four- and six-moment shadow
 # maps at 128 and 512 texels per side, in the `direct` integrator, with a 1024-spp ratio-tracking
 # reference and the paired exact-shadow image. Writes docs/results/eval_msm_<volume>.json and
-# the insets docs/images/msm_insets_<volume>.png. Usage: scripts/eval_msm.sh [host binary]
+# the insets docs/images/msm_insets_<volume>.png. Usage: scripts/results/eval_msm.sh [host binary]
 set -euo pipefail
 host=${1:-target/release/host}
 for vol in cloud explosion constant; do

@@ -7,14 +7,14 @@
 # rays: ratio tracking (unbiased) and the jackknife. Reference: direct with ratio-tracking shadow
 # rays at 1024 spp. Writes docs/results/eval_restir_reuse_<lights>_<target>_<M>_<P>_<mis>.json
 # and prints a table (SMAPE ratio: restir over direct with the same shadow rays).
-# Usage: scripts/eval_restir_reuse.sh [host binary] [backend]
+# Usage: scripts/results/eval_restir_reuse.sh [host binary] [backend]
 # Environment: WIDTH (square image, default 128), SPP (default 64), REF (reference spp, default
 # 1024), CONFIGS ("target M passes mis" entries separated by ';', default the table below), DIR
 # (where the JSON go, default docs/results). The H200 table of docs/results/restir.md:
 #   WIDTH=512 DIR=docs/results/h200 CONFIGS="unshadowed 8 1 pairwise;unshadowed 8 2 pairwise;..."
-#   scripts/eval_restir_reuse.sh target/release/host gpu
+#   scripts/results/eval_restir_reuse.sh target/release/host gpu
 set -euo pipefail
-cd "$(dirname "$0")/.."
+cd "$(dirname "$0")/../.."
 host=${1:-target/release/host}
 backend=${2:-cpu}
 width=${WIDTH:-128}

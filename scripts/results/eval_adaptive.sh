@@ -5,11 +5,11 @@
 # f32 and bc4 statistics with nearest lookups, f32 with stochastic and trilinear lookups.
 # Writes docs/results/adaptive/<volume>_<lookup>_<format>_<structure>.json and prints excess
 # bias (mean |bias| minus its noise floor), std, time, super-voxel reads per ray and table size.
-# Usage: scripts/eval_adaptive.sh [host binary] [volumes] [lookups] [formats] [structures]
+# Usage: scripts/results/eval_adaptive.sh [host binary] [volumes] [lookups] [formats] [structures]
 # (structures: fixed16 fixed12 fixed8 adaptive, or adaptive:CELL:RATIO[:OCCUPANCY] on 16^3
 # bricks).
 set -euo pipefail
-cd "$(dirname "$0")/.."
+cd "$(dirname "$0")/../.."
 host=${1:-target/release/host}
 volumes=${2:-cloud explosion constant}
 lookups=${3:-nearest}

@@ -2,7 +2,7 @@
 # Frame times of `host view` at 1280x720 on the default cloud, in a virtual X server (Xvfb), and
 # the README's picture of the window (split view with the HUD). Machine-exclusive timings.
 #
-# usage: scripts/viewer_frames.sh HOST OUT_DIR [BACKEND]   (BACKEND: gpu (default) or cpu)
+# usage: scripts/results/viewer_frames.sh HOST OUT_DIR [BACKEND]   (BACKEND: gpu (default) or cpu)
 set -euo pipefail
 host="$1"; out="$2"; backend="${3:-gpu}"
 mkdir -p "$out/fb"

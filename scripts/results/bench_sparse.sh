@@ -7,18 +7,18 @@
 # /usr/bin/time, and whether the two EXRs are the same bytes; lavapipe's times are in the JSON, the
 # standalone GPU render's time is mostly pipeline creation).
 #
-#   scripts/bench_sparse.sh [DIR]     files go to DIR (default target/sparse-series), made once
-#   HOST=path/to/host scripts/bench_sparse.sh
+#   scripts/results/bench_sparse.sh [DIR]     files go to DIR (default target/sparse-series), made once
+#   HOST=path/to/host scripts/results/bench_sparse.sh
 set -euo pipefail
-cd "$(dirname "$0")/.."
+cd "$(dirname "$0")/../.."
 dir=${1:-target/sparse-series}
 host=${HOST:-target/release/host}
 [ -x "$host" ] || cargo build --release -p host
 mkdir -p "$dir"
 if [ ! -f "$dir/sparse_disney.vdb" ]; then
-  /usr/bin/python3 scripts/make_sparse_volumes.py series "$dir"
+  /usr/bin/python3 scripts/fixtures/make_sparse_volumes.py series "$dir"
 fi
-[ -f "$dir/two.vdb" ] || /usr/bin/python3 scripts/make_sparse_volumes.py two "$dir/two.vdb"
+[ -f "$dir/two.vdb" ] || /usr/bin/python3 scripts/fixtures/make_sparse_volumes.py two "$dir/two.vdb"
 files=("$dir"/sparse_256.vdb "$dir"/sparse_half.vdb "$dir"/sparse_three_quarters.vdb \
   "$dir"/sparse_disney.vdb "$dir"/two.vdb)
 list=$(IFS=,; echo "${files[*]}")

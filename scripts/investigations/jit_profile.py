@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
-"""Summary of a scripts/jit_profile.sh folder: the share of samples in the JIT code, its loops
+"""Summary of a scripts/investigations/jit_profile.sh folder: the share of samples in the JIT code, its loops
 (backward jumps; nested loops are listed each), the hottest straight-line blocks, and the
 instruction mix of the hottest block, with the samples that land after each kind of instruction
 (perf's skid puts a sample on the instruction after the one that stalled).
-Usage: scripts/jit_profile.py OUT_DIR [BLOCKS]"""
+Usage: scripts/investigations/jit_profile.py OUT_DIR [BLOCKS]"""
 import bisect, collections, re, sys
 
 out = sys.argv[1]

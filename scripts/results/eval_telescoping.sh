@@ -3,8 +3,8 @@
 # the jackknife against Misso et al.'s telescoping series (ours, unbiased), the form Cycles 5.0
 # ships (truncated, biased), Kettunen et al.'s unbiased ray marching and ratio tracking, on the
 # CPU (timings comparable there), against regular tracking. Writes
-# docs/results/eval_telescoping_<volume>.json; tables: scripts/eval_tables.py --merit.
-# Usage: scripts/eval_telescoping.sh [host binary]
+# docs/results/eval_telescoping_<volume>.json; tables: scripts/results/eval_tables.py --merit.
+# Usage: scripts/results/eval_telescoping.sh [host binary]
 set -euo pipefail
 host=${1:-target/release/host}
 for vol in cloud explosion constant; do

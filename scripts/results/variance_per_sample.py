@@ -9,7 +9,7 @@ what stratification gains (1 for independent samples). The image means are compa
 Needs numpy and OpenEXR (pip install numpy OpenEXR). Writes a table to stdout and, with --json,
 every number.
 
-    python3 scripts/variance_per_sample.py target/release/host [--renders 8] [--spp 64]
+    python3 scripts/results/variance_per_sample.py target/release/host [--renders 8] [--spp 64]
         [--size 128] [--json docs/results/stratification.json] [-- extra host flags]
 """
 import argparse

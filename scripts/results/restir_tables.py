@@ -4,19 +4,19 @@
   without reuse  docs/results/eval_restir_<lights>_<target>_<M>.json
   with reuse     docs/results/eval_restir_reuse_<lights>_<target>_<M>_<passes>_<mis>.json
 
-Each JSON is one `host eval --integrators direct,restir --equal-time` (scripts/eval_restir.sh,
-scripts/eval_restir_reuse.sh). SMAPE ratio: restir's SMAPE over `direct`'s with the same
+Each JSON is one `host eval --integrators direct,restir --equal-time` (scripts/results/eval_restir.sh,
+scripts/results/eval_restir_reuse.sh). SMAPE ratio: restir's SMAPE over `direct`'s with the same
 shadow-ray estimator; var/sample: the squared ratio of restir's and direct's mean per-pixel
 standard deviation (ratio shadow rays); cost/sample: restir's render time per sample over
 direct's.
 
-Usage: scripts/restir_tables.py   (run by scripts/results_check.py)
+Usage: scripts/results/restir_tables.py   (run by scripts/results_check.py)
 """
 import glob
 import json
 import os
 
-results = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "docs", "results")
+results = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "docs", "results")
 TARGETS = {"unshadowed": "unshadowed", "jackknife": "jackknife (N = 4)", "ratio": "ratio"}
 ORDER = ["unshadowed", "jackknife", "ratio"]
 

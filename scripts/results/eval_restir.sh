@@ -6,9 +6,9 @@
 # candidates. Final shadow rays: ratio tracking (unbiased) and the jackknife. Reference: direct
 # with ratio-tracking shadow rays at 1024 spp. Writes docs/results/eval_restir_<lights>_<target>_<M>.json
 # and prints a table (SMAPE ratio: restir over direct with the same shadow rays).
-# Usage: scripts/eval_restir.sh [host binary] [backend]
+# Usage: scripts/results/eval_restir.sh [host binary] [backend]
 set -euo pipefail
-cd "$(dirname "$0")/.."
+cd "$(dirname "$0")/../.."
 host=${1:-target/release/host}
 backend=${2:-cpu}
 mkdir -p docs/results

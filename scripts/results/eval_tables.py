@@ -2,7 +2,7 @@
 """Prints the `host eval` tables (markdown) of docs/results/transmittance.md (transmittance evals)
 docs/results/scattering.md (integrator evals) and docs/results/direct.md (lit integrator evals) from eval JSON files written by `host eval`.
 
-Usage: scripts/eval_tables.py [--merit] docs/results/eval_cloud.json [more.json ...]
+Usage: scripts/results/eval_tables.py [--merit] docs/results/eval_cloud.json [more.json ...]
 
 With --merit, transmittance evals print the equal-time table of docs/results/transmittance.md's
 telescoping section instead: MSE x time per estimate, relative to the jackknife's.

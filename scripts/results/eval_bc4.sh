@@ -3,9 +3,9 @@
 # against f32 ones: the jackknife with nearest lookups against the exact (regular-tracking)
 # reference at 1024 estimates per pixel, 16^3 and 12^3 bricks, on the three embedded volumes.
 # Writes docs/results/eval_<format>_<B>_<volume>.json and prints excess bias (mean |bias| minus its
-# noise floor), std and time. Usage: scripts/eval_bc4.sh [host binary]
+# noise floor), std and time. Usage: scripts/results/eval_bc4.sh [host binary]
 set -euo pipefail
-cd "$(dirname "$0")/.."
+cd "$(dirname "$0")/../.."
 host=${1:-target/release/host}
 mkdir -p docs/results
 echo "| volume | bricks | format | mean bias | mean abs bias | noise floor | excess | mean std | ms | brick table |"

@@ -2,9 +2,9 @@
 # Where a kernel's time goes on lavapipe, instruction by instruction: runs `host bench --backend
 # gpu` on the anchor scene (or any flags given), samples it with perf while the frames run,
 # copies the driver's JIT-compiled code out of the process with gdb, and disassembles it, so
-# `scripts/jit_profile.py OUT` can print the loops, blocks and instruction mix with their share
+# `scripts/investigations/jit_profile.py OUT` can print the loops, blocks and instruction mix with their share
 # of the samples. Development tool (needs perf, gdb, objdump; not run by CI).
-# Usage: scripts/jit_profile.sh HOST_BINARY ESTIMATOR OUT_DIR [bench flags replacing the scene]
+# Usage: scripts/investigations/jit_profile.sh HOST_BINARY ESTIMATOR OUT_DIR [bench flags replacing the scene]
 set -euo pipefail
 HOST=${1:?path of the host binary}; EST=${2:?estimator, e.g. track-length}; OUT=${3:?output folder}
 shift 3
@@ -37,4 +37,4 @@ perf script -i "$OUT/perf.data" -F ip,dso 2>/dev/null | awk '{print $1, $2}' | s
 for f in "$OUT"/jit_*.bin; do
   base=${f##*/jit_}; objdump -D -b binary -m i386:x86-64 --adjust-vma="0x${base%.bin}" "$f"
 done > "$OUT/dis.txt"
-echo "jit_profile: $(awk '{s+=$1} END {print s}' "$OUT/ips.txt") samples in $OUT; next: scripts/jit_profile.py $OUT"
+echo "jit_profile: $(awk '{s+=$1} END {print s}' "$OUT/ips.txt") samples in $OUT; next: scripts/investigations/jit_profile.py $OUT"

@@ -1,15 +1,15 @@
 #!/usr/bin/env python3
 """Prints the adaptive super-voxel table rows of docs/results/adaptive.md (issue 17) from the JSONs that
-scripts/eval_adaptive.sh writes to docs/results/adaptive/<volume>_<lookup>_<format>_<structure>.json,
+scripts/results/eval_adaptive.sh writes to docs/results/adaptive/<volume>_<lookup>_<format>_<structure>.json,
 in the order volume, lookup, format, structure (fixed16, fixed12, fixed8, adaptive).
 
-Usage: scripts/adaptive_table.py [volumes] [lookups] [formats]   (space-separated lists)
+Usage: scripts/results/adaptive_table.py [volumes] [lookups] [formats]   (space-separated lists)
 """
 import json
 import os
 import sys
 
-here = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "docs", "results", "adaptive")
+here = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "docs", "results", "adaptive")
 volumes = (sys.argv[1] if len(sys.argv) > 1 else "explosion cloud constant").split()
 lookups = (sys.argv[2] if len(sys.argv) > 2 else "nearest stochastic trilinear").split()
 formats = (sys.argv[3] if len(sys.argv) > 3 else "f32 bc4").split()

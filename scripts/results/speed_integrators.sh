@@ -6,9 +6,9 @@
 # compile on first dispatch (lavapipe) are fixed costs and drop out.
 # Run it twice and keep the second run: lavapipe caches its compile of a pipeline on disk, and
 # the first run's S render pays for it.
-# Usage: scripts/speed_integrators.sh [HOST] [OUT_DIR] [SIZE (image width and height, 96)]
+# Usage: scripts/results/speed_integrators.sh [HOST] [OUT_DIR] [SIZE (image width and height, 96)]
 set -euo pipefail
-cd "$(dirname "$0")/.."
+cd "$(dirname "$0")/../.."
 host="${1:-target/release/host}"
 out="${2:-docs/results/speed/integrators}"
 mkdir -p "$out"

@@ -4,12 +4,12 @@
   the default bench (CPU and lavapipe) and its goals  docs/results/speed/bench_cloud_default.json
   the NVIDIA H200 table                               docs/results/h200/bench_cloud_h200.json
 
-Usage: scripts/bench_tables.py   (run by scripts/results_check.py)
+Usage: scripts/results/bench_tables.py   (run by scripts/results_check.py)
 """
 import json
 import os
 
-results = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "docs", "results")
+results = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "docs", "results")
 GOALS = {
     "time jackknife / track-length": "time jackknife / track-length",
     "time jackknife / ratio": "time jackknife / ratio tracking",
