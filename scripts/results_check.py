@@ -13,6 +13,7 @@ Pages and generators:
   docs/results/shadows.md        scripts/results/eval_tables.py docs/results/eval_msm_{cloud,explosion,constant}.json
   docs/results/restir.md         scripts/results/restir_tables.py (the two CPU tables)
   docs/results/performance.md    scripts/results/bench_tables.py (the default bench, its goals, the H200)
+  docs/results/peers.md          scripts/results/peers/equal_time_table.py docs/results/peers/equal_time_10s*.json
   docs/results/adaptive.md       scripts/results/adaptive_table.py (its f32 nearest rows appear in the
                                  page's first adaptive table without the lookup and format columns)
 """
@@ -76,6 +77,12 @@ checks = [
     ),
     ("restir.md", ["scripts/results/restir_tables.py"], lambda r: r),
     ("performance.md", ["scripts/results/bench_tables.py"], lambda r: r),
+    (
+        "peers.md",
+        ["scripts/results/peers/equal_time_table.py"]
+        + [f"docs/results/peers/equal_time_10s{x}.json" for x in ("", "_ratio", "_n4", "_n2")],
+        lambda r: r,
+    ),
     ("adaptive.md", ["scripts/results/adaptive_table.py"], condensed_adaptive),
 ]
 
