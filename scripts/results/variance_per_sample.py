@@ -32,11 +32,12 @@ def white_probe(path, w=4, h=2):
         f.write(bytes([128, 128, 128, 129]) * (w * h))
 
 
-def luminance(path, part_name):
-    """The Rec. 709 luminance of part `part_name` (or its Y channel) of an EXR."""
+def luminance(path, part_name=None):
+    """The Rec. 709 luminance of part `part_name` (default: the first part), or of its Y
+    channel, of an EXR."""
     with OpenEXR.File(path, separate_channels=True) as f:
         for part in f.parts:
-            if part.name() != part_name:
+            if part_name is not None and part.name() != part_name:
                 continue
             ch = part.channels
             if "Y" in ch:

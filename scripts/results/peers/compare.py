@@ -40,9 +40,10 @@ import tempfile
 import time
 
 import numpy as np
-import OpenEXR
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.dirname(HERE))
+from variance_per_sample import luminance, white_probe  # noqa: E402
 VENV_PY = "/tmp/peers/venv511/bin/python"
 # host's default framing of this volume (its JSON summary: occupied world bounds
 # [-0.96875, -0.75, -0.796875]..[0.9375, 0.8125, 0.78125], camera 0.8 x bounding radius /
@@ -51,28 +52,6 @@ CAMERA = "1.084895,0.8173357,-3.1521554"
 LOOK_AT = "-0.015625,0.03125,-0.0078125"
 FOV = "40"
 ALL_PEERS = "host,host-indep,cycles34,cycles50,cycles50-biased,mitsuba,mitsuba-llvm"
-
-
-def white_probe(path, w=4, h=2):
-    """An equirectangular Radiance .hdr of radiance 1 everywhere (as variance_per_sample.py)."""
-    with open(path, "wb") as f:
-        f.write(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n")
-        f.write(f"-Y {h} +X {w}\n".encode())
-        f.write(bytes([128, 128, 128, 129]) * (w * h))
-
-
-def luminance(path, part_name=None):
-    """Rec. 709 luminance of an EXR's part `part_name` (default: the first), or its Y channel."""
-    with OpenEXR.File(path, separate_channels=True) as f:
-        for part in f.parts:
-            if part_name is not None and part.name() != part_name:
-                continue
-            ch = part.channels
-            if "Y" in ch:
-                return np.asarray(ch["Y"].pixels, dtype=np.float64)
-            r, g, b = (np.asarray(ch[c].pixels, dtype=np.float64) for c in "RGB")
-            return 0.2126 * r + 0.7152 * g + 0.0722 * b
-    raise SystemExit(f"{path}: no part {part_name}")
 
 
 def peer_command(peer, a, out, spp, seed, tmp):

@@ -22,8 +22,12 @@ only: scene sync, BVH/volume build and path tracing; not Python start-up or the 
 """
 import argparse
 import math
+import os
 import sys
 import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from scene import add_scene_args  # noqa: E402
 
 import bpy
 from mathutils import Matrix, Vector
@@ -33,17 +37,7 @@ def args():
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
     ap = argparse.ArgumentParser()
     ap.add_argument("--vdb", default="/tmp/peers/cloud.vdb")
-    ap.add_argument("--out", required=True)
-    ap.add_argument("--spp", type=int, default=16)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--size", type=int, default=128)
-    ap.add_argument("--threads", type=int, default=2)
-    ap.add_argument("--density-scale", type=float, default=8.0)
-    ap.add_argument("--albedo", default="0.9,0.7,0.5")
-    ap.add_argument("--hg-g", type=float, default=0.5)
-    ap.add_argument("--camera", default="1.084895,0.8173357,-3.1521554")
-    ap.add_argument("--look-at", default="-0.015625,0.03125,-0.0078125")
-    ap.add_argument("--fov", type=float, default=40.0)
+    add_scene_args(ap)
     ap.add_argument("--bounces", type=int, default=1024)
     ap.add_argument("--offset-voxels", type=float, default=None,
                     help="default: -0.5 before Blender 5.0 (measured on 3.4 only), else 0")

@@ -18,24 +18,19 @@ Prints "render_seconds <t>" (mi.render only; with llvm_ad_rgb this includes JIT 
 printed apart as "compile_seconds" from a 1-spp warm-up at another seed when --warmup is given).
 """
 import argparse
+import os
+import sys
 import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from scene import add_scene_args  # noqa: E402
 
 
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--vol", default="/tmp/peers/cloud.vol")
-    ap.add_argument("--out", required=True)
-    ap.add_argument("--spp", type=int, default=16)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--size", type=int, default=128)
-    ap.add_argument("--threads", type=int, default=2)
+    add_scene_args(ap)
     ap.add_argument("--variant", default="scalar_rgb")
-    ap.add_argument("--density-scale", type=float, default=8.0)
-    ap.add_argument("--albedo", default="0.9,0.7,0.5")
-    ap.add_argument("--hg-g", type=float, default=0.5)
-    ap.add_argument("--camera", default="1.084895,0.8173357,-3.1521554")
-    ap.add_argument("--look-at", default="-0.015625,0.03125,-0.0078125")
-    ap.add_argument("--fov", type=float, default=40.0)
     ap.add_argument("--max-depth", type=int, default=-1)
     ap.add_argument("--rr-depth", type=int, default=5)
     ap.add_argument("--filter", default="trilinear", help="gridvolume filter_type: trilinear or nearest")
