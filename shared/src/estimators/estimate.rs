@@ -3,7 +3,7 @@
 
 use crate::estimators::optical_depth::{
     adaptive_capped, adaptive_unsampled, estimate_pair, estimate_pair_adaptive, estimate_single,
-    prepare,
+    prepare, Prep,
 };
 use crate::estimators::ray_marching::{biased_ray_marching, unbiased_ray_marching};
 use crate::estimators::telescoping::{telescoping, telescoping_cycles};
@@ -105,10 +105,23 @@ pub fn pair_transmittance(
     rng: HashRng,
 ) -> (f32, Tally, HashRng) {
     let prep = prepare(vol, ray, t0, t1, cfg.importance);
+    pair_transmittance_prepared(vol, cfg, params, ray, &prep, rng)
+}
+
+/// [`pair_transmittance`] over the segment Alg. 2 has prepared (`prep`, by `cfg.importance`).
+#[inline]
+pub fn pair_transmittance_prepared(
+    vol: &VolumeView<impl Texels>,
+    cfg: &Config,
+    params: &RenderParams,
+    ray: &Ray,
+    prep: &Prep,
+    rng: HashRng,
+) -> (f32, Tally, HashRng) {
     let (est, rng) = estimate_pair(
         vol,
         ray,
-        &prep,
+        prep,
         params.n,
         cfg.importance,
         cfg.jitter,

@@ -19,6 +19,9 @@ pub struct Prep {
     pub f: f32,
     pub t_min: f32,
     pub t_max: f32,
+    /// The bricks' mean extinction integrated over the segment: a prediction of its optical
+    /// depth (the means are rounded up), for the shadow rays' roulette.
+    pub tau_mean: f32,
     /// Whether the traversal's iteration budget ended it early ([`crate::volume::supervoxels::SuperVoxelDda::exhausted`]).
     pub capped: bool,
 }
@@ -88,6 +91,7 @@ pub struct WidePrep<L: Lanes> {
     pub f: L::F,
     pub t_min: L::F,
     pub t_max: L::F,
+    pub tau_mean: L::F,
     pub capped: L::M,
 }
 
@@ -152,6 +156,7 @@ impl<L: Lanes> WidePrep<L> {
             f: L::f_at(self.f, l),
             t_min: L::f_at(self.t_min, l),
             t_max: L::f_at(self.t_max, l),
+            tau_mean: L::f_at(self.tau_mean, l),
             capped: L::m_at(self.capped, l),
         }
     }
@@ -165,13 +170,14 @@ impl<L: Lanes> WidePrep<L> {
             f: L::f(prep.f),
             t_min: L::f(prep.t_min),
             t_max: L::f(prep.t_max),
+            tau_mean: L::f(prep.tau_mean),
             capped: L::m(prep.capped),
         }
     }
 }
 
 /// Alg. 2 for the rays of the lanes `on` over [t0, t1]: one traversal summing
-/// (t_{n+1} - t_n) P into F and recording the entry of the first and the exit of the last
+/// (t_{n+1} - t_n) P into F (and the bricks' means into tau_mean) and recording the entry of the first and the exit of the last
 /// segment with P != 0.
 #[inline(always)]
 pub fn prepare<L: Lanes, V: LaneVolume<L>>(
@@ -183,6 +189,7 @@ pub fn prepare<L: Lanes, V: LaneVolume<L>>(
     mode: Importance,
 ) -> WidePrep<L> {
     let mut f = L::f(0.0);
+    let mut tau_mean = L::f(0.0);
     let mut t_min = t1;
     let mut t_max = t0;
     let mut dda = vol.dda(rays, t0, t1, on);
@@ -194,6 +201,8 @@ pub fn prepare<L: Lanes, V: LaneVolume<L>>(
         let (s0, s1, b) = vol.step(&mut dda, a);
         let p = vol.importance(a, &b, mode);
         f = L::f_sel(a, f + (s1 - s0) * p, f);
+        let mean = vol.importance(a, &b, Importance::Mean);
+        tau_mean = L::f_sel(a, tau_mean + (s1 - s0) * mean, tau_mean);
         let nonzero = a & L::f_ne(p, L::f(0.0));
         t_min = L::f_sel(nonzero & L::f_lt(s0, t_min), s0, t_min);
         t_max = L::f_sel(nonzero & L::f_gt(s1, t_max), s1, t_max);
@@ -202,6 +211,7 @@ pub fn prepare<L: Lanes, V: LaneVolume<L>>(
         f,
         t_min,
         t_max,
+        tau_mean,
         capped: on & V::exhausted(&dda),
     }
 }

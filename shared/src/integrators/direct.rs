@@ -286,7 +286,7 @@ pub(super) fn shadow_pair_or_ratio(
 /// A query's shadow ray in index space and its segment [t0, t1] inside the grid (empty if
 /// t0 >= t1).
 #[inline]
-fn shadow_segment(
+pub(super) fn shadow_segment(
     vol: &VolumeView<impl Texels>,
     params: &RenderParams,
     q: &ShadowQuery,

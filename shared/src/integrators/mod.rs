@@ -15,6 +15,7 @@ pub mod path;
 pub mod resampling_mis;
 pub mod restir;
 pub mod restir_reuse;
+pub mod shadow_roulette;
 pub mod stages;
 mod strategy;
 pub mod unit;

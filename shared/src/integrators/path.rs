@@ -1,6 +1,7 @@
 //! Multiple scattering (`--integrator path`): a volumetric path tracer with delta-tracking
 //! vertices, next-event estimation at every vertex (one light sample, its shadow ray's
-//! transmittance by the chosen estimator, balance-heuristic weighted against phase sampling),
+//! transmittance by the chosen estimator after roulette by its bound ([`super::shadow_roulette`]),
+//! balance-heuristic weighted against phase sampling),
 //! Henyey-Greenstein continuation, Russian roulette after `rr_depth` vertices and at most
 //! `max_depth` vertices (the ray leaving the last vertex still meets the lights: `max_depth` 1 is
 //! direct illumination).
@@ -11,7 +12,8 @@
 //! flight's escape; an escape after a phase sample meets the map and the sun disk with the MIS
 //! weight p_phase / (p_phase + p_light), the counterpart of the light sample's.
 
-use super::direct::{light_sample, map_shadow, shadow};
+use super::direct::{light_sample, map_shadow};
+use super::shadow_roulette::rouletted_shadow;
 use crate::estimators::inverted_tracking::vertex_flight;
 use crate::geometry::{to_index_space, Ray, V3};
 use crate::params::{Config, RenderParams};
@@ -172,7 +174,7 @@ pub fn path_bounce(
         let (tr, tally, r) = if to_sun && scene.lighting.shadows != 0 {
             map_shadow(scene, &q, rng)
         } else {
-            shadow(vol, cfg, params, &q, rng)
+            rouletted_shadow(vol, cfg, params, &q, rng)
         };
         rng = r;
         st.count(tally);
