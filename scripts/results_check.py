@@ -83,6 +83,12 @@ checks = [
         + [f"docs/results/peers/equal_time_10s{x}.json" for x in ("", "_ratio", "_n4", "_n2")],
         lambda r: r,
     ),
+    (
+        "peers.md",
+        ["scripts/results/peers/equal_time_table.py"]
+        + [f"docs/results/peers/equal_time_10s_roulette{x}.json" for x in ("", "_ratio")],
+        lambda r: r,
+    ),
     ("adaptive.md", ["scripts/results/adaptive_table.py"], condensed_adaptive),
 ]
 

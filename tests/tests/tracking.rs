@@ -260,6 +260,15 @@ fn majorant_segments_tile_the_ray_and_bound_every_voxel_they_cross() {
     }
 }
 
+/// The three test volumes of the statistical tests, by name.
+fn test_volumes() -> [(&'static str, PackedVolume); 3] {
+    [
+        ("homogeneous", homogeneous()),
+        ("piecewise", piecewise()),
+        ("loose", loose()),
+    ]
+}
+
 /// Rays of one test volume: (name, ray, t0, t1); the last of each set is a sub-interval.
 fn test_rays(name: &str, p: &PackedVolume) -> Vec<(String, Ray, f32, f32)> {
     let d = p.desc.dims;
@@ -301,11 +310,7 @@ fn z_tests_against_regular(
     judged: fn(f64, f64, f64) -> bool,
 ) -> (u32, u32) {
     let (mut total, mut rejected) = (0, 0);
-    for (name, p) in [
-        ("homogeneous", homogeneous()),
-        ("piecewise", piecewise()),
-        ("loose", loose()),
-    ] {
+    for (name, p) in test_volumes() {
         let view = p.view();
         for (id, (what, r, t0, t1)) in test_rays(name, &p).into_iter().enumerate() {
             let (tau, _) = regular_tracking_tau(&view, &r, t0, t1);
@@ -677,11 +682,7 @@ fn shadow_roulette_keeps_the_jackknifes_mean() {
     // (P < 1) on at least 3 rays (the loose volume's, tau 4 and more), and on each of those the
     // test must reject the roulette without its weight 1/P (the mean x P), so it can fail.
     let (mut applied, mut rejected_unweighted) = (0, 0);
-    for (name, p) in [
-        ("homogeneous", homogeneous()),
-        ("piecewise", piecewise()),
-        ("loose", loose()),
-    ] {
+    for (name, p) in test_volumes() {
         let view = p.view();
         for (id, (what, r, t0, t1)) in test_rays(name, &p).into_iter().enumerate() {
             let prep = prepare(&view, &r, t0, t1, Importance::VarianceAware);
