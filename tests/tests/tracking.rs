@@ -6,7 +6,7 @@
 
 use engine::bricks::{pack, PackedVolume};
 use engine::volume::{Affine, DenseVolume};
-use shared::estimators::optical_depth::prepare;
+use shared::estimators::optical_depth::prepare_with_mean;
 use shared::estimators::telescoping::{telescoping, telescoping_cycles};
 use shared::estimators::tracking::{
     ratio_tracking, regular_tracking_tau, track_length, MAX_TENTATIVE_COLLISIONS,
@@ -685,7 +685,7 @@ fn shadow_roulette_keeps_the_jackknifes_mean() {
     for (name, p) in test_volumes() {
         let view = p.view();
         for (id, (what, r, t0, t1)) in test_rays(name, &p).into_iter().enumerate() {
-            let prep = prepare(&view, &r, t0, t1, Importance::VarianceAware);
+            let prep = prepare_with_mean(&view, &r, t0, t1, Importance::VarianceAware);
             let p_survive = survival(prep.tau_mean) as f64;
             let with: Vec<f64> = run(jackknife_of::<true>, &p, &r, t0, t1, id as u32)
                 .iter()

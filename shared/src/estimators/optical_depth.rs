@@ -25,7 +25,22 @@ pub fn prepare(
 ) -> Prep {
     let lookup = Lookup::from_u32(vol.desc.lookup);
     let scalar = ScalarVolume { view: *vol, lookup };
-    wide::prepare::<One, _>(&scalar, ray, t0, t1, true, mode).lane(0)
+    wide::prepare::<One, _>(&scalar, ray, t0, t1, true, mode, false).lane(0)
+}
+
+/// [`prepare`], also summing the bricks' means into [`Prep::tau_mean`] (the shadow rays'
+/// roulette, [`crate::integrators::shadow_roulette`]).
+#[inline]
+pub fn prepare_with_mean(
+    vol: &VolumeView<impl Texels>,
+    ray: &Ray,
+    t0: f32,
+    t1: f32,
+    mode: Importance,
+) -> Prep {
+    let lookup = Lookup::from_u32(vol.desc.lookup);
+    let scalar = ScalarVolume { view: *vol, lookup };
+    wide::prepare::<One, _>(&scalar, ray, t0, t1, true, mode, true).lane(0)
 }
 
 /// Two optical depth estimates of one ray and the number of high-resolution lookups they took.

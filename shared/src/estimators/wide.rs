@@ -20,7 +20,8 @@ pub struct Prep {
     pub t_min: f32,
     pub t_max: f32,
     /// The bricks' mean extinction integrated over the segment: a prediction of its optical
-    /// depth (the means are rounded up), for the shadow rays' roulette.
+    /// depth (the means are rounded up), for the shadow rays' roulette; 0 unless asked for
+    /// ([`crate::estimators::optical_depth::prepare_with_mean`]).
     pub tau_mean: f32,
     /// Whether the traversal's iteration budget ended it early ([`crate::volume::supervoxels::SuperVoxelDda::exhausted`]).
     pub capped: bool,
@@ -177,8 +178,9 @@ impl<L: Lanes> WidePrep<L> {
 }
 
 /// Alg. 2 for the rays of the lanes `on` over [t0, t1]: one traversal summing
-/// (t_{n+1} - t_n) P into F (and the bricks' means into tau_mean) and recording the entry of the first and the exit of the last
-/// segment with P != 0.
+/// (t_{n+1} - t_n) P into F (and, `with_mean`, the bricks' means into tau_mean; a constant at
+/// every call, so the sum folds away where it is not asked for) and recording the entry of the
+/// first and the exit of the last segment with P != 0.
 #[inline(always)]
 pub fn prepare<L: Lanes, V: LaneVolume<L>>(
     vol: &V,
@@ -187,6 +189,7 @@ pub fn prepare<L: Lanes, V: LaneVolume<L>>(
     t1: L::F,
     on: L::M,
     mode: Importance,
+    with_mean: bool,
 ) -> WidePrep<L> {
     let mut f = L::f(0.0);
     let mut tau_mean = L::f(0.0);
@@ -201,8 +204,10 @@ pub fn prepare<L: Lanes, V: LaneVolume<L>>(
         let (s0, s1, b) = vol.step(&mut dda, a);
         let p = vol.importance(a, &b, mode);
         f = L::f_sel(a, f + (s1 - s0) * p, f);
-        let mean = vol.importance(a, &b, Importance::Mean);
-        tau_mean = L::f_sel(a, tau_mean + (s1 - s0) * mean, tau_mean);
+        if with_mean {
+            let mean = vol.importance(a, &b, Importance::Mean);
+            tau_mean = L::f_sel(a, tau_mean + (s1 - s0) * mean, tau_mean);
+        }
         let nonzero = a & L::f_ne(p, L::f(0.0));
         t_min = L::f_sel(nonzero & L::f_lt(s0, t_min), s0, t_min);
         t_max = L::f_sel(nonzero & L::f_gt(s1, t_max), s1, t_max);

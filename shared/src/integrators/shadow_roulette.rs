@@ -12,7 +12,7 @@
 
 use super::direct::{shadow_segment, ShadowQuery};
 use crate::estimators::estimate;
-use crate::estimators::optical_depth::prepare;
+use crate::estimators::optical_depth::prepare_with_mean;
 use crate::geometry::Ray;
 use crate::math;
 use crate::params::{Config, Estimator, RenderParams};
@@ -44,7 +44,9 @@ pub fn survival(tau: f32) -> f32 {
 }
 
 /// The transmittance of a query's shadow ray by the render's estimator, after roulette by its
-/// bound ([`rouletted_transmittance`]).
+/// predicted transmittance ([`rouletted_transmittance`]). Beside [`super::direct::shadow`], not
+/// a flag of it: rust-gpu inlines every call of the estimators, and a kernel that holds both
+/// arms compiles far longer (docs/design/kernel-build.md, one call site per heavy function).
 pub(super) fn rouletted_shadow(
     vol: &VolumeView<impl Texels>,
     cfg: &Config,
@@ -78,7 +80,7 @@ pub fn rouletted_transmittance(
     if !matches!(cfg.estimator, Estimator::Jackknife | Estimator::NaiveMean) {
         return estimate::transmittance(vol, cfg, params, ray, t0, t1, rng);
     }
-    let prep = prepare(vol, ray, t0, t1, cfg.importance);
+    let prep = prepare_with_mean(vol, ray, t0, t1, cfg.importance);
     let p = survival(prep.tau_mean);
     let mut rng = rng;
     if p < 1.0 {

@@ -73,7 +73,7 @@ pub fn transmittance_pass<L: Lanes, T: Texels>(
         let on = L::m_from(|l| l < count && t0[l] < t1[l]);
         let (a, b) = (L::f_from(|l| t0[l]), L::f_from(|l| t1[l]));
         let rays = WideRays::<L>::of(&rays);
-        let prep = prepare::<L, _>(&wide, &rays, a, b, on, cfg.importance);
+        let prep = prepare::<L, _>(&wide, &rays, a, b, on, cfg.importance, false);
         let rng = L::u_from(|l| rng[l]);
         let adaptive = cfg.estimator == Estimator::JackknifeAdaptive;
         let plan = if adaptive {
