@@ -89,6 +89,14 @@ checks = [
         + [f"docs/results/peers/equal_time_10s_roulette{x}.json" for x in ("", "_ratio")],
         lambda r: r,
     ),
+    (
+        "peers.md",
+        [
+            "scripts/results/peers/equal_time_table.py",
+            "docs/results/peers/equal_time_10s_roulette_peers.json",
+        ],
+        lambda r: r,
+    ),
     ("adaptive.md", ["scripts/results/adaptive_table.py"], condensed_adaptive),
 ]
 
