@@ -915,7 +915,8 @@ fn direct_render_under_the_sky_writes_rgb_exr_and_png() {
 /// Bad light flags exit with code 1 and a clear message naming the flag or file, and no output
 /// is written: `--sun 0,0,0`, `--sun 1,1`, `--sun 0,1,0,-1`, `--sun 0,1,0,1,50`,
 /// `--albedo 0.5,2,0.5`, `--albedo 0.5,0.5`, `--env missing.exr`, `--env` of a .png,
-/// `--env-scale -1`, `--env-scale nan`, `--env-scale 3e38` (radiance overflow).
+/// `--env-scale -1`, `--env-scale nan`, `--env-scale 3e38` (radiance overflow), `--env
+/// constant:` with a negative, infinite or missing value or two values.
 #[test]
 fn bad_light_flags_are_refused() {
     let dir = tempfile::tempdir().unwrap();
@@ -938,6 +939,19 @@ fn bad_light_flags_are_refused() {
             vec!["--env", s(&png)],
             vec!["--env", "p.png", "unknown light probe format"],
         ),
+        (
+            vec!["--env", "constant:-1"],
+            vec!["--env", "constant:-1", "finite and >= 0"],
+        ),
+        (
+            vec!["--env", "constant:1,2"],
+            vec!["--env", "constant:1,2", "one value or three"],
+        ),
+        (
+            vec!["--env", "constant:grey"],
+            vec!["--env", "constant:R,G,B"],
+        ),
+        (vec!["--env", "constant:inf"], vec!["--env", "finite"]),
         (vec!["--env-scale", "-1"], vec!["--env-scale"]),
         (vec!["--env-scale", "nan"], vec!["--env-scale"]),
         (
@@ -1066,6 +1080,59 @@ fn path_render_writes_a_finite_rgb_image() {
         );
         assert!(px.iter().flatten().any(|v| *v > 0.0), "{name}: black image");
     }
+}
+
+/// `--env constant:R,G,B` (a world colour): `path` renders it, the pixels whose camera rays
+/// miss the volume are exactly its radiance, the JSON names it, and a scene written with
+/// `--write-scene` keeps it (not read as a file next to the scene) and renders the same bytes.
+#[test]
+fn constant_env_renders_and_round_trips_through_a_scene_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let exr = dir.path().join("c.exr");
+    let flags = [
+        "--integrator",
+        "path",
+        "--env",
+        "constant:0.5,0.75,1.25",
+        "--fov",
+        "90",
+    ];
+    let summary = dir.path().join("c.json");
+    let mut first = flags.to_vec();
+    first.extend(["--json", s(&summary)]);
+    ok(&render(&exr, &first));
+    let json = read_json(&summary);
+    let text = json.to_string();
+    assert!(text.contains("constant:0.5,0.75,1.25"), "{text}");
+    let img = exr::prelude::read_first_rgba_layer_from_file(
+        &exr,
+        |r, _| vec![[0.0f32; 3]; r.width() * r.height()],
+        |px: &mut Vec<[f32; 3]>, p, (r, g, b, _a): (f32, f32, f32, f32)| {
+            px[p.y() * 16 + p.x()] = [r, g, b];
+        },
+    )
+    .unwrap();
+    let px = img.layer_data.channel_data.pixels;
+    assert_eq!(
+        px[0],
+        [0.5, 0.75, 1.25],
+        "a corner pixel (its rays miss the volume)"
+    );
+    assert!(px.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
+    let scene = dir.path().join("sub").join("s.toml");
+    std::fs::create_dir_all(scene.parent().unwrap()).unwrap();
+    let mut args = flags.to_vec();
+    args.extend(["--write-scene", s(&scene)]);
+    ok(&render(&dir.path().join("unused.exr"), &args));
+    let toml = std::fs::read_to_string(&scene).unwrap();
+    assert!(toml.contains("\"constant:0.5,0.75,1.25\""), "{toml}");
+    let again = dir.path().join("again.exr");
+    ok(&render(&again, &["--scene", s(&scene)]));
+    assert_eq!(
+        std::fs::read(&exr).unwrap(),
+        std::fs::read(&again).unwrap(),
+        "the scene file's render differs"
+    );
 }
 
 /// The path-only flags are refused elsewhere, and their ranges are checked.

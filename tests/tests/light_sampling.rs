@@ -277,6 +277,17 @@ fn maps() -> Vec<TestMap> {
     ]
 }
 
+/// [`maps`] and the 1 x 1 maps (`--env constant:R,G,B`), whose samples are uniform over the
+/// sphere rather than by texel (no texel histogram to fit).
+fn maps_and_uniform() -> Vec<TestMap> {
+    let mut m = maps();
+    m.push(TestMap::new("uniform 1x1", 1, 1, |_, _| [0.5, 0.25, 2.0]));
+    m.push(
+        TestMap::new("", 1, 1, |_, _| [1.0, 1.0, 1.0]).rotated("uniform 1x1 rotated 70 deg", 70.0),
+    );
+    m
+}
+
 /// Distance of (u, v) to the nearest texel border, in texels.
 fn border_distance(desc: &EnvDesc, u: f32, v: f32) -> f64 {
     let fu = u as f64 * desc.width as f64;
@@ -303,7 +314,7 @@ fn texel_of(desc: &EnvDesc, d: V3) -> (u32, u32) {
 #[test]
 fn env_sample_pdf_and_radiance_equal_their_evaluation() {
     const N: usize = 200_000;
-    for (m, map) in maps().iter().enumerate() {
+    for (m, map) in maps_and_uniform().iter().enumerate() {
         let (desc, data) = map.prepare();
         let mut rng = Uniform::new(1000 + m as u64);
         let (mut pdf_off, mut radiance_off, mut zero) = (0usize, 0usize, 0usize);
@@ -375,7 +386,7 @@ fn env_sample_pdf_and_radiance_equal_their_evaluation() {
 fn env_pdf_integrates_to_one() {
     const NT: usize = 1200;
     const NP: usize = 2016;
-    for map in maps() {
+    for map in maps_and_uniform() {
         let (desc, data) = map.prepare();
         let (dt, dp) = (PI / NT as f64, 2.0 * PI / NP as f64);
         let mut sum = 0.0f64;
@@ -439,6 +450,52 @@ fn env_texel_histogram_fits_by_chi_square() {
         assert!(
             pv >= P_REJECT,
             "{}: texel histogram rejected (chi2 {stat}, dof {dof}, p {pv}): {counts:?}",
+            map.name
+        );
+    }
+}
+
+/// A 1 x 1 map (`--env constant:R,G,B`) is sampled uniformly over the sphere: 400,000 samples
+/// (PCG32 seed 3000) in 16 equal-area bands of cos(theta) times 16 sectors of phi (256 bins of
+/// probability 1/256 each) fit by chi-square (reject at p < 1e-4); every sample has pdf
+/// 1 / (4 pi) and the map's radiance, whatever its direction (and with any rotation), and the
+/// radiance and pdf of any direction are the texel's and 1 / (4 pi).
+#[test]
+fn uniform_map_samples_are_uniform_over_the_sphere() {
+    const N: usize = 400_000;
+    const B: usize = 16;
+    for map in [
+        TestMap::new("uniform 1x1", 1, 1, |_, _| [0.5, 0.25, 2.0]),
+        TestMap::new("", 1, 1, |_, _| [0.5, 0.25, 2.0]).rotated("uniform 1x1 rotated", 70.0),
+    ] {
+        let (desc, data) = map.prepare();
+        assert!(desc.uniform(), "{}", map.name);
+        let texel = Rgb::new(0.5, 0.25, 2.0);
+        let pdf = (1.0 / (4.0 * PI)) as f32;
+        let mut rng = Uniform::new(3000);
+        let mut counts = vec![0u64; B * B];
+        for _ in 0..N {
+            let s = desc.sample(&data, rng.next(), rng.next());
+            assert_eq!((s.pdf, s.radiance), (pdf, texel), "{}", map.name);
+            assert!(
+                (len(s.dir) - 1.0).abs() <= 1e-6,
+                "{}: {:?}",
+                map.name,
+                s.dir
+            );
+            assert_eq!(desc.pdf(&data, s.dir), pdf, "{}", map.name);
+            assert_eq!(desc.radiance(&data, s.dir), texel, "{}", map.name);
+            let band = (((s.dir.y as f64 + 1.0) * 0.5 * B as f64) as usize).min(B - 1);
+            let phi = (s.dir.z as f64).atan2(s.dir.x as f64).rem_euclid(2.0 * PI);
+            let sector = ((phi / (2.0 * PI) * B as f64) as usize).min(B - 1);
+            counts[band * B + sector] += 1;
+        }
+        let p = vec![1.0 / (B * B) as f64; B * B];
+        let (stat, dof, pv) = chi_square(&counts, &p);
+        println!("{}: chi2 = {stat:.1}, dof = {dof}, p = {pv:.3}", map.name);
+        assert!(
+            pv >= P_REJECT,
+            "{}: directions not uniform over the sphere (chi2 {stat}, dof {dof}, p {pv})",
             map.name
         );
     }

@@ -75,6 +75,14 @@ fn path_is_bit_identical_on_gpu_and_cpu_for_its_lights_and_estimators() {
             cases.push((name, l.clone(), e));
         }
     }
+    // A constant environment (a 1 x 1 map, sampled uniformly over the sphere).
+    let constant = lights(&LightingOptions {
+        env: EnvSource::Constant([0.8, 1.0, 1.2]),
+        ..no_lights()
+    });
+    for e in [Estimator::Jackknife, Estimator::RatioTracking] {
+        cases.push(("constant", constant.clone(), e));
+    }
     for (name, l, e) in cases {
         let mut p = params(&vol, 10, 8, 2, e);
         p.light_count = l.points.len() as u32;
@@ -95,16 +103,32 @@ fn path_is_bit_identical_on_gpu_and_cpu_for_its_lights_and_estimators() {
 /// shadow rays, unbiased; HG g = 0.5; no roulette loss since the throughput stays 1; at most
 /// 1024 vertices, which a path through this optical thickness (at most ~30) does not reach:
 /// checked by `capped`) within z < 4 of 1, seed 9, on the CPU.
+///
+/// Twice: under the 4 x 2 constant light probe (sampled by texel) and under `--env
+/// constant:1` (a 1 x 1 map, sampled uniformly over the sphere; built as the CLI builds it).
 #[test]
 fn path_passes_the_white_furnace() {
+    let furnace = integration_tests::white_furnace();
+    let uniform = lights(&LightingOptions {
+        env: EnvSource::Constant([1.0; 3]),
+        albedo: [1.0; 3],
+        ..no_lights()
+    });
+    assert!(uniform.lighting.env.uniform() && !furnace.lighting.env.uniform());
+    for (name, l) in [("probe", furnace), ("constant:1", uniform)] {
+        white_furnace_under(name, &l);
+    }
+}
+
+/// The white furnace of [`path_passes_the_white_furnace`] under lights `l`.
+fn white_furnace_under(name: &str, l: &SceneLights) {
     let vol = lumpy_blobs(20, 5);
     let packed = pack(&vol, 4.0, 8, Lookup::Nearest).unwrap();
-    let l = integration_tests::white_furnace();
     let mut p = params(&vol, 24, 24, 64, Estimator::RatioTracking);
     p.hg_g = 0.5;
     p.rr_depth = 5;
     p.max_depth = 1024;
-    let px = render_lit(&Backend::Cpu, &packed, &p, &l, false).unwrap();
+    let px = render_lit(&Backend::Cpu, &packed, &p, l, false).unwrap();
     let n = px.len() as f64;
     let mean = px.iter().map(|q| q.t_mean as f64).sum::<f64>() / n;
     let var: f64 = px
@@ -115,8 +139,9 @@ fn path_passes_the_white_furnace() {
     let z = (mean - 1.0) / se;
     assert!(
         z.abs() < 4.0,
-        "white furnace: image mean {mean:.6} +- {se:.6}, z = {z:.2}"
+        "white furnace ({name}): image mean {mean:.6} +- {se:.6}, z = {z:.2}"
     );
+    println!("white furnace ({name}): image mean {mean:.6} +- {se:.6}, z = {z:.2}");
     assert!(
         se < 0.01,
         "the test is too noisy to detect a 4% loss: se {se}"

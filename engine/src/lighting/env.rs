@@ -70,7 +70,17 @@ pub fn check_path(path: &Path) -> Result<()> {
 }
 
 impl EnvMap {
-    /// A map of one radiance everywhere.
+    /// One radiance in every direction (`--env constant:R,G,B`): a 1 x 1 map, which
+    /// `shared::sampling::env` samples uniformly over the sphere.
+    pub fn uniform(rgb: [f32; 3]) -> Self {
+        EnvMap {
+            width: 1,
+            height: 1,
+            texels: vec![rgb],
+        }
+    }
+
+    /// A 4 x 2 map of one radiance everywhere (sampled by texel, as a light probe).
     pub fn constant(rgb: [f32; 3]) -> Self {
         EnvMap {
             width: 4,
@@ -179,9 +189,13 @@ impl EnvMap {
             debug_assert_eq!(f.iter().sum::<f64>().to_bits(), row_sum.to_bits());
             data.extend(cdf(&f));
         }
-        // Sum of Y sin(theta) dtheta dphi over texels of size (pi / h) x (2 pi / w).
-        let integral =
-            integral * (std::f64::consts::PI / h as f64) * (2.0 * std::f64::consts::PI / w as f64);
+        // Sum of Y sin(theta) dtheta dphi over texels of size (pi / h) x (2 pi / w); a 1 x 1
+        // map is one radiance everywhere (shared::sampling::env): exactly 4 pi Y.
+        let integral = if w == 1 && h == 1 {
+            4.0 * std::f64::consts::PI * lum(&data[0..3])
+        } else {
+            integral * (std::f64::consts::PI / h as f64) * (2.0 * std::f64::consts::PI / w as f64)
+        };
         Ok((data, integral))
     }
 }

@@ -53,6 +53,55 @@ pub enum EnvSource {
     Sky,
     /// An equirectangular `.exr` or `.hdr` light probe.
     File(PathBuf),
+    /// One linear RGB radiance in every direction (`--env constant:R,G,B`; Mitsuba's `constant`
+    /// emitter, Blender's world colour), sampled uniformly over the sphere.
+    Constant([f32; 3]),
+}
+
+impl EnvSource {
+    /// The `--env` value that gives this source back (`sky`, `none`, `constant:R,G,B` or the
+    /// probe's path).
+    pub fn spelling(&self) -> String {
+        match self {
+            EnvSource::None => "none".into(),
+            EnvSource::Sky => "sky".into(),
+            EnvSource::File(p) => p.display().to_string(),
+            EnvSource::Constant([r, g, b]) => format!("constant:{r},{g},{b}"),
+        }
+    }
+
+    /// Parses an `--env` value: `sky`, `none`, `constant:V` or `constant:R,G,B` (finite,
+    /// >= 0), or a light probe's path.
+    pub fn parse(s: &str) -> Result<Self, String> {
+        if let Some(rest) = s.strip_prefix("constant:") {
+            let v: Vec<f32> = rest
+                .split(',')
+                .map(|x| x.trim().parse::<f32>())
+                .collect::<Result<_, _>>()
+                .map_err(|_| format!("constant:{rest}: expected constant:V or constant:R,G,B"))?;
+            let rgb = match v.as_slice() {
+                [a] => [*a; 3],
+                [r, g, b] => [*r, *g, *b],
+                _ => {
+                    return Err(format!(
+                        "constant:{rest}: expected one value or three (R,G,B)"
+                    ))
+                }
+            };
+            if rgb.iter().any(|x| !x.is_finite() || *x < 0.0) {
+                return Err(format!(
+                    "constant:{rest}: each radiance must be finite and >= 0"
+                ));
+            }
+            return Ok(EnvSource::Constant(rgb));
+        }
+        match s {
+            "sky" => Ok(EnvSource::Sky),
+            "none" => Ok(EnvSource::None),
+            "" => Err("expected sky, none, constant:R,G,B or a .exr / .hdr file".into()),
+            path => Ok(EnvSource::File(path.into())),
+        }
+    }
 }
 
 /// `--sun x,y,z[,intensity[,angular_radius_deg]]`.
@@ -250,6 +299,10 @@ fn env_map_and_sun(
             Some(EnvMap::load(p)?),
             sun_spec.map(|s| s.irradiance.unwrap_or(1.0) as f64),
         ),
+        EnvSource::Constant(rgb) => (
+            Some(EnvMap::uniform(*rgb)),
+            sun_spec.map(|s| s.irradiance.unwrap_or(1.0) as f64),
+        ),
         EnvSource::Sky => {
             let dir = sun_dir.unwrap_or([0.0, 1.0, 0.0]);
             if dir[1] < 1f64.to_radians().sin() {
@@ -276,6 +329,7 @@ fn install_env(
     let brightest = map.texels.iter().flatten().fold(0.0f32, |a, v| a.max(*v));
     let what = match &opts.env {
         EnvSource::File(p) => format!("--env {}", p.display()),
+        EnvSource::Constant(_) => format!("--env {}", opts.env.spelling()),
         _ => "the sky".to_owned(),
     };
     check_emission(

@@ -290,7 +290,9 @@ pub(super) fn direct_settings(
 ) -> IntegratorSettings {
     let l = &lights.lighting;
     let env = match &args.env {
-        Some(crate::lighting::EnvSource::File(p)) => p.display().to_string(),
+        Some(
+            e @ (crate::lighting::EnvSource::File(_) | crate::lighting::EnvSource::Constant(_)),
+        ) => e.spelling(),
         Some(crate::lighting::EnvSource::None) => "none".into(),
         _ if l.env.present() => "sky".into(),
         _ => "none".into(),

@@ -376,15 +376,9 @@ pub fn parse_albedo(s: &str) -> Result<[f32; 3], String> {
     }
 }
 
-/// `--env`: `sky`, `none` or an equirectangular `.exr` / `.hdr` file.
+/// `--env`: `sky`, `none`, `constant:R,G,B` or an equirectangular `.exr` / `.hdr` file.
 pub fn parse_env(s: &str) -> Result<engine::lighting::EnvSource, String> {
-    use engine::lighting::EnvSource;
-    match s {
-        "sky" => Ok(EnvSource::Sky),
-        "none" => Ok(EnvSource::None),
-        "" => Err("expected sky, none or a .exr / .hdr file".into()),
-        path => Ok(EnvSource::File(path.into())),
-    }
+    engine::lighting::EnvSource::parse(s)
 }
 
 /// `--sun x,y,z[,intensity[,angular_radius_deg]]`: the direction toward the sun (non-zero), its

@@ -163,8 +163,9 @@ pub struct RenderArgs {
     #[arg(long, default_value = "0.8", allow_hyphen_values = true, value_parser = parse_albedo)]
     pub albedo: [f32; 3],
     /// Environment light of `direct`, `path`, `restir`: `sky` (the embedded Preetham daylight sky
-    /// with its sun), `none`, or an equirectangular .exr / .hdr light probe [default: sky, unless
-    /// --sun, --light or --lights is given].
+    /// with its sun), `none`, `constant:R,G,B` (one linear radiance in every direction, as a
+    /// world colour; `constant:V` for grey), or an equirectangular .exr / .hdr light probe
+    /// [default: sky, unless --sun, --light or --lights is given].
     #[arg(long, value_parser = super::parsers::EnvParser)]
     pub env: Option<engine::lighting::EnvSource>,
     /// Multiplier of the environment map's radiance, finite and >= 0.

@@ -403,10 +403,11 @@ pub(super) fn given_keys(cmd: &Command, user: &[OsString]) -> Vec<String> {
 }
 
 /// The file an input setting names (`volume`, `env`, unless one of their names such as `cloud`
-/// or `sky`), else None.
+/// or `sky`, or an `env` of `constant:R,G,B`), else None.
 fn input_path<'a>(key: &str, value: &'a SceneValue) -> Option<&'a Path> {
     let (_, names) = INPUT_PATHS.iter().find(|(k, _)| *k == key)?;
     match value {
+        SceneValue::Text(t) if key == "env" && t.starts_with("constant:") => None,
         SceneValue::Text(t) if !names.contains(&t.as_str()) => Some(Path::new(t)),
         _ => None,
     }

@@ -65,7 +65,8 @@ def peer_command(peer, a, out, spp, seed, tmp):
     if peer.startswith("host"):
         cmd = [a.host, "render", "-q", "--volume", a.vdb, "--density-scale", a.density_scale,
                "--integrator", "path", "--backend", "cpu", "--albedo", a.albedo,
-               "--hg-g", a.hg_g, "--env", os.path.join(tmp, "white.hdr"),
+               "--hg-g", a.hg_g,
+               "--env", os.path.join(tmp, "white.hdr") if a.host_env == "probe" else a.host_env,
                f"--camera={CAMERA}", f"--look-at={LOOK_AT}", "--fov", FOV,
                "--width", str(a.size), "--height", str(a.size), "--spp", str(spp),
                "--seed", str(seed), "--max-depth", str(a.host_max_depth), "--rr-depth", "5",
@@ -131,6 +132,10 @@ def main():
     ap.add_argument("--density-scale", default="8")
     ap.add_argument("--host-max-depth", type=int, default=1024)
     ap.add_argument("--host-flags", default="", help="extra host render flags, one string")
+    ap.add_argument("--host-env", default="constant:1",
+                    help="host's white world: constant:1 (as the peers' constant worlds), or "
+                         "probe (a 4x2 .hdr light probe of radiance 1, sampled by texel: the "
+                         "tables before the constant environment)")
     ap.add_argument("--cycles34-offset", type=float, default=-0.5,
                     help="voxels to move Cycles 3.4's volume by along x, y, z (its half-voxel convention)")
     ap.add_argument("--no-nice", dest="nice", action="store_false")

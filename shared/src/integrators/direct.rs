@@ -360,8 +360,7 @@ pub(super) fn light_sample(
                 l.env.sample(scene.env, u0, u1).dir
             };
             // The full mixture density and radiance of the direction (map and disk overlap).
-            let p_light = scene.directional_pdf(w);
-            let radiance = scene.directional_radiance(w);
+            let (radiance, p_light) = scene.directional(w);
             if !(p_light > 0.0) || radiance.is_black() {
                 ShadowQuery::NONE
             } else {
@@ -392,11 +391,10 @@ pub(super) fn phase_sample(
     let (u0, rng) = lead.take(0, rng);
     let (u1, rng) = lead.take(1, rng);
     let (w, p_phase) = sample_hg(wo, g, u0, u1);
-    let radiance = scene.directional_radiance(w);
+    let (radiance, p_light) = scene.directional(w);
     if radiance.is_black() || !(p_phase > 0.0) {
         return (ShadowQuery::NONE, rng);
     }
-    let p_light = scene.directional_pdf(w);
     // f / p_phase x p_phase / (p_light + p_phase), f = phase L T and phase = p_phase.
     let query = ShadowQuery {
         o: x,

@@ -143,11 +143,11 @@ pub fn path_bounce(
     }
     if !found {
         // Escape: the map and the sun disk, MIS-weighted after a phase sample.
-        let l = scene.directional_radiance(st.d);
-        let w = if st.p_phase > 0.0 {
-            st.p_phase / (st.p_phase + scene.directional_pdf(st.d))
+        let (l, w) = if st.p_phase > 0.0 {
+            let (l, p_light) = scene.directional(st.d);
+            (l, st.p_phase / (st.p_phase + p_light))
         } else {
-            1.0
+            (scene.directional_radiance(st.d), 1.0)
         };
         st.radiance = st.radiance + l.mul_rgb(st.throughput) * w;
         st.alive = 0;
@@ -167,6 +167,13 @@ pub fn path_bounce(
     let wo = st.d * -1.0;
     st.throughput = st.throughput.mul_rgb(scene.lighting.albedo);
     st.depth += 1;
+    if st.throughput.is_black() {
+        // Albedo 0 in every channel the path still carries: nothing more can reach the camera
+        // (pbrt-v4's volpath ends such a path too); its radiance is final.
+        st.alive = 0;
+        st.rng = rng.state;
+        return st;
+    }
     // Next-event estimation.
     let (q, to_sun, r) = light_sample(scene, params.hg_g, x, wo, dims.lights(v), rng);
     rng = r;

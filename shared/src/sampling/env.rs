@@ -43,6 +43,12 @@ impl EnvDesc {
         self.width > 0 && self.height > 0
     }
 
+    /// True for a 1 x 1 map: one radiance everywhere, sampled uniformly over the sphere.
+    #[inline]
+    pub fn uniform(&self) -> bool {
+        self.width == 1 && self.height == 1
+    }
+
     /// Index of the first marginal CDF value in the data buffer.
     #[inline]
     fn marginal(&self) -> usize {
@@ -122,6 +128,9 @@ impl EnvDesc {
         if !self.present() {
             return Rgb::ZERO;
         }
+        if self.uniform() {
+            return self.texel(data, 0, 0);
+        }
         let (u, v, _) = self.uv(d);
         let (i, j) = self.texel_of(u, v);
         self.texel(data, i, j)
@@ -133,6 +142,9 @@ impl EnvDesc {
         if !self.present() {
             return 0.0;
         }
+        if self.uniform() {
+            return UNIFORM_PDF;
+        }
         // sin(theta) from the direction itself (not sin(pi v): shader compilers may fold the
         // constants of pi (theta / pi) and round differently from the CPU).
         let (u, v, sin_theta) = self.uv(d);
@@ -140,11 +152,36 @@ impl EnvDesc {
         solid_angle_pdf(self.texel_pdf(data, i, j), sin_theta)
     }
 
+    /// [`EnvDesc::radiance`] and [`EnvDesc::pdf`] of world direction d from one lookup of its
+    /// texel (the same values, half the angles).
+    #[inline]
+    pub fn radiance_pdf(&self, data: &[f32], d: V3) -> (Rgb, f32) {
+        if !self.present() {
+            return (Rgb::ZERO, 0.0);
+        }
+        if self.uniform() {
+            return (self.texel(data, 0, 0), UNIFORM_PDF);
+        }
+        let (u, v, sin_theta) = self.uv(d);
+        let (i, j) = self.texel_of(u, v);
+        (
+            self.texel(data, i, j),
+            solid_angle_pdf(self.texel_pdf(data, i, j), sin_theta),
+        )
+    }
+
     /// A direction with density proportional to luminance x sin(theta) per texel, from two
     /// uniform numbers.
     pub fn sample(&self, data: &[f32], u0: f32, u1: f32) -> EnvSample {
         if !self.present() {
             return EnvSample::default();
+        }
+        if self.uniform() {
+            return EnvSample {
+                dir: uniform_sphere(u0, u1),
+                radiance: self.texel(data, 0, 0),
+                pdf: UNIFORM_PDF,
+            };
         }
         let m = self.marginal();
         let (j, dv) = find_interval(data, m, self.height, u0);
@@ -170,6 +207,20 @@ impl EnvDesc {
             pdf: solid_angle_pdf(self.texel_pdf(data, i, j), sin_theta),
         }
     }
+}
+
+/// Solid-angle density of a direction uniform over the sphere, 1 / (4 pi).
+const UNIFORM_PDF: f32 = 1.0 / (4.0 * PI);
+
+/// A direction uniform over the unit sphere from two uniform numbers: cos theta = 1 - 2 u0
+/// about +y, phi = 2 pi u1 (pbrt-v4's `SampleUniformSphere`).
+#[inline]
+pub fn uniform_sphere(u0: f32, u1: f32) -> V3 {
+    let y = 1.0 - 2.0 * u0;
+    let r2 = 1.0 - y * y;
+    let r = if r2 > 0.0 { sqrt(r2) } else { 0.0 };
+    let (sin_phi, cos_phi) = sin_cos(2.0 * PI * u1);
+    V3::new(r * cos_phi, y, r * sin_phi)
 }
 
 /// p(omega) = p(u, v) / (2 pi^2 sin theta); 0 at the poles.

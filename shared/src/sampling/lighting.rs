@@ -81,6 +81,25 @@ impl Scene<'_> {
         l.env.radiance(self.env, d) + l.sun.radiance_toward(d)
     }
 
+    /// [`Scene::directional_radiance`] and [`Scene::directional_pdf`] of direction d, the map
+    /// looked up once.
+    #[inline]
+    pub fn directional(&self, d: V3) -> (Rgb, f32) {
+        let l = self.lighting;
+        let (env_radiance, env_pdf) = l.env.radiance_pdf(self.env, d);
+        let env = if l.p_env > 0.0 {
+            l.p_env * env_pdf
+        } else {
+            0.0
+        };
+        let sun = if l.p_sun > 0.0 {
+            l.p_sun * l.sun.pdf(d)
+        } else {
+            0.0
+        };
+        (env_radiance + l.sun.radiance_toward(d), env + sun)
+    }
+
     /// Density of the light sampler producing direction d (the mixture of map and disk).
     #[inline]
     pub fn directional_pdf(&self, d: V3) -> f32 {
