@@ -97,6 +97,20 @@ checks = [
         ],
         lambda r: r,
     ),
+    (
+        "peers.md",
+        [
+            "scripts/results/peers/equal_time_table.py",
+            "docs/results/peers/equal_time_10s_constant_peers.json",
+        ],
+        lambda r: r,
+    ),
+    (
+        "peers.md",
+        ["scripts/results/peers/equal_time_table.py"]
+        + [f"docs/results/peers/equal_time_10s_constant{x}.json" for x in ("", "_probe")],
+        lambda r: r,
+    ),
     ("adaptive.md", ["scripts/results/adaptive_table.py"], condensed_adaptive),
 ]
 

@@ -26,10 +26,12 @@ NAMES = {
 }
 
 
-def label(row, flags):
+def label(row, flags, probe=False):
     name = NAMES.get(row["peer"], row["peer"])
     if row["peer"] == "host" and flags:
         return f"host `path {flags}`"
+    if row["peer"] == "host" and probe:
+        return "host `path` (defaults; the white world as a 4x2 light probe)"
     return name
 
 
@@ -44,9 +46,10 @@ def main():
         d = json.load(open(path))
         cmd = d["command"]
         flags = cmd[cmd.index("--host-flags") + 1] if "--host-flags" in cmd else ""
+        probe = "--host-env" in cmd and cmd[cmd.index("--host-env") + 1] == "probe"
         for r in d["rows"]:
-            rows.append((label(r, flags), r))
-            if r["peer"] == "host" and not flags:
+            rows.append((label(r, flags, probe), r))
+            if r["peer"] == "host" and not flags and not probe:
                 ref_var = r["var_x_spp"] / 4096.0
     host = next(r for n, r in rows if n.startswith("host `path` (defaults"))
 
