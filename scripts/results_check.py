@@ -111,6 +111,16 @@ checks = [
         + [f"docs/results/peers/equal_time_10s_constant{x}.json" for x in ("", "_probe")],
         lambda r: r,
     ),
+    (
+        "peers.md",
+        [
+            "scripts/results/peers/equal_time_table.py",
+            "--budget",
+            "60",
+            "docs/results/peers/equal_time_60s_constant_peers.json",
+        ],
+        lambda r: r,
+    ),
     ("adaptive.md", ["scripts/results/adaptive_table.py"], condensed_adaptive),
 ]
 
