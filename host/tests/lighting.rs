@@ -832,6 +832,19 @@ fn refuse_all(exr: &Path, prefix: &[&str], cases: Vec<(Vec<&str>, Vec<&str>)>) {
     }
 }
 
+/// The RGB pixels of a 16x16 EXR written by [`render`], row by row.
+fn read_rgb16(exr: &Path) -> Vec<[f32; 3]> {
+    let img = exr::prelude::read_first_rgba_layer_from_file(
+        exr,
+        |r, _| vec![[0.0f32; 3]; r.width() * r.height()],
+        |px: &mut Vec<[f32; 3]>, p, (r, g, b, _a): (f32, f32, f32, f32)| {
+            px[p.y() * 16 + p.x()] = [r, g, b];
+        },
+    )
+    .unwrap();
+    img.layer_data.channel_data.pixels
+}
+
 /// Asserts that `out` failed cleanly (exit 1, `error:` first, no panic) with all `words`.
 fn assert_refused(out: &Output, words: &[&str]) {
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -892,15 +905,7 @@ fn direct_render_under_the_sky_writes_rgb_exr_and_png() {
             .map(|c| c.name.to_string())
             .collect();
         assert_eq!(names, ["B", "G", "R"], "{name}: channels {names:?}");
-        let img = exr::prelude::read_first_rgba_layer_from_file(
-            &exr,
-            |r, _| vec![[0.0f32; 3]; r.width() * r.height()],
-            |px: &mut Vec<[f32; 3]>, p, (r, g, b, _a): (f32, f32, f32, f32)| {
-                px[p.y() * 16 + p.x()] = [r, g, b];
-            },
-        )
-        .unwrap();
-        let px = img.layer_data.channel_data.pixels;
+        let px = read_rgb16(&exr);
         assert_eq!(px.len(), 256, "{name}");
         assert!(
             px.iter().flatten().all(|v| v.is_finite() && *v >= 0.0),
@@ -1065,15 +1070,7 @@ fn path_render_writes_a_finite_rgb_image() {
             "{name}: {}",
             String::from_utf8_lossy(&out.stderr)
         );
-        let img = exr::prelude::read_first_rgba_layer_from_file(
-            &exr,
-            |r, _| vec![[0.0f32; 3]; r.width() * r.height()],
-            |px: &mut Vec<[f32; 3]>, p, (r, g, b, _a): (f32, f32, f32, f32)| {
-                px[p.y() * 16 + p.x()] = [r, g, b];
-            },
-        )
-        .unwrap();
-        let px = img.layer_data.channel_data.pixels;
+        let px = read_rgb16(&exr);
         assert!(
             px.iter().flatten().all(|v| v.is_finite() && *v >= 0.0),
             "{name}"
@@ -1104,15 +1101,7 @@ fn constant_env_renders_and_round_trips_through_a_scene_file() {
     let json = read_json(&summary);
     let text = json.to_string();
     assert!(text.contains("constant:0.5,0.75,1.25"), "{text}");
-    let img = exr::prelude::read_first_rgba_layer_from_file(
-        &exr,
-        |r, _| vec![[0.0f32; 3]; r.width() * r.height()],
-        |px: &mut Vec<[f32; 3]>, p, (r, g, b, _a): (f32, f32, f32, f32)| {
-            px[p.y() * 16 + p.x()] = [r, g, b];
-        },
-    )
-    .unwrap();
-    let px = img.layer_data.channel_data.pixels;
+    let px = read_rgb16(&exr);
     assert_eq!(
         px[0],
         [0.5, 0.75, 1.25],

@@ -81,8 +81,8 @@ impl Scene<'_> {
         l.env.radiance(self.env, d) + l.sun.radiance_toward(d)
     }
 
-    /// [`Scene::directional_radiance`] and [`Scene::directional_pdf`] of direction d, the map
-    /// looked up once.
+    /// [`Scene::directional_radiance`] of direction d and the density of the light sampler
+    /// producing d (the mixture of map and disk), the map looked up once.
     #[inline]
     pub fn directional(&self, d: V3) -> (Rgb, f32) {
         let l = self.lighting;
@@ -98,22 +98,5 @@ impl Scene<'_> {
             0.0
         };
         (env_radiance + l.sun.radiance_toward(d), env + sun)
-    }
-
-    /// Density of the light sampler producing direction d (the mixture of map and disk).
-    #[inline]
-    pub fn directional_pdf(&self, d: V3) -> f32 {
-        let l = self.lighting;
-        let env = if l.p_env > 0.0 {
-            l.p_env * l.env.pdf(self.env, d)
-        } else {
-            0.0
-        };
-        let sun = if l.p_sun > 0.0 {
-            l.p_sun * l.sun.pdf(d)
-        } else {
-            0.0
-        };
-        env + sun
     }
 }
