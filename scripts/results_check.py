@@ -16,6 +16,7 @@ Pages and generators:
   docs/results/peers.md          scripts/results/peers/equal_time_table.py docs/results/peers/equal_time_10s*.json
   docs/results/adaptive.md       scripts/results/adaptive_table.py (its f32 nearest rows appear in the
                                  page's first adaptive table without the lookup and format columns)
+  docs/results/stratification.md scripts/results/stratification_table.py (the escape table)
 """
 import os
 import subprocess
@@ -122,6 +123,18 @@ checks = [
         lambda r: r,
     ),
     ("adaptive.md", ["scripts/results/adaptive_table.py"], condensed_adaptive),
+    (
+        "stratification.md",
+        [
+            "scripts/results/stratification_table.py",
+            "--column",
+            "flights decided against T̂",
+            "none (`path` as it is)=docs/results/stratification/escape_base.json",
+            "the camera ray's=docs/results/stratification/escape_sf0.json",
+            "every vertex's=docs/results/stratification/escape_sf.json",
+        ],
+        lambda r: r,
+    ),
 ]
 
 missing = 0

@@ -11,10 +11,11 @@ use shared::volume::grid::Brick;
 use std::sync::Arc;
 
 /// Which backend the user asked for.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum BackendChoice {
     /// The Vulkan GPU if a driver is present, else the CPU (with a warning); on a software
     /// device (lavapipe) the backend a cost model of the job says finishes sooner.
+    #[default]
     Auto,
     /// The Vulkan GPU; fail if there is none.
     Gpu,

@@ -15,6 +15,10 @@ pub mod defaults {
     pub const RESOLUTION: u32 = 256;
     /// `--brick-size`.
     pub const BRICK_SIZE: u32 = crate::bricks::DEFAULT_BRICK_SIZE;
+    /// `--width` and `--height` of `host render`.
+    pub const SIZE: u32 = 512;
+    /// `--spp` of `host render`.
+    pub const SPP: u32 = 4;
     /// `--fov` in degrees.
     pub const FOV: f32 = 40.0;
     /// `--albedo`.

@@ -9,12 +9,14 @@ use engine::estimators::EstimatorSpec;
 use engine::job::{costliest, work_of, Job, WorkKind};
 use engine::output::OutputPlan;
 use engine::render::occupied_world_bounds;
-use engine::render_job::{direct_lights, lights_or_default, RenderOptions};
+use engine::render_job::{
+    direct_lights, lights_or_default, Estimation, Exposure, Image, Lighting, PathDepth,
+    RenderOptions,
+};
 use engine::scene::{prepare_scene, Scene, SceneOptions};
 use engine::volume::VolumeData;
 use shared::params::RenderParams;
 use shared::params::{Integrator, TransmittanceHat};
-use shared::sampling::lights::PointLight;
 use shared::volume::grid::Lookup;
 use std::path::{Path, PathBuf};
 
@@ -30,35 +32,24 @@ pub struct EvalOptions {
     /// camera rays): single-scattering integrators, or `direct`, `path` and `restir`.
     pub integrators: Vec<Integrator>,
     pub t_hat: TransmittanceHat,
-    pub lights: Vec<PointLight>,
-    /// `--lights random:N[,seed]` (`--integrators direct|path|restir`).
-    pub random_lights: Option<engine::lighting::random::RandomLights>,
+    /// The lights, the albedo (one value: the single-scattering integrators need equal
+    /// channels) and the phase function (g only with `integrators`).
+    pub lighting: Lighting,
     /// `--integrators restir`: candidates, target, its N and floor.
     pub restir: engine::restir::RestirOptions,
     /// `--integrators direct|path|restir`: every entry gets the first entry's render time.
     pub equal_time: bool,
-    pub albedo: f32,
-    /// `--integrators direct`: the environment light (None: the sky unless --sun or --light).
-    pub env: Option<engine::lighting::EnvSource>,
-    pub env_scale: f32,
-    pub env_rotate: f32,
-    pub sun: Option<engine::lighting::SunSpec>,
     /// `--integrators path`: vertices before roulette, most vertices.
-    pub rr_depth: u32,
-    pub max_depth: u32,
-    /// Henyey-Greenstein asymmetry g of the integrators' phase function, in (-1, 1) (None: 0,
-    /// isotropic; refused without `integrators`).
-    pub hg_g: Option<f32>,
+    pub path: PathDepth,
     pub exposure: f32,
     pub n: u32,
     pub f_delta: f32,
     pub ratio_roulette: bool,
-    pub width: u32,
-    pub height: u32,
-    pub spp: u32,
+    /// The image (its sampler independent: eval reports standard errors from per-pixel
+    /// sample variances).
+    pub image: Image,
     /// Estimates per pixel of a stochastic reference (None: 4 x spp, 16 x spp for integrators).
     pub reference_spp: Option<u32>,
-    pub seed: u32,
     pub backend: BackendChoice,
     pub out_dir: PathBuf,
     /// JSON report path (None: <out_dir>/eval.json).
@@ -79,27 +70,22 @@ impl Default for EvalOptions {
             estimators: every_estimator(),
             integrators: Vec::new(),
             t_hat: TransmittanceHat::Jackknife,
-            lights: Vec::new(),
-            random_lights: None,
+            lighting: Lighting::default(),
             restir: Default::default(),
+            path: PathDepth::default(),
             equal_time: false,
-            albedo: defaults::ALBEDO,
-            env: None,
-            env_scale: 1.0,
-            env_rotate: 0.0,
-            sun: None,
-            rr_depth: defaults::RR_DEPTH,
-            max_depth: defaults::MAX_DEPTH,
-            hg_g: None,
             exposure: defaults::EXPOSURE,
             n: defaults::N,
             f_delta: defaults::F_DELTA,
             ratio_roulette: false,
-            width: crate::defaults::EVAL_SIZE,
-            height: crate::defaults::EVAL_SIZE,
-            spp: crate::defaults::EVAL_SPP,
+            image: Image {
+                width: crate::defaults::EVAL_SIZE,
+                height: crate::defaults::EVAL_SIZE,
+                spp: crate::defaults::EVAL_SPP,
+                seed: 0,
+                sampler: shared::params::Sampler::Independent,
+            },
             reference_spp: None,
-            seed: 0,
             backend: BackendChoice::Auto,
             out_dir: PathBuf::from(crate::defaults::EVAL_OUT_DIR),
             json: None,
@@ -183,8 +169,8 @@ fn open_scene(args: &EvalOptions) -> Result<(Backend, Scene)> {
     let scene = prepare_scene(
         &args.scene,
         args.lookup,
-        args.width,
-        args.height,
+        args.image.width,
+        args.image.height,
         backend.page_log2(),
         Some(engine::io::TopologyCheck(&check)),
     )?;
@@ -253,11 +239,11 @@ fn evaluate_all(args: &EvalOptions) -> Result<()> {
     // The reference's spp is at most 16 x spp when not given.
     let most_spp = args
         .reference_spp
-        .unwrap_or(args.spp.saturating_mul(16))
-        .max(args.spp);
+        .unwrap_or(args.image.spp.saturating_mul(16))
+        .max(args.image.spp);
     engine::render::check_image_memory(
-        args.width,
-        args.height,
+        args.image.width,
+        args.image.height,
         2,
         engine::render::keeps_totals(most_spp),
     )?;
@@ -283,7 +269,7 @@ fn evaluate_all(args: &EvalOptions) -> Result<()> {
         "--equal-time applies to --integrators direct, path or restir; add one or drop it"
     );
     anyhow::ensure!(
-        args.random_lights.is_none(),
+        args.lighting.random_lights.is_none(),
         "--lights random:N applies to --integrators direct, path or restir (the \
          single-scattering integrators take at most {} lights, by --light); drop --lights",
         shared::sampling::lights::MAX_LIGHTS
@@ -292,13 +278,7 @@ fn evaluate_all(args: &EvalOptions) -> Result<()> {
         args.restir == engine::restir::RestirOptions::default(),
         "the --restir-* flags apply to --integrators restir; add it or drop them"
     );
-    let given_direct = args.env.is_some() || args.sun.is_some();
-    if let (Some(g), true) = (args.hg_g, args.integrators.is_empty()) {
-        bail!(
-            "--hg-g {g}: the phase function is the integrators'; transmittance evaluations have \
-             none (add --integrators or drop --hg-g)"
-        );
-    }
+    let given_direct = args.lighting.env.is_some() || args.lighting.sun.is_some();
     anyhow::ensure!(
         !given_direct,
         "--env and --sun only apply to --integrators direct; add it or drop them"
@@ -325,13 +305,13 @@ fn evaluate_all(args: &EvalOptions) -> Result<()> {
             list.iter().map(|(_, i)| *i),
             args,
             estimators.len(),
-            args.reference_spp.unwrap_or(16 * args.spp),
+            args.reference_spp.unwrap_or(16 * args.image.spp),
         ),
         None => eval_job(
             [Integrator::Transmittance],
             args,
             estimators.len(),
-            args.reference_spp.unwrap_or(4 * args.spp),
+            args.reference_spp.unwrap_or(4 * args.image.spp),
         ),
     };
     let backend = backend.fit(args.backend, packed, &job)?;
@@ -343,7 +323,12 @@ fn evaluate_all(args: &EvalOptions) -> Result<()> {
         f_delta: args.f_delta,
         pixel_jitter: 0,
         roulette: args.ratio_roulette as u32,
-        ..scene.params(args.width, args.height, args.spp, args.seed)
+        ..scene.params(
+            args.image.width,
+            args.image.height,
+            args.image.spp,
+            args.image.seed,
+        )
     };
     if let Some(integrators) = &integrators {
         return run_eval_integrators(args, integrators, &json, vol, packed, &backend, params);
@@ -358,7 +343,7 @@ fn evaluate_all(args: &EvalOptions) -> Result<()> {
         // unbiased for any lookup.
         Lookup::Stochastic | Lookup::Trilinear => (
             engine::estimators::by_name("ratio").expect("registered"),
-            args.reference_spp.unwrap_or(4 * args.spp),
+            args.reference_spp.unwrap_or(4 * args.image.spp),
         ),
     };
     let setup = eval_setup(
@@ -389,7 +374,7 @@ fn plan_eval_outputs(
     let mut plan = OutputPlan::new();
     plan.input("--volume", Path::new(&args.scene.volume))
         .dir("--out-dir", &args.out_dir);
-    if let Some(engine::lighting::EnvSource::File(env)) = &args.env {
+    if let Some(engine::lighting::EnvSource::File(env)) = &args.lighting.env {
         engine::lighting::env::check_path(env)?;
         plan.input("--env", env);
     }
@@ -421,10 +406,15 @@ fn run_eval_integrators(
     backend: &Backend,
     mut params: RenderParams,
 ) -> Result<()> {
-    let lights = lights_or_default(&args.lights, args.albedo, args.exposure, vol)?;
+    let lights = lights_or_default(
+        &args.lighting.lights,
+        args.lighting.albedo[0],
+        args.exposure,
+        vol,
+    )?;
     params.light_count = lights.len() as u32;
-    params.albedo = args.albedo;
-    params.hg_g = args.hg_g.unwrap_or(0.0);
+    params.albedo = args.lighting.albedo[0];
+    params.hg_g = args.lighting.hg_g;
     params.pixel_jitter = 1;
     params.t_hat = args.t_hat as u32;
     let setup = eval_setup(
@@ -434,7 +424,7 @@ fn run_eval_integrators(
         packed,
         params,
         engine::estimators::by_name("jackknife").expect("registered"),
-        args.reference_spp.unwrap_or(16 * args.spp),
+        args.reference_spp.unwrap_or(16 * args.image.spp),
     )?;
     let report = crate::eval::evaluate_integrators(&setup, &lights, integrators, args.exposure)?;
     engine::output::write_json(json, &report)?;
@@ -452,8 +442,8 @@ fn eval_job(
     reference_spp: u32,
 ) -> Job {
     let kinds: Vec<WorkKind> = integrators.into_iter().map(|i| work_of(Some(i))).collect();
-    let pixels = u64::from(args.width) * u64::from(args.height);
-    let spp = u64::from(args.spp) * renders as u64 + u64::from(reference_spp);
+    let pixels = u64::from(args.image.width) * u64::from(args.image.height);
+    let spp = u64::from(args.image.spp) * renders as u64 + u64::from(reference_spp);
     Job {
         kind: costliest(&kinds),
         samples: pixels * spp * kinds.len() as u64,
@@ -471,7 +461,7 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
     let json = plan_eval_outputs(args, &images)?;
     let (backend, scene) = open_scene(args)?;
     let (vol, packed) = (&scene.volume, &scene.packed);
-    let reference_spp = args.reference_spp.unwrap_or(16 * args.spp);
+    let reference_spp = args.reference_spp.unwrap_or(16 * args.image.spp);
     let job = eval_job(
         integrators.iter().copied(),
         args,
@@ -484,41 +474,26 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
     }
     let render = RenderOptions {
         scene: args.scene.clone(),
-        lookup: args.lookup,
-        estimator: engine::estimators::by_name("jackknife").expect("registered"),
-        n: args.n,
-        f_delta: args.f_delta,
-        ratio_roulette: args.ratio_roulette,
+        image: args.image,
+        estimation: Estimation {
+            lookup: args.lookup,
+            n: args.n,
+            f_delta: args.f_delta,
+            ratio_roulette: args.ratio_roulette,
+            ..Default::default()
+        },
         integrator: Some(integrators[0]),
-        lights: args.lights.clone(),
-        random_lights: args.random_lights,
-        albedo: [args.albedo; 3],
-        env: args.env.clone(),
-        env_scale: args.env_scale,
-        env_rotate: args.env_rotate,
-        sun: args.sun,
-        shadows: Default::default(),
+        lighting: args.lighting.clone(),
         restir: args.restir,
-        rr_depth: args.rr_depth,
-        max_depth: args.max_depth,
-        hg_g: args.hg_g.unwrap_or(0.0),
-        t_hat: TransmittanceHat::Jackknife,
-        exposure: args.exposure,
-        fixed_exposure: false,
-        width: args.width,
-        height: args.height,
-        spp: args.spp,
-        seed: args.seed,
-        // Eval reports standard errors from per-pixel sample variances: independent samples.
-        sampler: shared::params::Sampler::Independent,
+        path: args.path,
+        exposure: Exposure {
+            gain: args.exposure,
+            fixed: false,
+        },
         backend: args.backend,
         out: PathBuf::from("unused.exr"),
-        json: None,
         quiet: args.quiet,
-        scene_record: Default::default(),
-        scene_file: None,
-        merge: Vec::new(),
-        layers: Vec::new(),
+        ..Default::default()
     };
     let lights = direct_lights(&render, vol)?;
     if let Some(map) = entries
@@ -536,17 +511,23 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
         n: args.n,
         f_delta: args.f_delta,
         pixel_jitter: 1,
-        rr_depth: args.rr_depth,
-        max_depth: args.max_depth,
-        hg_g: args.hg_g.unwrap_or(0.0),
-        ..scene.params(args.width, args.height, args.spp, args.seed)
+        rr_depth: args.path.rr_depth,
+        max_depth: args.path.max_depth,
+        hg_g: args.lighting.hg_g,
+        ..scene.params(
+            args.image.width,
+            args.image.height,
+            args.image.spp,
+            args.image.seed,
+        )
     };
     let reads_restir = integrators
         .iter()
         .any(|i| i.unit().settings == shared::integrators::unit::OwnSettings::Restir);
     if reads_restir {
         args.restir.check()?;
-        args.restir.check_image(args.width, args.height)?;
+        args.restir
+            .check_image(args.image.width, args.image.height)?;
     } else {
         anyhow::ensure!(
             args.restir == engine::restir::RestirOptions::default(),
@@ -562,7 +543,7 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
         packed,
         params,
         engine::estimators::by_name("ratio").expect("registered"),
-        args.reference_spp.unwrap_or(16 * args.spp),
+        args.reference_spp.unwrap_or(16 * args.image.spp),
     )?;
     let report = crate::eval_direct::evaluate_direct(
         &setup,

@@ -90,7 +90,7 @@ impl<'a> App<'a> {
         options: &'a ViewOptions,
         rules: &'a dyn SceneRules,
     ) -> Self {
-        let split_x = session.settings.options.width / 2;
+        let split_x = session.settings.options.image.width / 2;
         App {
             window,
             gpu,
@@ -225,8 +225,8 @@ impl<'a> App<'a> {
                 "view: reached {spp} spp (--max-spp) in {} frames ({}x{}): the first {:.1} ms, \
                  then {:.1} ms rendering per frame; {:.1} ms showing per frame; idle",
                 self.frames,
-                self.session.settings.options.width,
-                self.session.settings.options.height,
+                self.session.settings.options.image.width,
+                self.session.settings.options.image.height,
                 self.first_ms,
                 self.render_ms / later,
                 self.show_ms / frames,
@@ -242,12 +242,12 @@ impl<'a> App<'a> {
             return Ok(());
         }
         let o = &self.session.settings.options;
-        let (full_w, full_h) = (o.width, o.height);
+        let (full_w, full_h) = (o.image.width, o.image.height);
         let (w, h) = self.session.image_size();
         let preview = self.session.preview();
         let (pixels, split) = self.session.pixels()?;
         // The split view's right half shows with the left image's gain (one exposure for both).
-        let tone = Preview::of(o.integrator, o.exposure, !o.fixed_exposure, &pixels);
+        let tone = Preview::of(o.integrator, o.exposure.gain, !o.exposure.fixed, &pixels);
         let right = split
             .as_deref()
             .map(|r| (r, (self.split_x / preview).min(w)));
@@ -255,7 +255,7 @@ impl<'a> App<'a> {
         let flags = engine::diagnostics::RayFlags::of(&pixels, spp);
         let samples: f64 = pixels.iter().map(|p| f64::from(p.samples)).sum();
         let per_ray = samples / (pixels.len() as f64 * f64::from(spp));
-        let mut name = format!("{} N={}", o.estimator.name, o.n);
+        let mut name = format!("{} N={}", o.estimation.estimator.name, o.estimation.n);
         if let Some(s) = self.session.settings.split {
             name = format!("{name} | {} (right)", s.name);
         }
@@ -345,17 +345,23 @@ impl<'a> App<'a> {
                 "i" => self.integrator(1),
                 "I" => self.integrator(-1),
                 "l" | "L" => self.lookup(event_loop),
-                "=" | "+" => self.change("N", |s| s.options.n = (s.options.n + 1).min(4096)),
-                "-" => self.change("N", |s| s.options.n = s.options.n.saturating_sub(1).max(1)),
+                "=" | "+" => self.change("N", |s| {
+                    s.options.estimation.n = (s.options.estimation.n + 1).min(4096)
+                }),
+                "-" => self.change("N", |s| {
+                    s.options.estimation.n = s.options.estimation.n.saturating_sub(1).max(1)
+                }),
                 "]" | "[" if !self.applies("exposure", "the exposure") => {}
-                "]" => self.change("exposure", |s| s.options.exposure *= 2f32.sqrt()),
-                "[" => self.change("exposure", |s| s.options.exposure /= 2f32.sqrt()),
+                "]" => self.change("exposure", |s| s.options.exposure.gain *= 2f32.sqrt()),
+                "[" => self.change("exposure", |s| s.options.exposure.gain /= 2f32.sqrt()),
                 "." | "," if !self.applies("env-rotate", "the light probe rotation") => {}
                 "." => self.change("light probe rotation", |s| {
-                    s.options.env_rotate = wrap_degrees(s.options.env_rotate + 15.0)
+                    s.options.lighting.env_rotate =
+                        wrap_degrees(s.options.lighting.env_rotate + 15.0)
                 }),
                 "," => self.change("light probe rotation", |s| {
-                    s.options.env_rotate = wrap_degrees(s.options.env_rotate - 15.0)
+                    s.options.lighting.env_rotate =
+                        wrap_degrees(s.options.lighting.env_rotate - 15.0)
                 }),
                 "b" | "B" if !self.applies("estimator", "the split view of estimators") => {}
                 "b" | "B" => {
@@ -419,22 +425,22 @@ impl<'a> App<'a> {
     fn lookup(&mut self, event_loop: &ActiveEventLoop) {
         use shared::volume::grid::Lookup;
         let mut s = self.session.settings.clone();
-        s.options.lookup = match s.options.lookup {
+        s.options.estimation.lookup = match s.options.estimation.lookup {
             Lookup::Nearest => Lookup::Stochastic,
             Lookup::Stochastic => Lookup::Trilinear,
             Lookup::Trilinear => Lookup::Nearest,
         };
         println!(
             "view: lookup {}: loading the volume anew",
-            crate::save::lookup_name(s.options.lookup)
+            crate::save::lookup_name(s.options.estimation.lookup)
         );
         self.reload = Some(s);
         event_loop.exit();
     }
 
     fn estimator(&mut self, by: i32) {
-        let next = cycle(self.session.settings.options.estimator, by);
-        self.change("estimator", |s| s.options.estimator = next);
+        let next = cycle(self.session.settings.options.estimation.estimator, by);
+        self.change("estimator", |s| s.options.estimation.estimator = next);
     }
 
     /// Turns the sun (where the scene has one) by `azimuth` and `elevation` degrees.
@@ -442,12 +448,12 @@ impl<'a> App<'a> {
         if !self.applies("sun", "the sun") {
             return;
         }
-        if self.session.settings.options.sun.is_none() {
+        if self.session.settings.options.lighting.sun.is_none() {
             self.note("no sun in this scene (give --sun with --integrator direct, path or restir)");
             return;
         }
         self.change(what, |s| {
-            if let Some(sun) = &mut s.options.sun {
+            if let Some(sun) = &mut s.options.lighting.sun {
                 let [x, y, z] = sun.dir;
                 let r = (x * x + y * y + z * z).sqrt();
                 let mut az = z.atan2(x).to_degrees() + azimuth;
@@ -499,11 +505,11 @@ impl ApplicationHandler for App<'_> {
                 if size.width > 0 && size.height > 0 {
                     let (w, h) = self.render_size(size.width, size.height);
                     let o = &self.session.settings.options;
-                    if (w, h) != (o.width, o.height) {
+                    if (w, h) != (o.image.width, o.image.height) {
                         self.split_x = w / 2;
                         self.change(&format!("window size {w}x{h}"), |s| {
-                            s.options.width = w;
-                            s.options.height = h;
+                            s.options.image.width = w;
+                            s.options.image.height = h;
                         });
                     }
                 }

@@ -78,7 +78,10 @@ pub fn run(options: &ViewOptions, rules: &dyn SceneRules) -> Result<()> {
         .dir("--save-dir", &options.save_dir)
         .check()?;
     let mut event_loop = EventLoop::new().map_err(|e| anyhow::anyhow!("{NO_DISPLAY} ({e})"))?;
-    let size = PhysicalSize::new(o.width * options.scale, o.height * options.scale);
+    let size = PhysicalSize::new(
+        o.image.width * options.scale,
+        o.image.height * options.scale,
+    );
     let attributes = winit::window::Window::default_attributes()
         .with_title("host view")
         .with_inner_size(size);
@@ -107,8 +110,8 @@ pub fn run(options: &ViewOptions, rules: &dyn SceneRules) -> Result<()> {
     // The window's own size may differ from the one asked for (a tiling window manager).
     let inner = window.inner_size();
     let mut render = o.clone();
-    render.width = (inner.width / options.scale).max(1);
-    render.height = (inner.height / options.scale).max(1);
+    render.image.width = (inner.width / options.scale).max(1);
+    render.image.height = (inner.height / options.scale).max(1);
     let mut presenter = gpu.presenter(inner.width, inner.height)?;
     print_keys();
     let mut carried: Option<session::Settings> = None;

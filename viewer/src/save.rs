@@ -25,21 +25,21 @@ pub fn record(settings: &Settings, spp: u32, rules: &dyn SceneRules) -> SceneRec
     };
     rec.insert(
         "lookup".into(),
-        SceneValue::Text(lookup_name(o.lookup).into()),
+        SceneValue::Text(lookup_name(o.estimation.lookup).into()),
     );
     rec.insert(
         "estimator".into(),
-        SceneValue::Text(o.estimator.name.to_owned()),
+        SceneValue::Text(o.estimation.estimator.name.to_owned()),
     );
-    rec.insert("n".into(), SceneValue::Integer(o.n.into()));
-    rec.insert("exposure".into(), number(o.exposure));
-    rec.insert("width".into(), SceneValue::Integer(o.width.into()));
-    rec.insert("height".into(), SceneValue::Integer(o.height.into()));
+    rec.insert("n".into(), SceneValue::Integer(o.estimation.n.into()));
+    rec.insert("exposure".into(), number(o.exposure.gain));
+    rec.insert("width".into(), SceneValue::Integer(o.image.width.into()));
+    rec.insert("height".into(), SceneValue::Integer(o.image.height.into()));
     rec.insert("spp".into(), SceneValue::Integer(spp.into()));
-    if rec.contains_key("env-rotate") || o.env_rotate != 0.0 {
-        rec.insert("env-rotate".into(), number(o.env_rotate));
+    if rec.contains_key("env-rotate") || o.lighting.env_rotate != 0.0 {
+        rec.insert("env-rotate".into(), number(o.lighting.env_rotate));
     }
-    if let Some(sun) = &o.sun {
+    if let Some(sun) = &o.lighting.sun {
         let mut v: Vec<SceneValue> = sun.dir.iter().map(|&x| number(x)).collect();
         if let Some(e) = sun.irradiance {
             v.push(number(e));
@@ -92,7 +92,7 @@ pub fn screenshot(
     let rec = record(settings, spp, rules);
     rules.check(&rec)?;
     let mut o = with_camera(&settings.options, &settings.camera);
-    o.spp = spp;
+    o.image.spp = spp;
     o.out = stem.with_extension("exr");
     o.json = None;
     let toml = stem.with_extension("toml");

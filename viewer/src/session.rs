@@ -71,8 +71,8 @@ impl<'a> Session<'a> {
     pub fn image_size(&self) -> (u32, u32) {
         let o = &self.settings.options;
         (
-            o.width.div_ceil(self.preview),
-            o.height.div_ceil(self.preview),
+            o.image.width.div_ceil(self.preview),
+            o.image.height.div_ceil(self.preview),
         )
     }
 
@@ -106,7 +106,7 @@ impl<'a> Session<'a> {
     /// anew.
     pub fn set_camera(&mut self, camera: OrbitCamera) -> Result<()> {
         let o = &self.settings.options;
-        let c = camera_of(self.setup, &camera, o.width, o.height)?;
+        let c = camera_of(self.setup, &camera, o.image.width, o.image.height)?;
         self.params.camera = c;
         if let Some(p) = &mut self.split_params {
             p.camera = c;
@@ -187,7 +187,12 @@ fn prepare(
     let scene = &setup.scene;
     let mut lights = engine::render_job::render_lights(&options, &scene.volume)?;
     let mut params = engine::render_job::render_params(&options, scene, &lights.points);
-    params.camera = camera_of(setup, &settings.camera, options.width, options.height)?;
+    params.camera = camera_of(
+        setup,
+        &settings.camera,
+        options.image.width,
+        options.image.height,
+    )?;
     engine::render_job::lit_shadows(&options, resident, &params, &mut lights, scene)?;
     let split = settings.split.map(|spec| {
         let mut p = params;

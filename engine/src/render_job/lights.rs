@@ -9,17 +9,17 @@ use shared::sampling::lights::PointLight;
 /// The lights of `--light`, or two default lights inside the volume's occupied bounds.
 pub(super) fn scene_lights(args: &RenderOptions, vol: &dyn VolumeData) -> Result<Vec<PointLight>> {
     anyhow::ensure!(
-        args.hg_g.is_finite() && args.hg_g > -1.0 && args.hg_g < 1.0,
+        args.lighting.hg_g.is_finite() && args.lighting.hg_g > -1.0 && args.lighting.hg_g < 1.0,
         "--hg-g must be in (-1, 1) (got {})",
-        args.hg_g
+        args.lighting.hg_g
     );
-    let [r, g, b] = args.albedo;
+    let [r, g, b] = args.lighting.albedo;
     anyhow::ensure!(
         r == g && g == b,
         "--albedo {r},{g},{b}: the single-scattering integrators are scalar; give one value, or use \
          --integrator direct for an RGB albedo"
     );
-    lights_or_default(&args.lights, r, args.exposure, vol)
+    lights_or_default(&args.lighting.lights, r, args.exposure.gain, vol)
 }
 
 /// Validates light flags; `--light` values or two default lights inside the occupied bounds.
@@ -77,18 +77,18 @@ pub fn direct_lights(
 ) -> Result<crate::lighting::SceneLights> {
     use crate::lighting::{EnvSource, LightingOptions};
     anyhow::ensure!(
-        args.hg_g.is_finite() && args.hg_g > -1.0 && args.hg_g < 1.0,
+        args.lighting.hg_g.is_finite() && args.lighting.hg_g > -1.0 && args.lighting.hg_g < 1.0,
         "--hg-g must be in (-1, 1) (got {})",
-        args.hg_g
+        args.lighting.hg_g
     );
     let (lo, hi) = crate::render::occupied_world_bounds(vol);
-    let mut points = args.lights.clone();
-    if let Some(spec) = args.random_lights {
+    let mut points = args.lighting.lights.clone();
+    if let Some(spec) = args.lighting.random_lights {
         points.extend(crate::lighting::random::random_lights(spec, lo, hi)?);
     }
-    let env = match &args.env {
+    let env = match &args.lighting.env {
         Some(e) => e.clone(),
-        None if args.sun.is_some() || !points.is_empty() => EnvSource::None,
+        None if args.lighting.sun.is_some() || !points.is_empty() => EnvSource::None,
         None => EnvSource::Sky,
     };
     let center = [0, 1, 2].map(|a| 0.5 * (lo[a] + hi[a]));
@@ -96,11 +96,11 @@ pub fn direct_lights(
     crate::lighting::build(
         &LightingOptions {
             env,
-            env_scale: args.env_scale,
-            env_rotate_deg: args.env_rotate,
-            sun: args.sun,
+            env_scale: args.lighting.env_scale,
+            env_rotate_deg: args.lighting.env_rotate,
+            sun: args.lighting.sun,
             points,
-            albedo: args.albedo,
+            albedo: args.lighting.albedo,
         },
         center,
         radius,

@@ -39,7 +39,7 @@ pub fn check_inputs(args: &super::options::RenderOptions) -> Result<()> {
     let order = plan_merge(&paths, &headers, super::shard::RENDER)?;
     let first = *order.first().context("give the shard files to merge")?;
     let (path, header) = (paths[first], &headers[first]);
-    let current = super::shard::input_paths(&args.scene.volume, args.env.as_ref(), None);
+    let current = super::shard::input_paths(&args.scene.volume, args.lighting.env.as_ref(), None);
     super::shard::check_inputs(path, header, &current)
 }
 

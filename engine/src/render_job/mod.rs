@@ -7,6 +7,7 @@ pub mod merge;
 pub mod options;
 pub mod preview;
 pub mod scene_record;
+pub mod settings;
 pub mod shard;
 pub mod summary;
 
@@ -14,6 +15,7 @@ pub use lights::{direct_lights, lights_or_default};
 pub use options::{
     check_render_flags, plan_render_outputs, plan_shard_output, RenderOptions, ShardOutput,
 };
+pub use settings::{Estimation, Exposure, Image, Lighting, PathDepth};
 pub use summary::{Albedo, CameraSummary, IntegratorSettings, RenderSummary, SunSettings};
 
 use crate::backend::{Backend, BackendChoice};
@@ -36,10 +38,10 @@ use std::time::Instant;
 pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
     check_render_flags(args)?;
     let merge = !args.merge.is_empty();
-    let totals = crate::render::keeps_totals(args.spp) || merge;
-    crate::render::check_image_memory(args.width, args.height, 1, totals)?;
+    let totals = crate::render::keeps_totals(args.image.spp) || merge;
+    crate::render::check_image_memory(args.image.width, args.image.height, 1, totals)?;
     let png = plan_render_outputs(args)?;
-    let mut setup = Setup::new(args, args.spp)?;
+    let mut setup = Setup::new(args, args.image.spp)?;
     let resident = Resident::new(&setup.backend, &setup.scene.packed)?;
     let shadows = lit_shadows(
         args,
@@ -64,12 +66,12 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
         let extra = extra_renders(args, backend, &resident, params, lights)?;
         (pixels, extra, elapsed_ms, built, None)
     };
-    let flags = RayFlags::of(&pixels, args.spp);
+    let flags = RayFlags::of(&pixels, args.image.spp);
     flags.warn(params);
-    crate::diagnostics::check_finite(&pixels, args.width)?;
+    crate::diagnostics::check_finite(&pixels, args.image.width)?;
     let direct = args.integrator.is_some_and(Integrator::is_lit);
     let (mean, tone) = write_images(args, &png, &pixels, &extra, direct)?;
-    let rays = pixels.len() as f64 * args.spp as f64;
+    let rays = pixels.len() as f64 * args.image.spp as f64;
     let samples: f64 = pixels.iter().map(|p| p.samples as f64).sum();
     let mut summary = summary::summarize(&summary::Rendered {
         args,
@@ -102,13 +104,13 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
 /// shards of a render up into its images).
 pub fn run_shard(args: &RenderOptions, out: &ShardOutput) -> Result<shard::ShardHeader> {
     check_render_flags(args)?;
-    out.check(args.spp)?;
-    crate::render::check_image_memory(args.width, args.height, 1, true)?;
+    out.check(args.image.spp)?;
+    crate::render::check_image_memory(args.image.width, args.image.height, 1, true)?;
     plan_shard_output(args, &out.path)?;
     // The input files' identity, read before they are loaded (and not after hours of rendering).
     let inputs = shard::record_inputs(&shard::input_paths(
         &args.scene.volume,
-        args.env.as_ref(),
+        args.lighting.env.as_ref(),
         args.scene_file.as_deref(),
     ))?;
     // `--backend auto` weighs the shard's samples, not the whole render's.
@@ -143,9 +145,9 @@ pub fn run_shard(args: &RenderOptions, out: &ShardOutput) -> Result<shard::Shard
     let header = shard::ShardHeader {
         kind: shard::RENDER.into(),
         scene: args.scene_record.clone(),
-        width: args.width,
-        height: args.height,
-        spp: args.spp,
+        width: args.image.width,
+        height: args.image.height,
+        spp: args.image.spp,
         samples: [samples.start, samples.end],
         sample_block: shared::kernels::render::SAMPLE_BLOCK,
         images: names,
@@ -165,9 +167,9 @@ pub fn run_shard(args: &RenderOptions, out: &ShardOutput) -> Result<shard::Shard
          merge`)",
         samples.start,
         samples.end,
-        args.spp,
-        args.width,
-        args.height,
+        args.image.spp,
+        args.image.width,
+        args.image.height,
         backend.kind(),
         elapsed_ms,
         out.path.display()
@@ -214,7 +216,7 @@ impl Setup {
         let scene = load_scene(args, &backend)?;
         let load_ms = t_load.elapsed().as_secs_f64() * 1e3;
         let probe = render_params(args, &scene, &[]);
-        let job = Job::render(args.integrator, args.width, args.height, spp)
+        let job = Job::render(args.integrator, args.image.width, args.image.height, spp)
             .wide_if(crate::cpu::renders_wide(&scene.packed, &probe));
         let backend = backend.fit(choice, &scene.packed, &job)?;
         if !args.quiet {
@@ -256,9 +258,9 @@ fn load_scene(args: &RenderOptions, backend: &Backend) -> Result<Scene> {
     let check = backend.topology_check(args.backend, args.scene.brick_size);
     prepare_scene(
         &args.scene,
-        args.lookup,
-        args.width,
-        args.height,
+        args.estimation.lookup,
+        args.image.width,
+        args.image.height,
         backend.page_log2(),
         Some(crate::io::TopologyCheck(&check)),
     )
@@ -312,22 +314,27 @@ pub fn render_params(
     points: &[shared::sampling::lights::PointLight],
 ) -> RenderParams {
     let mut params = RenderParams {
-        n: args.n,
-        f_delta: args.f_delta,
+        n: args.estimation.n,
+        f_delta: args.estimation.f_delta,
         pixel_jitter: 1,
-        roulette: args.ratio_roulette as u32,
-        sampler: args.sampler as u32,
-        ..scene.params(args.width, args.height, args.spp, args.seed)
+        roulette: args.estimation.ratio_roulette as u32,
+        sampler: args.image.sampler as u32,
+        ..scene.params(
+            args.image.width,
+            args.image.height,
+            args.image.spp,
+            args.image.seed,
+        )
     };
-    args.estimator.apply(&mut params);
+    args.estimation.estimator.apply(&mut params);
     if let Some(integrator) = args.integrator {
         params.integrator = integrator as u32;
         params.light_count = points.len() as u32;
-        params.albedo = args.albedo[0];
-        params.hg_g = args.hg_g;
-        params.t_hat = args.t_hat as u32;
-        params.rr_depth = args.rr_depth;
-        params.max_depth = args.max_depth;
+        params.albedo = args.lighting.albedo[0];
+        params.hg_g = args.lighting.hg_g;
+        params.t_hat = args.estimation.t_hat as u32;
+        params.rr_depth = args.path.rr_depth;
+        params.max_depth = args.path.max_depth;
         args.restir.apply(&mut params);
         if integrator.is_lit() {
             // A safeguard: lower the tracking loops' collision cap if one invocation would not
@@ -419,7 +426,7 @@ fn layer_pass_flags(
     extra
         .iter()
         .map(|(name, pixels)| {
-            let flags = RayFlags::of(pixels, args.spp);
+            let flags = RayFlags::of(pixels, args.image.spp);
             if flags.capped_rays > 0 {
                 tracing::warn!(
                     "the {name} layer's pass: {} of {} rays reached a loop bound of their \
@@ -454,10 +461,10 @@ pub fn write_images(
     };
     let inputs = layers::LayerInputs {
         pixels,
-        spp: args.spp,
+        spp: args.image.spp,
         camera: pass(layers::Layer::CameraTransmittance.name()),
         depth: pass(layers::Layer::Depth.name()),
-        albedo: args.albedo,
+        albedo: args.lighting.albedo,
     };
     let t: Vec<f32> = pixels.iter().map(|p| p.t_mean).collect();
     let mean = t.iter().map(|&v| v as f64).sum::<f64>() / t.len() as f64;
@@ -469,13 +476,18 @@ pub fn write_images(
             (l.name().to_owned(), values)
         })
         .collect();
-    let tone = preview::Preview::of(args.integrator, args.exposure, !args.fixed_exposure, pixels);
+    let tone = preview::Preview::of(
+        args.integrator,
+        args.exposure.gain,
+        !args.exposure.fixed,
+        pixels,
+    );
     if direct {
         let rgb: Vec<[f32; 3]> = pixels
             .iter()
             .map(|p| [p.rgb_mean.r, p.rgb_mean.g, p.rgb_mean.b])
             .collect();
-        let (w, h) = (args.width, args.height);
+        let (w, h) = (args.image.width, args.image.height);
         crate::output::write_exr_layers(&args.out, w, h, "radiance", &rgb, &extra)?;
         crate::output::write_rgb_png(png, w, h, &tone.rgb_bytes(pixels))?;
         return Ok((mean, tone));
@@ -487,10 +499,10 @@ pub fn write_images(
         "transmittance"
     };
     let rgb: Vec<[f32; 3]> = t.iter().map(|&v| [v, v, v]).collect();
-    let (w, h) = (args.width, args.height);
+    let (w, h) = (args.image.width, args.image.height);
     crate::output::write_exr_layers(&args.out, w, h, part, &rgb, &extra)?;
     let preview: Vec<f32> = t.iter().map(|&v| tone.grey(v)).collect();
-    write_png(png, args.width, args.height, &preview)?;
+    write_png(png, args.image.width, args.image.height, &preview)?;
     Ok((mean, tone))
 }
 
@@ -525,9 +537,9 @@ fn print_line(
     println!(
         "{} {}x{} spp {} {ran}, {:.2} samples/ray, mean {} {:.5} -> {} (volume {})",
         summary.estimator,
-        args.width,
-        args.height,
-        args.spp,
+        args.image.width,
+        args.image.height,
+        args.image.spp,
         summary.mean_samples_per_ray,
         if args.integrator.is_some() { "L" } else { "T" },
         mean,

@@ -1,60 +1,32 @@
 //! What `host render` renders and where it writes it, and the checks of those options before
 //! any work.
 
+use super::settings::{Estimation, Exposure, Image, Lighting, PathDepth};
 use crate::backend::BackendChoice;
 use crate::output::OutputPlan;
 use crate::scene::SceneOptions;
 use anyhow::Result;
 use shared::integrators::unit::OwnSettings;
-use shared::params::{Integrator, RenderParams, Sampler, TransmittanceHat};
-use shared::sampling::lights::PointLight;
-use shared::volume::grid::Lookup;
+use shared::params::{Integrator, RenderParams};
 use std::path::{Path, PathBuf};
 
-/// What `host render` renders and where it writes it.
-#[derive(Debug, Clone)]
+/// What `host render` renders and where it writes it: the scene, the groups of
+/// [`super::settings`], the integrator's own settings and the outputs.
+#[derive(Debug, Clone, Default)]
 pub struct RenderOptions {
     pub scene: SceneOptions,
-    pub lookup: Lookup,
-    pub estimator: &'static crate::estimators::EstimatorSpec,
-    pub n: u32,
-    pub f_delta: f32,
-    pub ratio_roulette: bool,
-    /// Single scattering with this integrator instead of primary-ray transmittance.
+    pub image: Image,
+    pub estimation: Estimation,
+    /// Radiance with this integrator instead of primary-ray transmittance.
     pub integrator: Option<Integrator>,
-    pub lights: Vec<PointLight>,
-    /// `--lights random:N[,seed]`: point lights scattered in and around the volume (`direct`,
-    /// `path`), added to `lights`.
-    pub random_lights: Option<crate::lighting::random::RandomLights>,
-    /// Albedo per channel (the single-scattering integrators need equal channels).
-    pub albedo: [f32; 3],
-    /// Environment light of `direct` (None: the sky unless --sun or --light are given).
-    pub env: Option<crate::lighting::EnvSource>,
-    pub env_scale: f32,
-    /// Degrees about +y.
-    pub env_rotate: f32,
-    pub sun: Option<crate::lighting::SunSpec>,
+    pub lighting: Lighting,
     /// `direct`, `path`: shadow rays toward the sun or its moment shadow map.
     pub shadows: crate::shadow_map::ShadowOptions,
     /// `restir`: candidates, target, its N and floor.
     pub restir: crate::restir::RestirOptions,
-    /// `path`: vertices before Russian roulette.
-    pub rr_depth: u32,
-    /// `path`: most vertices of a path.
-    pub max_depth: u32,
-    pub hg_g: f32,
-    pub t_hat: TransmittanceHat,
-    /// Gain of the preview before its filmic curve (times the automatic exposure unless
-    /// `fixed_exposure`; [`super::preview`]).
-    pub exposure: f32,
-    /// The preview's gain is `exposure` alone (no automatic exposure).
-    pub fixed_exposure: bool,
-    pub width: u32,
-    pub height: u32,
-    pub spp: u32,
-    pub seed: u32,
-    /// Where each sample's uniforms come from (independent or Owen-scrambled Sobol).
-    pub sampler: Sampler,
+    /// `path`: vertices before Russian roulette, most vertices.
+    pub path: PathDepth,
+    pub exposure: Exposure,
     pub backend: BackendChoice,
     /// Output EXR; the PNG preview goes next to it.
     pub out: PathBuf,
@@ -118,14 +90,15 @@ impl RenderOptions {
 pub fn check_render_flags(args: &RenderOptions) -> Result<()> {
     if args.own_settings() == OwnSettings::Restir {
         args.restir.check()?;
-        args.restir.check_image(args.width, args.height)?;
+        args.restir
+            .check_image(args.image.width, args.image.height)?;
     }
     args.shadows.check()?;
     super::layers::check(
         &args.layers,
-        args.spp,
+        args.image.spp,
         args.integrator.is_some(),
-        args.sampler,
+        args.image.sampler,
     )?;
     let is_exr = args
         .out
@@ -148,7 +121,7 @@ pub fn plan_render_outputs(args: &RenderOptions) -> Result<std::path::PathBuf> {
     plan.input("--volume", Path::new(&args.scene.volume))
         .file("--out", &args.out)
         .file("the PNG preview of --out", &png);
-    if let Some(crate::lighting::EnvSource::File(env)) = &args.env {
+    if let Some(crate::lighting::EnvSource::File(env)) = &args.lighting.env {
         crate::lighting::env::check_path(env)?;
         plan.input("--env", env);
     }
@@ -170,7 +143,7 @@ pub fn plan_shard_output(args: &RenderOptions, shard: &Path) -> Result<()> {
     let mut plan = OutputPlan::new();
     plan.input("--volume", Path::new(&args.scene.volume))
         .file("--shard", shard);
-    if let Some(crate::lighting::EnvSource::File(env)) = &args.env {
+    if let Some(crate::lighting::EnvSource::File(env)) = &args.lighting.env {
         crate::lighting::env::check_path(env)?;
         plan.input("--env", env);
     }

@@ -155,8 +155,8 @@ impl PreviewSummary {
     pub fn of(args: &RenderOptions, tone: super::preview::Preview) -> Option<Self> {
         tone.gain().map(|gain| PreviewSummary {
             transform: super::preview::TRANSFORM,
-            exposure: args.exposure,
-            auto_exposure: (!args.fixed_exposure).then(|| gain / args.exposure),
+            exposure: args.exposure.gain,
+            auto_exposure: (!args.exposure.fixed).then(|| gain / args.exposure.gain),
             gain,
         })
     }
@@ -267,7 +267,7 @@ pub(super) fn integrator_settings(
         random_lights: None,
         point_lights: None,
         restir: None,
-        albedo: args.albedo.into(),
+        albedo: args.lighting.albedo.into(),
         env: None,
         sun: None,
         shadows: None,
@@ -275,9 +275,9 @@ pub(super) fn integrator_settings(
         collision_cap: None,
         rr_depth: None,
         max_depth: None,
-        hg_g: args.hg_g,
-        t_hat: format!("{:?}", args.t_hat).to_lowercase(),
-        exposure: args.exposure,
+        hg_g: args.lighting.hg_g,
+        t_hat: format!("{:?}", args.estimation.t_hat).to_lowercase(),
+        exposure: args.exposure.gain,
     }
 }
 
@@ -289,7 +289,7 @@ pub(super) fn direct_settings(
     shadows: crate::shadow_map::ShadowSummary,
 ) -> IntegratorSettings {
     let l = &lights.lighting;
-    let env = match &args.env {
+    let env = match &args.lighting.env {
         Some(
             e @ (crate::lighting::EnvSource::File(_) | crate::lighting::EnvSource::Constant(_)),
         ) => e.spelling(),
@@ -310,26 +310,27 @@ pub(super) fn direct_settings(
     IntegratorSettings {
         name: crate::integrators::integrator_name(args.integrator.unwrap_or(Integrator::Direct))
             .into(),
-        shadow_rays: args.estimator.name.into(),
+        shadow_rays: args.estimation.estimator.name.into(),
         lights: args
+            .lighting
             .lights
             .iter()
             .map(|l| [l.position.x, l.position.y, l.position.z, l.intensity])
             .collect(),
-        random_lights: args.random_lights.map(|r| r.to_string()),
+        random_lights: args.lighting.random_lights.map(|r| r.to_string()),
         point_lights: Some(lights.points.len()),
-        albedo: args.albedo.into(),
+        albedo: args.lighting.albedo.into(),
         env: Some(env),
         sun,
         shadows: Some(shadows),
         light_pmf: Some([l.p_sun, l.p_env, l.p_points]),
         collision_cap: Some(collision_cap),
         restir: (own == OwnSettings::Restir).then(|| args.restir.settings()),
-        rr_depth: (own == OwnSettings::PathDepth).then_some(args.rr_depth),
-        max_depth: (own == OwnSettings::PathDepth).then_some(args.max_depth),
-        hg_g: args.hg_g,
+        rr_depth: (own == OwnSettings::PathDepth).then_some(args.path.rr_depth),
+        max_depth: (own == OwnSettings::PathDepth).then_some(args.path.max_depth),
+        hg_g: args.lighting.hg_g,
         t_hat: "none".into(),
-        exposure: args.exposure,
+        exposure: args.exposure.gain,
     }
 }
 
@@ -380,15 +381,15 @@ pub(super) fn summarize(r: &Rendered) -> Result<RenderSummary> {
         dims: vol.dims(),
         estimator: match args.integrator {
             Some(i) => crate::integrators::integrator_name(i).into(),
-            None => args.estimator.name.into(),
+            None => args.estimation.estimator.name.into(),
         },
-        lookup: lookup_name(args.lookup),
-        width: args.width,
-        height: args.height,
-        spp: args.spp,
-        seed: args.seed,
-        sampler: sampler_name(args.sampler).into(),
-        n: args.n,
+        lookup: lookup_name(args.estimation.lookup),
+        width: args.image.width,
+        height: args.image.height,
+        spp: args.image.spp,
+        seed: args.image.seed,
+        sampler: sampler_name(args.image.sampler).into(),
+        n: args.estimation.n,
         density_scale: scene.density_scale,
         brick_size: args.scene.brick_size,
         supervoxel_format: sv.format,
@@ -408,8 +409,8 @@ pub(super) fn summarize(r: &Rendered) -> Result<RenderSummary> {
         mean_t: (!radiance).then_some(r.mean),
         exr: args.out.display().to_string(),
         png: r.png.display().to_string(),
-        f_delta: args.f_delta,
-        ratio_roulette: args.ratio_roulette,
+        f_delta: args.estimation.f_delta,
+        ratio_roulette: args.estimation.ratio_roulette,
         flags: r.flags,
         grid: scene.grid.clone(),
         up: scene.up,

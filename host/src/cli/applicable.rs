@@ -133,9 +133,9 @@ pub fn check(args: &RenderOptions, given: &[String]) -> Result<()> {
         }
     }
     let uses_ratio = match args.integrator {
-        Some(i) if i.is_lit() => args.estimator.estimator == Estimator::RatioTracking,
-        Some(_) => args.t_hat == TransmittanceHat::Ratio,
-        None => args.estimator.estimator == Estimator::RatioTracking,
+        Some(i) if i.is_lit() => args.estimation.estimator.estimator == Estimator::RatioTracking,
+        Some(_) => args.estimation.t_hat == TransmittanceHat::Ratio,
+        None => args.estimation.estimator.estimator == Estimator::RatioTracking,
     };
     if given("ratio_roulette") && !uses_ratio {
         bail!(

@@ -7,6 +7,7 @@ use super::render::SceneArgs;
 use anyhow::Result;
 use clap::Args;
 use engine::defaults;
+use engine::render_job::{Image, Lighting, PathDepth};
 use lab::defaults as eval_defaults;
 use lab::evaluate::EvalOptions;
 use std::path::PathBuf;
@@ -143,6 +144,12 @@ pub struct EvalArgs {
 impl EvalArgs {
     /// The library's eval options: the lists of `--estimators` and `--integrators` parsed.
     pub fn options(&self) -> Result<EvalOptions> {
+        if let (Some(g), None) = (self.hg_g, &self.integrators) {
+            anyhow::bail!(
+                "--hg-g {g}: the phase function is the integrators'; transmittance evaluations \
+                 have none (add --integrators or drop --hg-g)"
+            );
+        }
         Ok(EvalOptions {
             scene: self.scene.options(),
             lookup: self.lookup.into(),
@@ -152,27 +159,34 @@ impl EvalArgs {
                 None => Vec::new(),
             },
             t_hat: self.t_hat.into(),
-            lights: self.lights.clone(),
-            random_lights: self.random_lights,
+            lighting: Lighting {
+                lights: self.lights.clone(),
+                random_lights: self.random_lights,
+                albedo: [self.albedo; 3],
+                env: self.env.clone(),
+                env_scale: self.env_scale,
+                env_rotate: self.env_rotate,
+                sun: self.sun,
+                hg_g: self.hg_g.unwrap_or(0.0),
+            },
             restir: self.restir.options(),
             equal_time: self.equal_time,
-            albedo: self.albedo,
-            env: self.env.clone(),
-            env_scale: self.env_scale,
-            env_rotate: self.env_rotate,
-            sun: self.sun,
-            rr_depth: self.rr_depth,
-            max_depth: self.max_depth,
-            hg_g: self.hg_g,
+            path: PathDepth {
+                rr_depth: self.rr_depth,
+                max_depth: self.max_depth,
+            },
             exposure: self.exposure,
             n: self.n,
             f_delta: self.f_delta,
             ratio_roulette: self.ratio_roulette,
-            width: self.width,
-            height: self.height,
-            spp: self.spp,
+            image: Image {
+                width: self.width,
+                height: self.height,
+                spp: self.spp,
+                seed: self.seed,
+                ..EvalOptions::default().image
+            },
             reference_spp: self.reference_spp,
-            seed: self.seed,
             backend: self.backend.into(),
             out_dir: self.out_dir.clone(),
             json: self.json.clone(),

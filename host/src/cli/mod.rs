@@ -341,4 +341,37 @@ mod tests {
         }
         assert!(checked >= 4, "only {checked} crates with tracing found");
     }
+
+    /// `host render` without flags renders what the engine's `RenderOptions::default()`
+    /// describes: the command line's defaults and the engine's cannot drift apart.
+    #[test]
+    fn render_defaults_are_the_engines() {
+        let cli = super::parse_from(vec!["host".into(), "render".into()]).unwrap();
+        let Some(super::Command::Render(args)) = &cli.command else {
+            panic!("a render command");
+        };
+        let flags = args.options();
+        let engine = engine::render_job::RenderOptions::default();
+        assert_eq!(flags.image, engine.image);
+        assert_eq!(flags.estimation, engine.estimation);
+        assert_eq!(flags.lighting, engine.lighting);
+        assert_eq!(flags.path, engine.path);
+        assert_eq!(flags.exposure, engine.exposure);
+        assert_eq!(flags.restir, engine.restir);
+        assert_eq!(flags.integrator, engine.integrator);
+        assert_eq!(flags.backend, engine.backend);
+        assert_eq!(flags.layers, engine.layers);
+        // A changed default is seen: the comparison is not vacuous.
+        let changed = super::parse_from(vec![
+            "host".into(),
+            "render".into(),
+            "--n".into(),
+            "11".into(),
+        ])
+        .unwrap();
+        let Some(super::Command::Render(args)) = &changed.command else {
+            panic!("a render command");
+        };
+        assert_ne!(args.options().estimation, engine.estimation);
+    }
 }

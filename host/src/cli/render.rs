@@ -7,7 +7,7 @@ use super::parsers::{
 };
 use clap::Args;
 use engine::defaults;
-use engine::render_job::RenderOptions;
+use engine::render_job::{Estimation, Exposure, Image, Lighting, PathDepth, RenderOptions};
 use engine::scene::SceneOptions;
 use std::path::PathBuf;
 
@@ -318,20 +318,33 @@ impl RenderArgs {
     pub fn options(&self) -> RenderOptions {
         RenderOptions {
             scene: self.scene.options(),
-            lookup: self.lookup.into(),
-            estimator: self.estimator,
-            n: self.n,
-            f_delta: self.f_delta,
-            ratio_roulette: self.ratio_roulette,
+            image: Image {
+                width: self.width,
+                height: self.height,
+                spp: self.spp,
+                seed: self.seed,
+                sampler: self.sampler(),
+            },
+            estimation: Estimation {
+                lookup: self.lookup.into(),
+                estimator: self.estimator,
+                n: self.n,
+                f_delta: self.f_delta,
+                ratio_roulette: self.ratio_roulette,
+                t_hat: self.t_hat.into(),
+            },
             integrator: self.integrator,
-            lights: self.lights.clone(),
+            lighting: Lighting {
+                lights: self.lights.clone(),
+                random_lights: self.random_lights,
+                albedo: self.albedo,
+                env: self.env.clone(),
+                env_scale: self.env_scale,
+                env_rotate: self.env_rotate,
+                sun: self.sun,
+                hg_g: self.hg_g,
+            },
             restir: self.restir.options(),
-            random_lights: self.random_lights,
-            albedo: self.albedo,
-            env: self.env.clone(),
-            env_scale: self.env_scale,
-            env_rotate: self.env_rotate,
-            sun: self.sun,
             shadows: engine::shadow_map::ShadowOptions {
                 kind: self.shadows.into(),
                 storage: self.msm_storage.map(Into::into),
@@ -339,17 +352,14 @@ impl RenderArgs {
                 filter: self.msm_filter.0,
                 radius: self.msm_filter.1,
             },
-            rr_depth: self.rr_depth,
-            max_depth: self.max_depth,
-            hg_g: self.hg_g,
-            t_hat: self.t_hat.into(),
-            exposure: self.exposure,
-            fixed_exposure: self.fixed_exposure,
-            width: self.width,
-            height: self.height,
-            spp: self.spp,
-            seed: self.seed,
-            sampler: self.sampler(),
+            path: PathDepth {
+                rr_depth: self.rr_depth,
+                max_depth: self.max_depth,
+            },
+            exposure: Exposure {
+                gain: self.exposure,
+                fixed: self.fixed_exposure,
+            },
             backend: self.backend.into(),
             out: self.out.clone(),
             json: self.json.clone(),

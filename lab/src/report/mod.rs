@@ -197,7 +197,7 @@ pub fn run(args: &ReportOptions) -> Result<()> {
             let id = unique_id(&format!("{base}-integrators"), &mut used);
             let dir = out.join(&id);
             eval.integrators = args.integrators.clone();
-            eval.spp = args.integrator_spp;
+            eval.image.spp = args.integrator_spp;
             eval.reference_spp = Some(16 * args.integrator_spp);
             eval.out_dir = dir.clone();
             crate::evaluate::run_eval(&eval)
@@ -259,10 +259,13 @@ fn eval_options(args: &ReportOptions, volume: &str, out_dir: PathBuf) -> EvalOpt
         lookup: args.lookup,
         estimators: args.estimators.clone(),
         n: args.n,
-        width: args.width,
-        height: args.height,
-        spp: args.spp,
-        seed: args.seed,
+        image: engine::render_job::Image {
+            width: args.width,
+            height: args.height,
+            spp: args.spp,
+            seed: args.seed,
+            ..EvalOptions::default().image
+        },
         backend: args.backend,
         out_dir,
         json: None,
