@@ -60,7 +60,7 @@ for backend in "${backends[@]}"; do
     done
   done
 done
-# More than one 256-sample block: the blocks' exact totals (engine/src/exact.rs), on each backend.
+# More than one 256-sample block: the blocks' exact totals (engine/src/render/exact.rs), on each backend.
 for backend in "${backends[@]}"; do
   f="$out/r.exr"
   "$host" render --backend "$backend" --volume cloud --resolution 48 --width 8 --height 6 \

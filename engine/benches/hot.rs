@@ -3,8 +3,8 @@
 //! ray estimate for several estimators. `cargo bench -p host --bench hot`.
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
-use engine::bricks::pack;
-use engine::render::world_to_index;
+use engine::scene::bricks::pack;
+use engine::scene::camera::world_to_index;
 use shared::estimators::optical_depth::{estimate_pair, prepare};
 use shared::geometry::Ray;
 use shared::geometry::V3;
@@ -69,9 +69,9 @@ fn math(c: &mut Criterion) {
 }
 
 /// The embedded cloud at 128^3, packed for stochastic lookups, and 1024 rays through it.
-fn scene() -> (engine::bricks::PackedVolume, RenderParams, Vec<Ray>) {
-    let vol = engine::procedural::by_name("cloud", 128).expect("embedded");
-    let scale = engine::procedural::default_density_scale("cloud");
+fn scene() -> (engine::scene::bricks::PackedVolume, RenderParams, Vec<Ray>) {
+    let vol = engine::scene::procedural::by_name("cloud", 128).expect("embedded");
+    let scale = engine::scene::procedural::default_density_scale("cloud");
     let packed = pack(&vol, scale, 16, Lookup::Stochastic).expect("packs");
     let params = RenderParams {
         world_to_index: world_to_index(engine::volume::VolumeData::index_to_world(&vol))

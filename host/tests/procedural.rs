@@ -1,6 +1,6 @@
 //! The embedded procedural volumes: determinism, value ranges, sparsity and placement.
 
-use engine::procedural::{
+use engine::scene::procedural::{
     self, by_name, cloud, constant_box, constant_interior, explosion, sphere, NAMES,
 };
 use engine::volume::{Affine, DenseVolume};

@@ -4,8 +4,8 @@
 
 mod common;
 
-use engine::bricks::{pack, PackedVolume};
 use engine::io::{load_volume_with, LoadOptions, LoadedVolume};
+use engine::scene::bricks::{pack, PackedVolume};
 use engine::volume::{Volume, VolumeData};
 use shared::volume::grid::Lookup;
 use std::path::{Path, PathBuf};

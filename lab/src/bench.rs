@@ -94,7 +94,7 @@ pub struct Row {
 #[derive(Clone, Debug, Serialize)]
 pub struct KernelRow {
     pub name: &'static str,
-    pub module: engine::gpu::module_stats::ModuleStats,
+    pub module: engine::backend::gpu::module_stats::ModuleStats,
     /// Pipeline builds during the row's warm-up frames (0 when an earlier row built it).
     pub pipeline_build_ms: f64,
 }
@@ -155,7 +155,7 @@ pub struct BenchReport {
     /// Iterations of one super-voxel traversal per pixel-centre camera ray that meets the grid
     /// (Alg. 2 takes one such traversal, Alg. 1 a second; delta and ratio tracking one up to
     /// their last collision): skipped spans, bricks and cells.
-    pub steps_per_traversal: engine::traversal::ReadsPerRay,
+    pub steps_per_traversal: engine::scene::traversal::ReadsPerRay,
     pub rows: Vec<Row>,
     pub goals: Vec<Goal>,
     pub sweep_resolution: Vec<SweepPoint>,
@@ -312,10 +312,10 @@ fn quality(pixels: &[PixelOut], spp: u32) -> (f64, f64) {
 #[allow(clippy::type_complexity)]
 fn sweep_lists(args: &BenchOptions) -> Result<(Vec<&'static EstimatorSpec>, Vec<u32>, Vec<u32>)> {
     let name = args.scene.volume.as_str();
-    if !engine::procedural::NAMES.contains(&name) {
+    if !engine::scene::procedural::NAMES.contains(&name) {
         bail!(
             "--sweep needs an embedded volume (--volume {}), not {name:?}",
-            engine::procedural::NAMES.join("|")
+            engine::scene::procedural::NAMES.join("|")
         );
     }
     let in_range = |list: &[u32], flag: &str, range: std::ops::RangeInclusive<u32>| match list
@@ -415,10 +415,10 @@ fn time_estimator(
         variance,
         work_normalized_variance: variance * ns_per_ray,
         kernel: matches!(backend, Backend::Gpu(_)).then(|| {
-            let k = engine::gpu::Kernel::TransmittanceCs;
+            let k = engine::backend::gpu::Kernel::TransmittanceCs;
             KernelRow {
                 name: k.name(),
-                module: engine::gpu::module_stats::module_stats(k.spirv()),
+                module: engine::backend::gpu::module_stats::module_stats(k.spirv()),
                 pipeline_build_ms: build_ms,
             }
         }),
@@ -460,7 +460,7 @@ pub fn run(args: &BenchOptions) -> Result<BenchReport> {
         ..scene.params(args.width, args.height, args.spp, args.seed)
     };
     let rays = f64::from(args.width) * f64::from(args.height) * f64::from(args.spp);
-    let steps_per_traversal = engine::traversal::reads_per_ray(&scene.packed, &base);
+    let steps_per_traversal = engine::scene::traversal::reads_per_ray(&scene.packed, &base);
     if !args.quiet {
         tracing::info!(
             "bench: {} {}x{}x{}, {}x{} px, {} spp, {} reps (+{} warm-up), {} CPU threads",
@@ -637,13 +637,13 @@ fn sweep(
         let (_, scene, prepare_ms) = cached.as_ref().expect("just set");
         let params = RenderParams {
             // The camera frames the volume the same way at every resolution (same world box).
-            camera: engine::render::make_camera(
-                &engine::render::CameraSpec {
+            camera: engine::scene::camera::make_camera(
+                &engine::scene::camera::CameraSpec {
                     position: args.scene.camera,
                     look_at: args.scene.look_at,
                     fov_deg: args.scene.fov,
                 },
-                engine::render::occupied_world_bounds(&scene.volume),
+                engine::scene::camera::occupied_world_bounds(&scene.volume),
                 size,
                 size,
             )?,

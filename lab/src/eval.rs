@@ -3,11 +3,11 @@
 
 use anyhow::{Context, Result};
 use engine::backend::Backend;
-use engine::bricks::PackedVolume;
 use engine::estimators::{by_name, EstimatorSpec};
 use engine::output::{write_exr, write_json};
 use engine::render::render;
-pub use engine::supervoxel_info::SupervoxelInfo;
+use engine::scene::bricks::PackedVolume;
+pub use engine::scene::supervoxel_info::SupervoxelInfo;
 use shared::kernels::render::PixelOut;
 use shared::params::RenderParams;
 use std::path::{Path, PathBuf};
@@ -35,7 +35,7 @@ pub struct EstimatorReport {
     pub mean_samples_per_ray: f64,
     /// Rays traced, rays a loop bound changed, rays outside the jackknife's regime (all pixels).
     #[serde(flatten)]
-    pub flags: engine::diagnostics::RayFlags,
+    pub flags: engine::render::diagnostics::RayFlags,
     /// Render time of all spp for the whole image, without the GPU pipeline builds it waited
     /// for (`pipeline_build_ms`: a kernel variant compiles on its first use).
     pub elapsed_ms: f64,
@@ -318,7 +318,7 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
         || engine::render::render_resident(&resident, &ref_params, &[], setup.progress),
     )
     .context("rendering the reference")?;
-    engine::diagnostics::check_finite(&reference, w).context("rendering the reference")?;
+    engine::render::diagnostics::check_finite(&reference, w).context("rendering the reference")?;
     let ref_t: Vec<f32> = reference.iter().map(|p| p.t_mean).collect();
     // The variance of each reference pixel's mean (0 for an exact reference: one deterministic
     // estimate per pixel), part of the noise floor of every |bias|.
@@ -342,80 +342,21 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
     write_exr(&reference_exr, w, h, &ref_t)?;
     engine::output::write_png(&reference_png, w, h, &ref_t)?;
 
+    let reference = Reference {
+        t: ref_t,
+        var: ref_var,
+        mask,
+        count,
+    };
     let mut reports = Vec::new();
     for (k, spec) in estimators.iter().enumerate() {
-        let mut params = setup.params;
-        spec.apply(&mut params);
-        step(setup, k + 1, estimators.len(), spec.name, params.spp);
-        let (pixels, elapsed_ms, built) = setup
-            .backend
-            .timed(|| render(setup.backend, setup.volume, &params, setup.progress))
-            .with_context(|| format!("rendering {}", spec.name))?;
-        engine::diagnostics::check_finite(&pixels, w)
-            .with_context(|| format!("rendering {}", spec.name))?;
-        let bias: Vec<f32> = pixels
-            .iter()
-            .zip(&ref_t)
-            .map(|(p, &r)| p.t_mean - r)
-            .collect();
-        let std: Vec<f32> = pixels
-            .iter()
-            .map(|p| pixel_std(p, params.spp) as f32)
-            .collect();
-        let masked = |f: &dyn Fn(usize) -> f64| {
-            (0..pixels.len()).filter(|&i| mask[i]).map(f).sum::<f64>() / count as f64
-        };
-        let file = |suffix: &str| {
-            estimator_file(setup.out_dir, spec.name, suffix)
-                .display()
-                .to_string()
-        };
-        let mean_t: Vec<f32> = pixels.iter().map(|p| p.t_mean).collect();
-        write_exr(Path::new(&file("mean.exr")), w, h, &mean_t)?;
-        engine::output::write_png(Path::new(&file("mean.png")), w, h, &mean_t)?;
-        write_exr(Path::new(&file("bias.exr")), w, h, &bias)?;
-        write_exr(Path::new(&file("std.exr")), w, h, &std)?;
-        write_false_colour(Path::new(&file("bias.png")), w, h, &bias, |v| {
-            diverging(v, setup.bias_scale)
-        })?;
-        write_false_colour(Path::new(&file("std.png")), w, h, &std, |v| {
-            sequential(v, setup.std_scale)
-        })?;
-        let report = EstimatorReport {
-            name: spec.name.into(),
-            about: spec.about.into(),
-            unbiased: spec.unbiased,
-            mean_bias: masked(&|i| bias[i] as f64),
-            mean_abs_bias: masked(&|i| (bias[i] as f64).abs()),
-            abs_bias_noise_floor: masked(&|i| {
-                abs_error_floor(std[i] as f64, params.spp, ref_var[i])
-            }),
-            mean_std: masked(&|i| std[i] as f64),
-            rmse: masked(&|i| (bias[i] as f64).powi(2) + (std[i] as f64).powi(2)).sqrt(),
-            mean_samples_per_ray: masked(&|i| pixels[i].samples as f64) / params.spp as f64,
-            flags: engine::diagnostics::RayFlags::of(&pixels, params.spp),
-            elapsed_ms,
-            pipeline_build_ms: built.ms(),
-            bias_exr: file("bias.exr"),
-            bias_png: file("bias.png"),
-            std_exr: file("std.exr"),
-            std_png: file("std.png"),
-            mean_exr: file("mean.exr"),
-            mean_png: file("mean.png"),
-        };
-        println!(
-            "{:<20} bias {:+.5}  |bias| {:.5} (noise floor {:.5})  std {:.4}  rmse {:.4}  samples/ray {:7.2}  {:8.1} ms",
-            report.name,
-            report.mean_bias,
-            report.mean_abs_bias,
-            report.abs_bias_noise_floor,
-            report.mean_std,
-            report.rmse,
-            report.mean_samples_per_ray,
-            report.elapsed_ms
-        );
-        report.flags.warn(&params);
-        reports.push(report);
+        reports.push(evaluate_estimator(
+            setup,
+            &reference,
+            spec,
+            k,
+            estimators.len(),
+        )?);
     }
     Ok(EvalReport {
         header: setup.header(),
@@ -430,13 +371,110 @@ pub fn evaluate(setup: &EvalSetup, estimators: &[&'static EstimatorSpec]) -> Res
             "{} at {} spp: {}",
             setup.reference.name, setup.reference_spp, setup.reference.about
         ),
-        evaluated_pixels: count,
+        evaluated_pixels: reference.count,
         reference_exr: reference_exr.display().to_string(),
         reference_png: reference_png.display().to_string(),
         bias_colour_map: bias_colour_map(setup.bias_scale),
         std_colour_map: std_colour_map(setup.std_scale),
         estimators: reports,
     })
+}
+
+/// The reference of a transmittance evaluation: its pixels' means, the variance of each mean,
+/// and the pixels that see the volume (T < 1), `count` of them.
+struct Reference {
+    t: Vec<f32>,
+    var: Vec<f64>,
+    mask: Vec<bool>,
+    count: usize,
+}
+
+/// Renders estimator `spec` (number `k` of `of`), writes its images and measures it against
+/// `reference`.
+fn evaluate_estimator(
+    setup: &EvalSetup,
+    reference: &Reference,
+    spec: &'static EstimatorSpec,
+    k: usize,
+    of: usize,
+) -> Result<EstimatorReport> {
+    let (w, h) = (setup.params.width, setup.params.height);
+    let mut params = setup.params;
+    spec.apply(&mut params);
+    step(setup, k + 1, of, spec.name, params.spp);
+    let (pixels, elapsed_ms, built) = setup
+        .backend
+        .timed(|| render(setup.backend, setup.volume, &params, setup.progress))
+        .with_context(|| format!("rendering {}", spec.name))?;
+    engine::render::diagnostics::check_finite(&pixels, w)
+        .with_context(|| format!("rendering {}", spec.name))?;
+    let bias: Vec<f32> = pixels
+        .iter()
+        .zip(&reference.t)
+        .map(|(p, &r)| p.t_mean - r)
+        .collect();
+    let std: Vec<f32> = pixels
+        .iter()
+        .map(|p| pixel_std(p, params.spp) as f32)
+        .collect();
+    let masked = |f: &dyn Fn(usize) -> f64| {
+        (0..pixels.len())
+            .filter(|&i| reference.mask[i])
+            .map(f)
+            .sum::<f64>()
+            / reference.count as f64
+    };
+    let file = |suffix: &str| {
+        estimator_file(setup.out_dir, spec.name, suffix)
+            .display()
+            .to_string()
+    };
+    let mean_t: Vec<f32> = pixels.iter().map(|p| p.t_mean).collect();
+    write_exr(Path::new(&file("mean.exr")), w, h, &mean_t)?;
+    engine::output::write_png(Path::new(&file("mean.png")), w, h, &mean_t)?;
+    write_exr(Path::new(&file("bias.exr")), w, h, &bias)?;
+    write_exr(Path::new(&file("std.exr")), w, h, &std)?;
+    write_false_colour(Path::new(&file("bias.png")), w, h, &bias, |v| {
+        diverging(v, setup.bias_scale)
+    })?;
+    write_false_colour(Path::new(&file("std.png")), w, h, &std, |v| {
+        sequential(v, setup.std_scale)
+    })?;
+    let report = EstimatorReport {
+        name: spec.name.into(),
+        about: spec.about.into(),
+        unbiased: spec.unbiased,
+        mean_bias: masked(&|i| bias[i] as f64),
+        mean_abs_bias: masked(&|i| (bias[i] as f64).abs()),
+        abs_bias_noise_floor: masked(&|i| {
+            abs_error_floor(std[i] as f64, params.spp, reference.var[i])
+        }),
+        mean_std: masked(&|i| std[i] as f64),
+        rmse: masked(&|i| (bias[i] as f64).powi(2) + (std[i] as f64).powi(2)).sqrt(),
+        mean_samples_per_ray: masked(&|i| pixels[i].samples as f64) / params.spp as f64,
+        flags: engine::render::diagnostics::RayFlags::of(&pixels, params.spp),
+        elapsed_ms,
+        pipeline_build_ms: built.ms(),
+        bias_exr: file("bias.exr"),
+        bias_png: file("bias.png"),
+        std_exr: file("std.exr"),
+        std_png: file("std.png"),
+        mean_exr: file("mean.exr"),
+        mean_png: file("mean.png"),
+    };
+    println!(
+        "{:<20} bias {:+.5}  |bias| {:.5} (noise floor {:.5})  std {:.4}  rmse {:.4}  samples/ray {:7.2}  {:8.1} ms",
+        report.name,
+        report.mean_bias,
+        report.mean_abs_bias,
+        report.abs_bias_noise_floor,
+        report.mean_std,
+        report.rmse,
+        report.mean_samples_per_ray,
+        report.elapsed_ms
+    );
+    report.flags.warn(&params);
+    Ok(report)
 }
 
 /// Parses a comma-separated estimator list ("all" for every one but the reference).
@@ -514,7 +552,7 @@ pub struct IntegratorReport {
     pub mean_samples_per_ray: f64,
     /// Rays traced, rays a loop bound changed, rays outside the jackknife's regime.
     #[serde(flatten)]
-    pub flags: engine::diagnostics::RayFlags,
+    pub flags: engine::render::diagnostics::RayFlags,
     pub exr: String,
     pub png: String,
 }
@@ -586,7 +624,6 @@ pub fn evaluate_integrators(
     );
     write_exr(&reference_exr, w, h, &ref_l)?;
     engine::output::write_png(&reference_png, w, h, &tone(&ref_l))?;
-    let n = ref_l.len() as f64;
     let mut reports = Vec::new();
     for (k, &(name, integrator)) in integrators.iter().enumerate() {
         let mut params = setup.params;
@@ -609,27 +646,15 @@ pub fn evaluate_integrators(
         let png = setup.out_dir.join(format!("{name}.png"));
         write_exr(&exr, w, h, &l)?;
         engine::output::write_png(&png, w, h, &tone(&l))?;
-        let pairs = l.iter().zip(&ref_l).map(|(&a, &b)| (a as f64, b as f64));
-        let smape = pairs
-            .clone()
-            .map(|(a, b)| (a - b).abs() / (0.5 * (a.abs() + b.abs()) + SMAPE_EPS))
-            .sum::<f64>()
-            / n;
-        let report = IntegratorReport {
-            name: name.into(),
-            smape,
-            mean_bias: pairs.clone().map(|(a, b)| a - b).sum::<f64>() / n,
-            mean_abs_error: pairs.map(|(a, b)| (a - b).abs()).sum::<f64>() / n,
-            mean_radiance: l.iter().map(|&v| v as f64).sum::<f64>() / n,
-            elapsed_ms,
-            pipeline_build_ms: built.ms(),
-            ms_per_frame: elapsed_ms / params.spp as f64,
-            mean_samples_per_ray: pixels.iter().map(|p| p.samples as f64).sum::<f64>()
-                / (n * params.spp as f64),
-            flags: engine::diagnostics::RayFlags::of(&pixels, params.spp),
-            exr: exr.display().to_string(),
-            png: png.display().to_string(),
-        };
+        let report = integrator_report(
+            name,
+            &pixels,
+            &ref_l,
+            &params,
+            (elapsed_ms, built.ms()),
+            &exr,
+            &png,
+        );
         println!(
             "{:<20} SMAPE {:.4}  bias {:+.5}  |err| {:.5}  mean L {:.5}  samples/ray {:6.2}  {:8.1} ms/spp",
             report.name, report.smape, report.mean_bias, report.mean_abs_error, report.mean_radiance, report.mean_samples_per_ray, report.ms_per_frame
@@ -650,6 +675,42 @@ pub fn evaluate_integrators(
         preview_gain: view.gain(),
         integrators: reports,
     })
+}
+
+/// One integrator's image (its `pixels`, luminance `l`) measured against the reference's
+/// `ref_l`; `ms`: its render time and pipeline build time.
+fn integrator_report(
+    name: &str,
+    pixels: &[shared::kernels::render::PixelOut],
+    ref_l: &[f32],
+    params: &shared::params::RenderParams,
+    (elapsed_ms, build_ms): (f64, f64),
+    exr: &Path,
+    png: &Path,
+) -> IntegratorReport {
+    let l: Vec<f32> = pixels.iter().map(|p| p.t_mean).collect();
+    let n = ref_l.len() as f64;
+    let pairs = l.iter().zip(ref_l).map(|(&a, &b)| (a as f64, b as f64));
+    let smape = pairs
+        .clone()
+        .map(|(a, b)| (a - b).abs() / (0.5 * (a.abs() + b.abs()) + SMAPE_EPS))
+        .sum::<f64>()
+        / n;
+    IntegratorReport {
+        name: name.into(),
+        smape,
+        mean_bias: pairs.clone().map(|(a, b)| a - b).sum::<f64>() / n,
+        mean_abs_error: pairs.map(|(a, b)| (a - b).abs()).sum::<f64>() / n,
+        mean_radiance: l.iter().map(|&v| v as f64).sum::<f64>() / n,
+        elapsed_ms,
+        pipeline_build_ms: build_ms,
+        ms_per_frame: elapsed_ms / params.spp as f64,
+        mean_samples_per_ray: pixels.iter().map(|p| p.samples as f64).sum::<f64>()
+            / (n * params.spp as f64),
+        flags: engine::render::diagnostics::RayFlags::of(pixels, params.spp),
+        exr: exr.display().to_string(),
+        png: png.display().to_string(),
+    }
 }
 
 #[cfg(test)]

@@ -21,9 +21,9 @@ use anyhow::{Context, Result};
 use engine::estimators::EstimatorSpec;
 use engine::lighting::SceneLights;
 use engine::output::write_exr_rgb;
+use engine::render::shadow_map::{self, MapSummary, ShadowKind, ShadowOptions};
 use engine::render::Resident;
 use engine::render_job::preview::Preview;
-use engine::shadow_map::{self, MapSummary, ShadowKind, ShadowOptions};
 use shared::integrators::unit::OwnSettings;
 use shared::kernels::render::PixelOut;
 use shared::params::{Integrator, RenderParams};
@@ -60,7 +60,7 @@ pub struct DirectEntry {
     /// camera ray.
     pub lookups_per_ray: f64,
     #[serde(flatten)]
-    pub flags: engine::diagnostics::RayFlags,
+    pub flags: engine::render::diagnostics::RayFlags,
     /// The tracking loops' collision cap used.
     pub collision_cap: u32,
     /// Map entries: the sun's moment shadow map (its build time is part of `elapsed_ms`).
@@ -359,7 +359,7 @@ fn render_one(
             )
         })
         .with_context(|| format!("rendering {stem}"))?;
-    engine::diagnostics::check_finite(&pixels, params.width)
+    engine::render::diagnostics::check_finite(&pixels, params.width)
         .with_context(|| format!("rendering {stem}"))?;
     if reference {
         // Before its files are written: statistics over a view that misses the volume are refused.
@@ -760,7 +760,7 @@ fn measure(
         spp: params.spp,
         calibration: None,
         lookups_per_ray: px.iter().map(|p| p.samples as f64).sum::<f64>() / (n * params.spp as f64),
-        flags: engine::diagnostics::RayFlags::of(&px, params.spp),
+        flags: engine::render::diagnostics::RayFlags::of(&px, params.spp),
         collision_cap: params.collision_cap(),
         shadow_map: None,
         paired_rms: paired.map(|p| p.0),

@@ -3,16 +3,16 @@
 
 use crate::eval_direct::ShadowEntry;
 use anyhow::{bail, Result};
+use engine::backend::job::{costliest, work_of, Job, WorkKind};
 use engine::backend::{Backend, BackendChoice};
 use engine::defaults;
 use engine::estimators::EstimatorSpec;
-use engine::job::{costliest, work_of, Job, WorkKind};
 use engine::output::OutputPlan;
-use engine::render::occupied_world_bounds;
 use engine::render_job::{
     direct_lights, lights_or_default, Estimation, Exposure, Image, Lighting, PathDepth,
     RenderOptions,
 };
+use engine::scene::camera::occupied_world_bounds;
 use engine::scene::{prepare_scene, Scene, SceneOptions};
 use engine::volume::VolumeData;
 use shared::params::RenderParams;
@@ -36,7 +36,7 @@ pub struct EvalOptions {
     /// channels) and the phase function (g only with `integrators`).
     pub lighting: Lighting,
     /// `--integrators restir`: candidates, target, its N and floor.
-    pub restir: engine::restir::RestirOptions,
+    pub restir: engine::integrators::restir::RestirOptions,
     /// `--integrators direct|path|restir`: every entry gets the first entry's render time.
     pub equal_time: bool,
     /// `--integrators path`: vertices before roulette, most vertices.
@@ -183,7 +183,7 @@ fn eval_setup<'a>(
     args: &'a EvalOptions,
     backend: &'a Backend,
     vol: &dyn VolumeData,
-    packed: &'a engine::bricks::PackedVolume,
+    packed: &'a engine::scene::bricks::PackedVolume,
     params: RenderParams,
     reference: &'a EstimatorSpec,
     reference_spp: u32,
@@ -200,7 +200,7 @@ fn eval_setup<'a>(
         std_scale: args.std_scale,
         progress: !args.quiet,
         reference_source: &args.reference_source,
-        supervoxels: Some(engine::supervoxel_info::SupervoxelInfo::of(
+        supervoxels: Some(engine::scene::supervoxel_info::SupervoxelInfo::of(
             packed,
             args.scene.supervoxels.mode()?,
             args.scene.supervoxel_format,
@@ -264,25 +264,7 @@ fn evaluate_all(args: &EvalOptions) -> Result<()> {
         }
         return run_eval_direct(args, &unique);
     }
-    anyhow::ensure!(
-        !args.equal_time,
-        "--equal-time applies to --integrators direct, path or restir; add one or drop it"
-    );
-    anyhow::ensure!(
-        args.lighting.random_lights.is_none(),
-        "--lights random:N applies to --integrators direct, path or restir (the \
-         single-scattering integrators take at most {} lights, by --light); drop --lights",
-        shared::sampling::lights::MAX_LIGHTS
-    );
-    anyhow::ensure!(
-        args.restir == engine::restir::RestirOptions::default(),
-        "the --restir-* flags apply to --integrators restir; add it or drop them"
-    );
-    let given_direct = args.lighting.env.is_some() || args.lighting.sun.is_some();
-    anyhow::ensure!(
-        !given_direct,
-        "--env and --sun only apply to --integrators direct; add it or drop them"
-    );
+    check_single_scattering_flags(args)?;
     let estimators = rays_only(&args.estimators)?;
     let integrators: Option<Vec<(&'static str, Integrator)>> =
         (!args.integrators.is_empty()).then(|| {
@@ -318,18 +300,7 @@ fn evaluate_all(args: &EvalOptions) -> Result<()> {
     if !args.quiet {
         tracing::info!("backend: {} ({})", backend.kind(), backend.device());
     }
-    let params = RenderParams {
-        n: args.n,
-        f_delta: args.f_delta,
-        pixel_jitter: 0,
-        roulette: args.ratio_roulette as u32,
-        ..scene.params(
-            args.image.width,
-            args.image.height,
-            args.image.spp,
-            args.image.seed,
-        )
-    };
+    let params = eval_params(args, &scene);
     if let Some(integrators) = &integrators {
         return run_eval_integrators(args, integrators, &json, vol, packed, &backend, params);
     }
@@ -359,6 +330,66 @@ fn evaluate_all(args: &EvalOptions) -> Result<()> {
     crate::eval::write_report(&json, &report)?;
     println!("wrote {}", json.display());
     Ok(())
+}
+
+/// `restir`'s settings checked when it is evaluated, refused when it is not.
+fn check_restir_flags(args: &EvalOptions, integrators: &[Integrator]) -> Result<()> {
+    let reads_restir = integrators
+        .iter()
+        .any(|i| i.unit().settings == shared::integrators::unit::OwnSettings::Restir);
+    if reads_restir {
+        args.restir.check()?;
+        args.restir
+            .check_image(args.image.width, args.image.height)?;
+    } else {
+        anyhow::ensure!(
+            args.restir == engine::integrators::restir::RestirOptions::default(),
+            "the --restir-* flags apply to --integrators restir; add it or drop them"
+        );
+    }
+    Ok(())
+}
+
+/// Refuses the flags that only `--integrators direct`, `path` or `restir` read, in an
+/// evaluation of transmittance estimators or single-scattering integrators.
+fn check_single_scattering_flags(args: &EvalOptions) -> Result<()> {
+    anyhow::ensure!(
+        !args.equal_time,
+        "--equal-time applies to --integrators direct, path or restir; add one or drop it"
+    );
+    anyhow::ensure!(
+        args.lighting.random_lights.is_none(),
+        "--lights random:N applies to --integrators direct, path or restir (the \
+         single-scattering integrators take at most {} lights, by --light); drop --lights",
+        shared::sampling::lights::MAX_LIGHTS
+    );
+    anyhow::ensure!(
+        args.restir == engine::integrators::restir::RestirOptions::default(),
+        "the --restir-* flags apply to --integrators restir; add it or drop them"
+    );
+    let given_direct = args.lighting.env.is_some() || args.lighting.sun.is_some();
+    anyhow::ensure!(
+        !given_direct,
+        "--env and --sun only apply to --integrators direct; add it or drop them"
+    );
+    Ok(())
+}
+
+/// The kernels' parameters of a transmittance or single-scattering evaluation: the camera's
+/// pixel centres (no pixel jitter: every estimate of a pixel sees the reference's ray).
+fn eval_params(args: &EvalOptions, scene: &Scene) -> RenderParams {
+    RenderParams {
+        n: args.n,
+        f_delta: args.f_delta,
+        pixel_jitter: 0,
+        roulette: args.ratio_roulette as u32,
+        ..scene.params(
+            args.image.width,
+            args.image.height,
+            args.image.spp,
+            args.image.seed,
+        )
+    }
 }
 
 /// Checks every output of `host eval` before any work: `--out-dir` and each image in it, and
@@ -402,7 +433,7 @@ fn run_eval_integrators(
     integrators: &[(&'static str, Integrator)],
     json: &std::path::Path,
     vol: &dyn VolumeData,
-    packed: &engine::bricks::PackedVolume,
+    packed: &engine::scene::bricks::PackedVolume,
     backend: &Backend,
     mut params: RenderParams,
 ) -> Result<()> {
@@ -521,19 +552,7 @@ fn run_eval_direct(args: &EvalOptions, integrators: &[Integrator]) -> Result<()>
             args.image.seed,
         )
     };
-    let reads_restir = integrators
-        .iter()
-        .any(|i| i.unit().settings == shared::integrators::unit::OwnSettings::Restir);
-    if reads_restir {
-        args.restir.check()?;
-        args.restir
-            .check_image(args.image.width, args.image.height)?;
-    } else {
-        anyhow::ensure!(
-            args.restir == engine::restir::RestirOptions::default(),
-            "the --restir-* flags apply to --integrators restir; add it or drop them"
-        );
-    }
+    check_restir_flags(args, integrators)?;
     let mut params = params;
     args.restir.apply(&mut params);
     let setup = eval_setup(

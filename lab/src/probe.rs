@@ -41,7 +41,7 @@ pub fn run_probe(args: &ProbeOptions) -> Result<()> {
     );
     let backend = Backend::open(args.backend)?;
     println!("backend: {} ({})", backend.kind(), backend.device());
-    let pairs: Vec<DepthPair> = engine::cpu::generate(args.count, |i| {
+    let pairs: Vec<DepthPair> = engine::backend::cpu::generate(args.count, |i| {
         normal_pair(i, args.seed, args.tau, args.sigma)
     });
     let start = Instant::now();

@@ -4,9 +4,9 @@
 
 use anyhow::{ensure, Context, Result};
 use engine::lighting::SceneLights;
+use engine::render::totals::PixelTotals;
 use engine::render::Resident;
 use engine::render_job::shard::{self, InputPaths, ShardHeader};
-use engine::totals::PixelTotals;
 use rayon::prelude::*;
 use shared::kernels::render::PixelOut;
 use shared::params::RenderParams;

@@ -2,8 +2,8 @@
 //! building test volumes and their cameras.
 
 use bytemuck::Pod;
-use engine::gpu::Gpu;
-use engine::render::{make_camera, world_bounds, world_to_index, CameraSpec};
+use engine::backend::gpu::Gpu;
+use engine::scene::camera::{make_camera, world_bounds, world_to_index, CameraSpec};
 use engine::volume::{Affine, DenseVolume};
 use shared::params::RenderParams;
 use std::fmt::Debug;

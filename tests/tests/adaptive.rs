@@ -3,7 +3,7 @@
 //! statistics with stochastic lookups; the images differ from the fixed grid's (the cells change
 //! the sampling).
 
-use engine::bricks::pack_paged;
+use engine::scene::bricks::pack_paged;
 use engine::volume::{Affine, DenseVolume};
 use engine::Backend;
 use integration_tests::{assert_bytes_equal, camera_params, gpu, volume};

@@ -2,9 +2,9 @@
 //! byte-identical images on the GPU (lavapipe) and the CPU at every density scale from 0 to 1e30,
 //! never NaN, and every loop bound that is reached is counted (`PixelOut::capped`).
 
-use engine::bricks::{pack, PackedVolume};
-use engine::diagnostics::RayFlags;
+use engine::render::diagnostics::RayFlags;
 use engine::render::render_scene;
+use engine::scene::bricks::{pack, PackedVolume};
 use engine::volume::DenseVolume;
 use engine::Backend;
 use integration_tests::{assert_bytes_equal, camera_params, gpu, lumpy_cells, test_lights};

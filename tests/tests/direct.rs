@@ -2,10 +2,11 @@
 //! lights): GPU == CPU bytes for every light type and shadow-ray estimator, and unbiasedness
 //! against a quadrature of the exact single-scattering integral.
 
-use engine::bricks::{pack, PackedVolume};
 use engine::lighting::env::EnvMap;
 use engine::lighting::{build, EnvSource, LightingOptions, SceneLights, SunSpec};
-use engine::render::{make_camera, render_lit, world_bounds, world_to_index, CameraSpec};
+use engine::render::render_lit;
+use engine::scene::bricks::{pack, PackedVolume};
+use engine::scene::camera::{make_camera, world_bounds, world_to_index, CameraSpec};
 use engine::volume::{Affine, DenseVolume};
 use engine::Backend;
 use integration_tests::{assert_bytes_equal, camera_params, gpu, lumpy_blobs};

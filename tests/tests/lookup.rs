@@ -3,7 +3,7 @@
 //! (ratio tracking's transmittance and the jackknife's against a fine quadrature of the same
 //! field).
 
-use engine::bricks::pack;
+use engine::scene::bricks::pack;
 use engine::volume::Affine;
 use integration_tests::volume;
 use shared::geometry::{Ray, V3};
@@ -85,7 +85,7 @@ fn estimators_are_unbiased_for_the_trilinear_field() {
                 estimator: estimator as u32,
                 rm_scale: 1.0,
                 f_delta: 0.6,
-                world_to_index: engine::render::world_to_index(&vol.index_to_world).unwrap(),
+                world_to_index: engine::scene::camera::world_to_index(&vol.index_to_world).unwrap(),
                 ..Default::default()
             };
             let n = 40_000u32;

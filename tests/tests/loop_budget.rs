@@ -7,8 +7,8 @@
 //! capped ray, and one unbiased ray-marching ray of 9 estimates of 4096 samples ran past the
 //! limit alone. Each case here now gives the same bytes on both backends.
 
-use engine::bricks::pack;
 use engine::render::render_scene;
+use engine::scene::bricks::pack;
 use engine::Backend;
 use integration_tests::{assert_bytes_equal, camera_params, gpu, lumpy_cells, test_lights};
 use shared::params::{Estimator, RenderParams};

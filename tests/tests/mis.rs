@@ -1,7 +1,7 @@
 //! MIS weight estimation and the single-scattering integrators (Sec. 5, App. D, Fig. 7).
 
-use engine::bricks::pack;
 use engine::render::render_scene;
+use engine::scene::bricks::pack;
 use engine::volume::DenseVolume;
 use engine::Backend;
 use integration_tests::{

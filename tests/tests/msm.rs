@@ -292,7 +292,7 @@ fn six_moment_bounds_hold_and_are_tighter() {
 /// A homogeneous 16^3 cube (extinction 1.5 in [-1, 1]^3), its world-to-index map, and the frame
 /// of an 8 x 8 map of a sun straight above it (depth 3 from y = 1.5 down).
 fn homogeneous_cube() -> (
-    engine::bricks::PackedVolume,
+    engine::scene::bricks::PackedVolume,
     shared::geometry::Affine3x4,
     shared::shadows::map::MsmDesc,
 ) {
@@ -304,8 +304,9 @@ fn homogeneous_cube() -> (
         integration_tests::unit_cube(n),
         |_, _, _| 1.5,
     );
-    let packed = engine::bricks::pack(&vol, 1.0, 8, shared::volume::grid::Lookup::Nearest).unwrap();
-    let w2i = engine::render::world_to_index(&vol.index_to_world).unwrap();
+    let packed =
+        engine::scene::bricks::pack(&vol, 1.0, 8, shared::volume::grid::Lookup::Nearest).unwrap();
+    let w2i = engine::scene::camera::world_to_index(&vol.index_to_world).unwrap();
     let desc = shared::shadows::map::MsmDesc {
         origin: V3::new(-1.0, 1.5, -1.0),
         width: 8,
@@ -362,8 +363,8 @@ fn map_of_a_homogeneous_cube_bounds_the_truth() {
 /// (relative 1e-4), under an oblique sun.
 #[test]
 fn map_texels_match_an_f64_march() {
-    use engine::bricks::pack;
-    use engine::render::world_to_index;
+    use engine::scene::bricks::pack;
+    use engine::scene::camera::world_to_index;
     use shared::geometry::V3;
     use shared::shadows::map::{build_texel, MsmDesc};
     use shared::volume::dda::{clip_to_box, GridDda};

@@ -2,10 +2,11 @@
 //! build (every storage and prefilter) and for `direct` and `path` under every shadow mode, and
 //! the map's transmittance against an exact reference on a homogeneous slab.
 
-use engine::bricks::{pack, PackedVolume};
 use engine::lighting::{build, EnvSource, LightingOptions, SceneLights, SunSpec};
-use engine::render::{occupied_world_bounds, render_resident_lit, Resident};
-use engine::shadow_map::{build_into, MsmStorage, ShadowKind, ShadowOptions};
+use engine::render::shadow_map::{build_into, MsmStorage, ShadowKind, ShadowOptions};
+use engine::render::{render_resident_lit, Resident};
+use engine::scene::bricks::{pack, PackedVolume};
+use engine::scene::camera::occupied_world_bounds;
 use engine::volume::DenseVolume;
 use engine::Backend;
 use integration_tests::{assert_bytes_equal, camera_params, gpu, lumpy_blobs};
@@ -117,7 +118,7 @@ fn map_build_is_bit_identical_on_gpu_and_cpu() {
 /// product rounded on its own), and so is the f32 map it quantizes.
 #[test]
 fn u16_maps_of_the_cloud_are_bit_identical_on_gpu_and_cpu() {
-    let vol = engine::procedural::cloud(64);
+    let vol = engine::scene::procedural::cloud(64);
     let packed = pack(&vol, 8.0, 16, Lookup::Stochastic).unwrap();
     let gpu = Backend::Gpu(gpu());
     let (rc, rg) = (

@@ -1,9 +1,9 @@
 //! The `path` integrator (multiple scattering, wavefront on the GPU): GPU == CPU bytes for its
 //! light types and every shadow-ray estimator, and the white furnace.
 
-use engine::bricks::pack;
 use engine::lighting::{build, EnvSource, LightingOptions, SceneLights, SunSpec};
 use engine::render::{fit_collision_cap, render_lit};
+use engine::scene::bricks::pack;
 use engine::volume::DenseVolume;
 use engine::Backend;
 use integration_tests::{assert_bytes_equal, camera_params, gpu, lumpy_blobs};

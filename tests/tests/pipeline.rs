@@ -1,7 +1,7 @@
 //! The jackknife pipeline (Alg. 2 + Alg. 1 + Eq. 4) on volumes built in the test.
 
-use engine::bricks::{pack, PackedVolume};
 use engine::render::render;
+use engine::scene::bricks::{pack, PackedVolume};
 use engine::volume::{Affine, DenseVolume};
 use engine::Backend;
 use integration_tests::{assert_bytes_equal, camera_params, gpu, unit_cube, volume};

@@ -2,7 +2,7 @@
 //! extent clipped to the grid), every voxel reads back as the dense grid's f16 value, and sparse
 //! volumes render bit-identically on the GPU and the CPU.
 
-use engine::bricks::pack;
+use engine::scene::bricks::pack;
 use engine::volume::{Affine, DenseVolume};
 use engine::Backend;
 use integration_tests::{assert_bytes_equal, camera_params, gpu, volume};
@@ -270,7 +270,7 @@ fn long_occupied_grids_beyond_the_gpu_loop_budget_render_on_the_cpu() {
 fn bc4_statistics_render_identically_on_gpu_and_cpu() {
     let vol = patchy();
     let pack_as = |format| {
-        engine::bricks::pack_paged(
+        engine::scene::bricks::pack_paged(
             &vol,
             1.5,
             4,
@@ -310,7 +310,7 @@ fn bc4_statistics_render_identically_on_gpu_and_cpu() {
 }
 
 /// `patchy()` packed with pages of 2^`page_log2` words (brick size 4, stochastic lookups).
-fn patchy_paged(vol: &DenseVolume, page_log2: u32) -> engine::bricks::PackedVolume {
+fn patchy_paged(vol: &DenseVolume, page_log2: u32) -> engine::scene::bricks::PackedVolume {
     use engine::volume::VolumeData;
     jackknife::GridBuilder::from_boxes(vol.dims, |lo, hi, out| vol.fill(lo, hi, out))
         .density_scale(1.5)
@@ -373,7 +373,7 @@ fn paged_pools_render_identically_on_gpu_and_cpu() {
             ..jackknife_params(&vol, 24, 16, integrator)
         };
         let lights = overhead_sun();
-        let render = |backend: &Backend, p: &engine::bricks::PackedVolume| {
+        let render = |backend: &Backend, p: &engine::scene::bricks::PackedVolume| {
             engine::render::render_lit(backend, p, &params, &lights, false).unwrap()
         };
         let c = render(&Backend::Cpu, &one);

@@ -3,10 +3,10 @@
 //! the GPU (lavapipe), for transmittance, `direct`, `path` and `restir` with spatial reuse, and
 //! across a sample block (256 samples).
 
-use engine::bricks::{pack, PackedVolume};
 use engine::lighting::SceneLights;
-use engine::progressive::Progressive;
+use engine::render::progressive::Progressive;
 use engine::render::{render_resident_lit, Resident};
+use engine::scene::bricks::{pack, PackedVolume};
 use engine::Backend;
 use integration_tests::{assert_bytes_equal, camera_params, gpu, lumpy_blobs, many_lights};
 use shared::kernels::render::PixelOut;

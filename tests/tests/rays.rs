@@ -2,8 +2,9 @@
 //! infinite t_max, zero/NaN/infinite directions, axis-parallel rays on a face, and a camera
 //! inside the volume (the last two also GPU = CPU byte for byte).
 
-use engine::bricks::{pack, PackedVolume};
-use engine::render::{make_camera, render, world_bounds, world_to_index, CameraSpec};
+use engine::render::render;
+use engine::scene::bricks::{pack, PackedVolume};
+use engine::scene::camera::{make_camera, world_bounds, world_to_index, CameraSpec};
 use engine::volume::{Affine, DenseVolume};
 use engine::Backend;
 use integration_tests::gpu;

@@ -8,9 +8,9 @@
 //! neighbours stay in their window; a neighbour's target re-evaluated from another pixel is the
 //! value its own reservoir holds (the shift's p̂_←j).
 
-use engine::bricks::{pack, PackedVolume};
 use engine::lighting::{build, EnvSource, LightingOptions, SceneLights};
 use engine::render::render_lit;
+use engine::scene::bricks::{pack, PackedVolume};
 use engine::volume::DenseVolume;
 use engine::Backend;
 use integration_tests::{assert_bytes_equal, camera_params, gpu, lumpy_blobs, many_lights};

@@ -3,9 +3,9 @@
 //! less variance per sample than independent samples (a test that fails if the patterns do not
 //! reach the path's uniforms).
 
-use engine::bricks::pack;
 use engine::lighting::SceneLights;
 use engine::render::{fit_collision_cap, render, render_lit, render_scene};
+use engine::scene::bricks::pack;
 use engine::volume::DenseVolume;
 use engine::Backend;
 use integration_tests::{
@@ -72,7 +72,7 @@ fn sobol_is_bit_identical_on_gpu_and_cpu_for_every_integrator_family() {
 
 /// The image's pixel luminances of `reps` renders with seeds 1..=reps.
 fn replications(
-    packed: &engine::bricks::PackedVolume,
+    packed: &engine::scene::bricks::PackedVolume,
     p: &RenderParams,
     l: &SceneLights,
     reps: u32,

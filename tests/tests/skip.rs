@@ -2,8 +2,9 @@
 //! builder marks exactly the maximal all-zero aligned cubes, and every estimator and integrator
 //! renders the same bytes with the skip marks as without them, on the CPU and on lavapipe.
 
-use engine::bricks::{pack, PackedVolume};
-use engine::render::{render_scene, world_to_index};
+use engine::render::render_scene;
+use engine::scene::bricks::{pack, PackedVolume};
+use engine::scene::camera::world_to_index;
 use engine::Backend;
 use integration_tests::{assert_bytes_equal, camera_params, gpu, test_lights, unit_cube, volume};
 use shared::params::{Estimator, Integrator};

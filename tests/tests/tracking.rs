@@ -4,7 +4,7 @@
 //! z-test at 4 standard errors (per-check confidence 99.994% for a normal statistic, so with the
 //! ~40 checks below a correct implementation would fail with probability < 0.3% over seeds).
 
-use engine::bricks::{pack, PackedVolume};
+use engine::scene::bricks::{pack, PackedVolume};
 use engine::volume::{Affine, DenseVolume};
 use shared::estimators::optical_depth::prepare_with_mean;
 use shared::estimators::telescoping::{telescoping, telescoping_cycles};

@@ -12,10 +12,10 @@
 //! pixel counts that are not multiples of 8. And it declines the layouts and estimators it does
 //! not read.
 
-use engine::bricks::{pack, pack_paged};
-use engine::render::{make_camera, world_bounds, CameraSpec};
+use engine::backend::wide::X8;
+use engine::scene::bricks::{pack, pack_paged};
+use engine::scene::camera::{make_camera, world_bounds, CameraSpec};
 use engine::volume::DenseVolume;
-use engine::wide::X8;
 use integration_tests::{assert_bytes_equal, camera_params, lumpy_blobs, lumpy_cells};
 use jackknife::{SupervoxelFormat, Supervoxels};
 use shared::kernels::render::{render_pixel_pass, PixelSums};
@@ -60,7 +60,7 @@ fn check(what: &str, view: &VolumeView, params: &RenderParams) {
     });
     assert_bytes_equal(&format!("{what}, 8 lanes"), &ids, &want, &x8);
     let dispatch = wide(params, X8::N, |p, a| {
-        engine::wide::transmittance_pass(view, params, p, s, spp, a)
+        engine::backend::wide::transmittance_pass(view, params, p, s, spp, a)
     });
     assert_bytes_equal(
         &format!("{what}, 8 lanes dispatched"),

@@ -5,8 +5,8 @@ use crate::camera::OrbitCamera;
 use crate::hud::Frame;
 use crate::session::{Session, Settings};
 use crate::{SceneRules, ViewOptions};
-use engine::gpu::present::{Presenter, Shown};
-use engine::gpu::Gpu;
+use engine::backend::gpu::present::{Presenter, Shown};
+use engine::backend::gpu::Gpu;
 use engine::render_job::preview::Preview;
 use std::time::Instant;
 use winit::application::ApplicationHandler;
@@ -252,7 +252,7 @@ impl<'a> App<'a> {
             .as_deref()
             .map(|r| (r, (self.split_x / preview).min(w)));
         let mut frame = Frame::of(w, h, &pixels, right, tone).enlarged(full_w, full_h);
-        let flags = engine::diagnostics::RayFlags::of(&pixels, spp);
+        let flags = engine::render::diagnostics::RayFlags::of(&pixels, spp);
         let samples: f64 = pixels.iter().map(|p| f64::from(p.samples)).sum();
         let per_ray = samples / (pixels.len() as f64 * f64::from(spp));
         let mut name = format!("{} N={}", o.estimation.estimator.name, o.estimation.n);

@@ -15,8 +15,8 @@ pub mod save;
 pub mod session;
 
 use anyhow::{Context, Result};
+use engine::backend::gpu::{Display, Gpu};
 use engine::backend::{Backend, BackendChoice};
-use engine::gpu::{Display, Gpu};
 use engine::render::Resident;
 use engine::render_job::{RenderOptions, Setup};
 use std::path::PathBuf;

@@ -6,9 +6,10 @@ use crate::camera::OrbitCamera;
 use anyhow::{Context, Result};
 use engine::estimators::EstimatorSpec;
 use engine::lighting::SceneLights;
-use engine::progressive::Progressive;
-use engine::render::{make_camera, Resident};
+use engine::render::progressive::Progressive;
+use engine::render::Resident;
 use engine::render_job::{RenderOptions, Setup};
+use engine::scene::camera::make_camera;
 use shared::kernels::render::PixelOut;
 use shared::params::RenderParams;
 
@@ -158,7 +159,7 @@ fn camera_of(
     h: u32,
 ) -> Result<shared::camera::Camera> {
     let [lo, hi] = setup.scene.world_bounds;
-    let spec = engine::render::CameraSpec {
+    let spec = engine::scene::camera::CameraSpec {
         position: Some(camera.eye),
         look_at: Some(camera.target),
         fov_deg: camera.fov_deg,

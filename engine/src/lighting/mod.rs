@@ -135,7 +135,7 @@ pub struct SceneLights {
     pub points: Vec<PointLight>,
     /// The map's data buffer (one 0 without a map: GPU buffers may not be empty).
     pub env: Vec<f32>,
-    /// The sun's moment shadow map (one 0 with shadow rays), set by [`crate::shadow_map`].
+    /// The sun's moment shadow map (one 0 with shadow rays), set by [`crate::render::shadow_map`].
     pub shadow_map: Vec<u32>,
 }
 

@@ -53,7 +53,7 @@ pub fn lights_or_default(
     if !lights.is_empty() {
         return Ok(lights.to_vec());
     }
-    let (lo, hi) = crate::render::occupied_world_bounds(vol);
+    let (lo, hi) = crate::scene::camera::occupied_world_bounds(vol);
     let at = |f: [f64; 3]| {
         shared::geometry::V3::new(
             (lo[0] + f[0] * (hi[0] - lo[0])) as f32,
@@ -81,7 +81,7 @@ pub fn direct_lights(
         "--hg-g must be in (-1, 1) (got {})",
         args.lighting.hg_g
     );
-    let (lo, hi) = crate::render::occupied_world_bounds(vol);
+    let (lo, hi) = crate::scene::camera::occupied_world_bounds(vol);
     let mut points = args.lighting.lights.clone();
     if let Some(spec) = args.lighting.random_lights {
         points.extend(crate::lighting::random::random_lights(spec, lo, hi)?);

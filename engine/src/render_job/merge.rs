@@ -1,7 +1,7 @@
 //! `host merge` as a library call: the shard files of a render added up into its pixels.
 
 use super::shard::{plan_merge, read, read_header, render_fnv1a, ShardHeader, ShardSummary};
-use crate::totals::PixelTotals;
+use crate::render::totals::PixelTotals;
 use anyhow::{ensure, Context, Result};
 use rayon::prelude::*;
 use shared::kernels::render::PixelOut;

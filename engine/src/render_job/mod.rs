@@ -18,14 +18,15 @@ pub use options::{
 pub use settings::{Estimation, Exposure, Image, Lighting, PathDepth};
 pub use summary::{Albedo, CameraSummary, IntegratorSettings, RenderSummary, SunSettings};
 
+use crate::backend::job::Job;
 use crate::backend::{Backend, BackendChoice};
-use crate::diagnostics::RayFlags;
-use crate::job::Job;
 use crate::lighting::SceneLights;
 use crate::output::{write_json, write_png};
-use crate::render::{occupied_world_bounds, Resident};
+use crate::render::diagnostics::RayFlags;
+use crate::render::shadow_map::ShadowSummary;
+use crate::render::Resident;
+use crate::scene::camera::occupied_world_bounds;
 use crate::scene::{prepare_scene, Scene};
-use crate::shadow_map::ShadowSummary;
 use crate::volume::VolumeData;
 use anyhow::Result;
 use shared::kernels::render::PixelOut;
@@ -68,7 +69,7 @@ pub fn run_render(args: &RenderOptions) -> Result<RenderSummary> {
     };
     let flags = RayFlags::of(&pixels, args.image.spp);
     flags.warn(params);
-    crate::diagnostics::check_finite(&pixels, args.image.width)?;
+    crate::render::diagnostics::check_finite(&pixels, args.image.width)?;
     let direct = args.integrator.is_some_and(Integrator::is_lit);
     let (mean, tone) = write_images(args, &png, &pixels, &extra, direct)?;
     let rays = pixels.len() as f64 * args.image.spp as f64;
@@ -217,7 +218,7 @@ impl Setup {
         let load_ms = t_load.elapsed().as_secs_f64() * 1e3;
         let probe = render_params(args, &scene, &[]);
         let job = Job::render(args.integrator, args.image.width, args.image.height, spp)
-            .wide_if(crate::cpu::renders_wide(&scene.packed, &probe));
+            .wide_if(crate::backend::cpu::renders_wide(&scene.packed, &probe));
         let backend = backend.fit(choice, &scene.packed, &job)?;
         if !args.quiet {
             log_scene(args, &scene, &backend, load_ms);
@@ -378,7 +379,7 @@ fn build_shadows(
     lights: &mut SceneLights,
     vol: &dyn VolumeData,
 ) -> Result<ShadowSummary> {
-    let s = crate::shadow_map::build_into(
+    let s = crate::render::shadow_map::build_into(
         resident,
         params,
         lights,
@@ -388,7 +389,7 @@ fn build_shadows(
     if let (Some(m), false) = (&s.map, args.quiet) {
         tracing::info!(
             "moment shadow map of the sun ({}, {}x{} texels, {:?}, {} bytes) built in {:.1} ms",
-            crate::shadow_map::name(s.shadows),
+            crate::render::shadow_map::name(s.shadows),
             m.resolution,
             m.resolution,
             m.storage,
@@ -511,7 +512,7 @@ fn print_line(
     args: &RenderOptions,
     summary: &RenderSummary,
     scene: &Scene,
-    built: crate::gpu::BuildTime,
+    built: crate::backend::gpu::BuildTime,
     mean: f64,
 ) {
     let compiled = match built.count {

@@ -21,9 +21,9 @@ pub struct RenderOptions {
     pub integrator: Option<Integrator>,
     pub lighting: Lighting,
     /// `direct`, `path`: shadow rays toward the sun or its moment shadow map.
-    pub shadows: crate::shadow_map::ShadowOptions,
+    pub shadows: crate::render::shadow_map::ShadowOptions,
     /// `restir`: candidates, target, its N and floor.
-    pub restir: crate::restir::RestirOptions,
+    pub restir: crate::integrators::restir::RestirOptions,
     /// `path`: vertices before Russian roulette, most vertices.
     pub path: PathDepth,
     pub exposure: Exposure,

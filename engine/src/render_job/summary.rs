@@ -1,13 +1,13 @@
 //! The JSON summary of one render (docs/reference/json.md).
 
 use super::options::RenderOptions;
+use crate::backend::gpu::BuildTime;
 use crate::backend::Backend;
-use crate::diagnostics::RayFlags;
-use crate::gpu::BuildTime;
 use crate::lighting::SceneLights;
+use crate::render::diagnostics::RayFlags;
+use crate::render::shadow_map::ShadowSummary;
+use crate::scene::supervoxel_info::SupervoxelInfo;
 use crate::scene::{lookup_name, Scene};
-use crate::shadow_map::ShadowSummary;
-use crate::supervoxel_info::SupervoxelInfo;
 use crate::volume::VolumeData;
 use anyhow::Result;
 use shared::integrators::unit::OwnSettings;
@@ -58,7 +58,7 @@ pub struct RenderSummary {
     pub cell_traversal_steps: u32,
     /// Super-voxel (and, for comparison, brick) reads of one traversal per pixel-centre
     /// camera ray that meets the grid; the estimators' lookups are counted apart.
-    pub supervoxel_reads_per_ray: crate::traversal::ReadsPerRay,
+    pub supervoxel_reads_per_ray: crate::scene::traversal::ReadsPerRay,
     /// Render time, without the GPU pipeline builds it waited for.
     pub elapsed_ms: f64,
     /// Wall time of the GPU pipeline builds during the render (each kernel variant compiles on
@@ -78,13 +78,13 @@ pub struct RenderSummary {
     pub ratio_roulette: bool,
     /// Rays traced, rays a loop bound changed, rays outside the jackknife's regime.
     #[serde(flatten)]
-    pub flags: crate::diagnostics::RayFlags,
+    pub flags: crate::render::diagnostics::RayFlags,
     /// The grid read from a volume file (absent for embedded volumes).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub grid: Option<String>,
     /// The volume's up axis (`--up`), the world bounds of its occupied voxels in the renderer's
     /// y-up world, and the camera (position, unit forward, vertical field of view).
-    pub up: crate::render::UpAxis,
+    pub up: crate::scene::camera::UpAxis,
     pub world_bounds: [[f64; 3]; 2],
     pub camera: CameraSummary,
     /// Mean radiance (integrator renders only).
@@ -203,7 +203,7 @@ pub struct IntegratorSettings {
     pub sun: Option<SunSettings>,
     /// `direct`, `path`: shadow rays toward the sun (`rays`) or its moment shadow map.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub shadows: Option<crate::shadow_map::ShadowSummary>,
+    pub shadows: Option<crate::render::shadow_map::ShadowSummary>,
     /// `direct`: probability of sampling the sun, the map and the point lights.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub light_pmf: Option<[f32; 3]>,
@@ -214,7 +214,7 @@ pub struct IntegratorSettings {
     /// `path`: vertices before Russian roulette, and the most vertices of a path.
     /// `restir`: candidates, target, its N and floor.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub restir: Option<crate::restir::RestirSettings>,
+    pub restir: Option<crate::integrators::restir::RestirSettings>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub rr_depth: Option<u32>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -286,7 +286,7 @@ pub(super) fn direct_settings(
     args: &RenderOptions,
     lights: &crate::lighting::SceneLights,
     collision_cap: u32,
-    shadows: crate::shadow_map::ShadowSummary,
+    shadows: crate::render::shadow_map::ShadowSummary,
 ) -> IntegratorSettings {
     let l = &lights.lighting;
     let env = match &args.lighting.env {

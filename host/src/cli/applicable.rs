@@ -3,8 +3,8 @@
 //! mislabelled. The command line's check, on clap's ids of the flags given.
 
 use anyhow::{bail, Result};
+use engine::render::shadow_map::ShadowKind;
 use engine::render_job::RenderOptions;
-use engine::shadow_map::ShadowKind;
 use shared::integrators::unit::OwnSettings;
 use shared::params::{Estimator, Integrator, TransmittanceHat};
 

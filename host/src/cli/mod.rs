@@ -155,7 +155,7 @@ fn parse_from(argv: Vec<std::ffi::OsString>) -> Result<Cli, clap::Error> {
 /// ([`inputs::protect`]), so that no output can replace one.
 pub fn run(cli: &Cli) -> Result<()> {
     // The environment is input too: checked before any work.
-    engine::gpu::forced_max_buffer_bytes()?;
+    engine::backend::gpu::forced_max_buffer_bytes()?;
     if cli.quick_start {
         eprintln!(
             "host: no command given, so the quick start: the embedded cloud under the default \

@@ -2,9 +2,9 @@
 //! converting into its library type.
 
 use engine::backend::BackendChoice;
-use engine::render::UpAxis;
+use engine::render::shadow_map::{MsmStorage, ShadowKind};
 use engine::render_job::layers::Layer;
-use engine::shadow_map::{MsmStorage, ShadowKind};
+use engine::scene::camera::UpAxis;
 use jackknife::SupervoxelFormat;
 use lab::bench::BenchBackend;
 use shared::params::{Sampler, TransmittanceHat};

@@ -187,7 +187,7 @@ pub struct RenderArgs {
     #[arg(long, value_enum, default_value_t = ShadowsArg::Rays)]
     pub shadows: ShadowsArg,
     /// Texels per side of the moment shadow map, 8 to 2048.
-    #[arg(long, allow_hyphen_values = true, default_value_t = engine::shadow_map::DEFAULT_RESOLUTION, value_parser = clap::value_parser!(u32).range(8..=2048))]
+    #[arg(long, allow_hyphen_values = true, default_value_t = engine::render::shadow_map::DEFAULT_RESOLUTION, value_parser = clap::value_parser!(u32).range(8..=2048))]
     pub msm_res: u32,
     /// Storage of the moment shadow map [default: u16 for msm4, f32 for msm6].
     #[arg(long, value_enum)]
@@ -345,7 +345,7 @@ impl RenderArgs {
                 hg_g: self.hg_g,
             },
             restir: self.restir.options(),
-            shadows: engine::shadow_map::ShadowOptions {
+            shadows: engine::render::shadow_map::ShadowOptions {
                 kind: self.shadows.into(),
                 storage: self.msm_storage.map(Into::into),
                 resolution: self.msm_res,

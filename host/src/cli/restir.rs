@@ -1,6 +1,6 @@
 //! The `--restir-*` flags of `host render` and `host eval`.
 
-use engine::restir::RestirOptions;
+use engine::integrators::restir::RestirOptions;
 
 /// `--integrator restir` (render) / `--integrators restir` (eval) options.
 #[derive(clap::Args, Debug, Clone)]
@@ -10,7 +10,7 @@ pub struct RestirArgs {
     pub restir_candidates: u32,
     /// `restir`: transmittance factor of the target p̂: `jackknife` (N = --restir-n), `unshadowed`
     /// (T̂ = 1) or `ratio` (ratio tracking).
-    #[arg(long, default_value = "jackknife", value_parser = engine::restir::parse_target)]
+    #[arg(long, default_value = "jackknife", value_parser = engine::integrators::restir::parse_target)]
     pub restir_target: shared::params::RestirTarget,
     /// `restir`: samples per optical depth estimate of the target's jackknife (1..=4096).
     #[arg(long, default_value_t = 4)]
@@ -31,7 +31,7 @@ pub struct RestirArgs {
     pub restir_radius: u32,
     /// `restir`: resampling MIS weights of reuse: `pairwise` (O(k) target evaluations per pixel)
     /// or `balance` (generalized balance heuristic, O(k^2)).
-    #[arg(long, default_value = "pairwise", value_parser = engine::restir::parse_mis)]
+    #[arg(long, default_value = "pairwise", value_parser = engine::integrators::restir::parse_mis)]
     pub restir_mis: shared::params::RestirMis,
     /// `restir`: cap on a reused reservoir's confidence M, in candidates (0: no cap).
     #[arg(long, default_value_t = 0)]

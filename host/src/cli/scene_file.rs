@@ -41,7 +41,7 @@ const FOREIGN: &[(&str, &str)] = &[("report", "out"), ("eval", "json"), ("bench"
 
 /// Keys whose text values are input files (unless one of the listed names).
 const INPUT_PATHS: &[(&str, &[&str])] = &[
-    ("volume", engine::procedural::NAMES),
+    ("volume", engine::scene::procedural::NAMES),
     ("env", &["sky", "none"]),
 ];
 

@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Writes the shared cloud of the peer comparison (issue 62) as OpenVDB and Mitsuba .vol files.
 
-The cloud is host's embedded `cloud` (engine/src/procedural.rs: a smooth union of six ellipsoids
+The cloud is host's embedded `cloud` (engine/src/scene/procedural.rs: a smooth union of six ellipsoids
 displaced by 5 octaves of hashed gradient-noise fBm), ported to numpy in float32 and sampled at
 the centres of an N^3 grid spanning [-1, 1]^3 world units (voxel size 2/N; voxel i's centre at
 (i + 0.5) * 2/N - 1), exactly as host generates `--volume cloud --resolution N`.

@@ -97,7 +97,7 @@ pub(super) fn check_same_inputs(
 }
 
 /// The input files a render or an evaluation reads, by key: the volume `volume` unless it is an
-/// embedded one (as the loader decides: a name of [`crate::procedural::NAMES`] that is no file),
+/// embedded one (as the loader decides: a name of [`crate::scene::procedural::NAMES`] that is no file),
 /// the light probe `env` if it is a file, and the scene file; each made absolute as the loader
 /// would resolve it (from the working directory).
 pub fn input_paths(
@@ -107,7 +107,7 @@ pub fn input_paths(
 ) -> InputPaths {
     let absolute = |p: &Path| std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
     let mut inputs = Vec::new();
-    if crate::scene::is_volume_file(volume) || !crate::procedural::NAMES.contains(&volume) {
+    if crate::scene::is_volume_file(volume) || !crate::scene::procedural::NAMES.contains(&volume) {
         inputs.push(("volume", absolute(Path::new(volume))));
     }
     if let Some(crate::lighting::EnvSource::File(p)) = env {

@@ -10,7 +10,7 @@
 //! the header and the header covers the totals, so no byte of a shard changes unnoticed; every
 //! header field is checked against the totals' length before anything is allocated.
 
-use crate::totals::PixelTotals;
+use crate::render::totals::PixelTotals;
 use anyhow::{anyhow, bail, ensure, Context, Result};
 use shared::params::RenderParams;
 use std::io::Read;
@@ -33,9 +33,9 @@ const MAX_HEADER_BYTES: u32 = 16 << 20;
 const MAX_IMAGES: usize = 8;
 
 /// Fewest and most bytes of one pixel's [`PixelTotals`] in a shard: five exact sums of 4 + 4 k
-/// bytes (k limbs, 0 to [`crate::exact::LIMBS`]), then four u64 counts.
+/// bytes (k limbs, 0 to [`crate::render::exact::LIMBS`]), then four u64 counts.
 const MIN_TOTALS_BYTES: u64 = 5 * 4 + 4 * 8;
-const MAX_TOTALS_BYTES: u64 = 5 * (4 + 4 * crate::exact::LIMBS as u64) + 4 * 8;
+const MAX_TOTALS_BYTES: u64 = 5 * (4 + 4 * crate::render::exact::LIMBS as u64) + 4 * 8;
 
 /// What a shard holds beside its totals.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -601,7 +601,7 @@ fn kind_name(kind: &str) -> &'static str {
 mod tests {
     use super::super::scene_record::SceneValue;
     use super::*;
-    use crate::exact::ExactSum;
+    use crate::render::exact::ExactSum;
     use std::path::PathBuf;
 
     fn header(samples: [u32; 2]) -> ShardHeader {

@@ -1,10 +1,15 @@
 //! Backend selection and the operations every backend runs identically.
 
-use crate::cpu;
-use crate::gpu::{self, Gpu, GpuError, KernelDef, MapBuffers, Step, Work};
-use crate::job::{Estimate, Job};
+pub mod cpu;
+pub mod gpu;
+pub mod job;
+pub mod schedule;
+pub mod wide;
+
+use crate::backend::job::{Estimate, Job};
 use anyhow::{Context, Result};
 use bytemuck::{Pod, Zeroable};
+use gpu::{Gpu, GpuError, KernelDef, MapBuffers, Step, Work};
 use shared::kernels::launch::Launch;
 use shared::kernels::probe::{self, DepthPair, MathValues, RngDraws, TransmittancePair};
 use shared::volume::grid::Brick;
@@ -26,7 +31,7 @@ pub enum BackendChoice {
 /// Whether a render asked for with `choice` runs on the CPU rather than on a Vulkan device that
 /// is (`software`) or is not a software implementation: `auto` skips a software device (lavapipe
 /// runs the kernels on the same cores as the CPU backend) where the cost model says the CPU
-/// finishes the job no later ([`crate::job::Estimate`]: the device's pipeline builds take
+/// finishes the job no later ([`crate::backend::job::Estimate`]: the device's pipeline builds take
 /// seconds, and the wavefront integrators are slower there per sample; docs/results/speed.md,
 /// "`--backend auto` on a software device"); `gpu` always uses the device.
 pub fn prefers_cpu(choice: BackendChoice, software: bool, estimate: &Estimate) -> bool {
@@ -61,12 +66,12 @@ impl Backend {
     }
 
     /// log2 of the words per page of the voxel pool this backend binds (see
-    /// [`crate::bricks::pack_paged`]): the GPU's largest page; the CPU reads the pool as one
+    /// [`crate::scene::bricks::pack_paged`]): the GPU's largest page; the CPU reads the pool as one
     /// page whatever its layout and keeps the layout every device binds.
     pub fn page_log2(&self) -> u32 {
         match self {
             Backend::Cpu => shared::volume::pages::GPU_PAGE_LOG2,
-            Backend::Gpu(g) => crate::bricks::page_log2_for(g.max_buffer_bytes()),
+            Backend::Gpu(g) => crate::scene::bricks::page_log2_for(g.max_buffer_bytes()),
         }
     }
 
@@ -81,7 +86,7 @@ impl Backend {
     pub fn fit(
         self,
         choice: BackendChoice,
-        volume: &crate::bricks::PackedVolume,
+        volume: &crate::scene::bricks::PackedVolume,
         job: &Job,
     ) -> Result<Self> {
         if let Backend::Gpu(g) = &self {
@@ -126,11 +131,11 @@ impl Backend {
     /// Why this backend cannot hold `volume` (a GPU whose largest storage buffer is smaller
     /// than a page of the voxel pool or the brick array, or whose device-local memory is
     /// smaller than both), or `None` if it can.
-    pub fn cannot_hold(&self, volume: &crate::bricks::PackedVolume) -> Option<String> {
+    pub fn cannot_hold(&self, volume: &crate::scene::bricks::PackedVolume) -> Option<String> {
         let Backend::Gpu(gpu) = self else {
             return None;
         };
-        if let Some(why) = crate::bricks::too_many_pages(volume) {
+        if let Some(why) = crate::scene::bricks::too_many_pages(volume) {
             return Some(why);
         }
         let d = volume.desc.dims.map(u64::from);
@@ -426,7 +431,7 @@ impl GpuRoom {
         GpuRoom {
             max_buffer: gpu.max_buffer_bytes(),
             max_pool: shared::volume::pages::MAX_PAGES as u64
-                * (4u64 << crate::bricks::page_log2_for(gpu.max_buffer_bytes())),
+                * (4u64 << crate::scene::bricks::page_log2_for(gpu.max_buffer_bytes())),
             memory: gpu.device_local_bytes(),
             description: gpu.description().to_string(),
         }

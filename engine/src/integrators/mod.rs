@@ -1,6 +1,8 @@
 //! Integrator names (`--integrator`, `--integrators`), read from the integrator table, and
 //! point lights (`--light`).
 
+pub mod restir;
+
 use anyhow::{Context, Result};
 use shared::integrators::unit::{Family, OwnSettings, UNITS};
 use shared::params::Integrator;

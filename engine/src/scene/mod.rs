@@ -1,9 +1,15 @@
 //! The scene of a command: the volume (embedded or a file), how it is packed into bricks and
 //! super-voxels, and the camera framing it.
 
-use crate::render::{make_camera, occupied_world_bounds, world_to_index, CameraSpec};
+pub mod bricks;
+pub mod camera;
+pub mod procedural;
+pub mod supervoxel_info;
+pub mod traversal;
+
 use crate::volume::{Volume, VolumeData};
 use anyhow::{bail, Result};
+use camera::{make_camera, occupied_world_bounds, world_to_index, CameraSpec};
 use shared::volume::grid::Lookup;
 use std::path::Path;
 
@@ -14,7 +20,7 @@ pub mod defaults {
     /// `--resolution`.
     pub const RESOLUTION: u32 = 256;
     /// `--brick-size`.
-    pub const BRICK_SIZE: u32 = crate::bricks::DEFAULT_BRICK_SIZE;
+    pub const BRICK_SIZE: u32 = crate::scene::bricks::DEFAULT_BRICK_SIZE;
     /// `--width` and `--height` of `host render`.
     pub const SIZE: u32 = 512;
     /// `--spp` of `host render`.
@@ -62,7 +68,7 @@ pub struct SceneOptions {
     /// Vertical field of view in degrees.
     pub fov: f32,
     /// The volume's up axis (rotated to the renderer's +y).
-    pub up: crate::render::UpAxis,
+    pub up: crate::scene::camera::UpAxis,
 }
 
 impl SceneOptions {
@@ -86,7 +92,7 @@ impl Default for SceneOptions {
             camera: None,
             look_at: None,
             fov: defaults::FOV,
-            up: crate::render::UpAxis::Y,
+            up: crate::scene::camera::UpAxis::Y,
         }
     }
 }
@@ -175,9 +181,9 @@ pub fn check_volume_spec(spec: &str) -> Result<()> {
         return Ok(());
     }
     anyhow::ensure!(
-        crate::procedural::NAMES.contains(&spec),
+        crate::scene::procedural::NAMES.contains(&spec),
         "{spec:?} is neither a file nor an embedded volume; embedded volumes: {}",
-        crate::procedural::NAMES.join(", ")
+        crate::scene::procedural::NAMES.join(", ")
     );
     Ok(())
 }
@@ -216,7 +222,7 @@ pub fn load_volume(
         return Ok((loaded.volume, 1.0, Some(loaded.grid)));
     }
     let resolution = scene.embedded_resolution();
-    if let (Some(grid), true) = (&scene.grid, crate::procedural::NAMES.contains(&spec)) {
+    if let (Some(grid), true) = (&scene.grid, crate::scene::procedural::NAMES.contains(&spec)) {
         bail!(
             "--grid {grid:?}: the embedded volume {spec:?} is one density field without grids; \
              --grid picks a grid of a .vdb or .nvdb file (drop it, or give --volume a file)"
@@ -229,11 +235,15 @@ pub fn load_volume(
             tile_voxels: 0,
         })?;
     }
-    match crate::procedural::by_name(spec, resolution) {
-        Some(v) => Ok((v, crate::procedural::default_density_scale(spec), None)),
+    match crate::scene::procedural::by_name(spec, resolution) {
+        Some(v) => Ok((
+            v,
+            crate::scene::procedural::default_density_scale(spec),
+            None,
+        )),
         None => bail!(
             "--volume {spec:?} is neither a file nor an embedded volume; embedded volumes: {}",
-            crate::procedural::NAMES.join(", ")
+            crate::scene::procedural::NAMES.join(", ")
         ),
     }
 }
@@ -241,7 +251,7 @@ pub fn load_volume(
 /// A loaded and packed volume with the camera framing it.
 pub struct Scene {
     pub volume: Volume,
-    pub packed: crate::bricks::PackedVolume,
+    pub packed: crate::scene::bricks::PackedVolume,
     pub density_scale: f32,
     pub camera: shared::camera::Camera,
     pub world_to_index: shared::geometry::Affine3x4,
@@ -249,7 +259,7 @@ pub struct Scene {
     pub grid: Option<String>,
     /// World bounds of the occupied voxels (after `--up`), [lo, hi].
     pub world_bounds: [[f64; 3]; 2],
-    pub up: crate::render::UpAxis,
+    pub up: crate::scene::camera::UpAxis,
 }
 
 impl Scene {
@@ -307,7 +317,7 @@ pub fn prepare_scene(
             volume.dims().iter().map(|&d| u64::from(d)).product::<u64>(),
             volume.storage()
         ));
-        let packed = crate::bricks::pack_paged(
+        let packed = crate::scene::bricks::pack_paged(
             &volume,
             density_scale,
             args.brick_size,
@@ -344,7 +354,11 @@ pub fn prepare_scene(
 
 /// Warns (with a count) about nonzero densities that became 0 as scaled f16 values; refuses a
 /// volume all of whose nonzero densities did, which would render as empty.
-fn report_underflow(vol: &dyn VolumeData, u: &crate::bricks::Underflow, scale: f32) -> Result<()> {
+fn report_underflow(
+    vol: &dyn VolumeData,
+    u: &crate::scene::bricks::Underflow,
+    scale: f32,
+) -> Result<()> {
     let Some(([x, y, z], density)) = u.first else {
         return Ok(());
     };

@@ -1,7 +1,7 @@
 //! A pixel's exact totals over sample blocks: what a render adds block after block, what a shard
 //! file stores and what `host merge` adds up.
 
-use crate::exact::ExactSum;
+use crate::render::exact::ExactSum;
 use anyhow::Result;
 use shared::kernels::render::PixelSums;
 use shared::rgb::Rgb;

@@ -60,7 +60,7 @@ pub struct Job {
     pub kind: WorkKind,
     pub samples: u64,
     /// Whether the CPU backend renders it eight pixels per instruction
-    /// (`shared::kernels::wide`; [`crate::cpu::renders_wide`]).
+    /// (`shared::kernels::wide`; [`crate::backend::cpu::renders_wide`]).
     pub wide: bool,
 }
 

@@ -1,7 +1,7 @@
 //! What a packed volume's super-voxel grid was built with and what it costs: for the JSON of
 //! `host render`, `host eval` and `host bench`.
 
-use crate::bricks::PackedVolume;
+use crate::scene::bricks::PackedVolume;
 use shared::params::RenderParams;
 
 /// The super-voxel grid of a render or an evaluation: brick size, format, fixed or adaptive, its memory.
@@ -24,8 +24,8 @@ pub struct SupervoxelInfo {
     /// Bytes a BC4 table would take (format "bc4" only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub bc4_table_bytes: Option<u64>,
-    /// Super-voxel and brick reads of one traversal per camera ray ([`crate::traversal`]).
-    pub reads_per_ray: crate::traversal::ReadsPerRay,
+    /// Super-voxel and brick reads of one traversal per camera ray ([`crate::scene::traversal`]).
+    pub reads_per_ray: crate::scene::traversal::ReadsPerRay,
 }
 
 impl SupervoxelInfo {
@@ -56,7 +56,7 @@ impl SupervoxelInfo {
             table_bytes: packed.table_bytes(),
             bc4_table_bytes: (format == jackknife::SupervoxelFormat::Bc4)
                 .then(|| packed.bc4_table_bytes()),
-            reads_per_ray: crate::traversal::reads_per_ray(packed, params),
+            reads_per_ray: crate::scene::traversal::reads_per_ray(packed, params),
         }
     }
 }

@@ -1,9 +1,9 @@
 //! The CPU backend: the same `shared` kernel bodies over the same ids, on all cores with rayon.
 
-use crate::bricks::PackedVolume;
+use crate::backend::schedule::{RenderBackend, Schedule};
+use crate::backend::wide::{transmittance_pass, X8};
 use crate::lighting::SceneLights;
-use crate::schedule::{RenderBackend, Schedule};
-use crate::wide::{transmittance_pass, X8};
+use crate::scene::bricks::PackedVolume;
 use anyhow::Result;
 use indicatif::ProgressBar;
 use rayon::prelude::*;

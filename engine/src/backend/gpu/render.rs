@@ -5,9 +5,9 @@ use super::{
     MSM_BUILD, MSM_STORE, PATH, RESTIR_CANDIDATE, RESTIR_QUERY, RESTIR_RESOLVE, RESTIR_REUSE,
     RESTIR_START, SCATTERING, TRANSMITTANCE,
 };
-use crate::bricks::PackedVolume;
+use crate::backend::schedule::{RenderBackend, Schedule};
 use crate::lighting::SceneLights;
-use crate::schedule::{RenderBackend, Schedule};
+use crate::scene::bricks::PackedVolume;
 use anyhow::{Context, Result};
 use indicatif::ProgressBar;
 use shared::integrators::stages::{StageKernel, Wavefront};
@@ -39,7 +39,7 @@ pub struct GpuVolume<'a> {
 impl<'a> GpuVolume<'a> {
     /// Uploads the voxels (page by page), bricks and grid description of `vol`.
     pub fn upload(gpu: &'a Gpu, vol: &PackedVolume) -> Result<Self> {
-        if let Some(why) = crate::bricks::too_many_pages(vol) {
+        if let Some(why) = crate::scene::bricks::too_many_pages(vol) {
             anyhow::bail!("{why}; use --backend cpu, or crop or resample the volume");
         }
         let desc = vol
@@ -96,7 +96,7 @@ impl RenderBackend for GpuVolume<'_> {
 
     /// lavapipe ends any shader loop after 65535 iterations.
     fn loop_budget(&self) -> Option<u64> {
-        Some(crate::schedule::LOOP_BUDGET)
+        Some(crate::backend::schedule::LOOP_BUDGET)
     }
 
     /// Both passes as one submission (a barrier between), in dispatches of at most 2^16

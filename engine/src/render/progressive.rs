@@ -3,8 +3,8 @@
 //! a render of N samples per pixel, however the samples were cut into frames (`host view`).
 
 use crate::lighting::SceneLights;
+use crate::render::totals::PixelTotals;
 use crate::render::{finish_totals, Resident};
-use crate::totals::PixelTotals;
 use anyhow::Result;
 use shared::kernels::render::{finish_pixel, starts_block, PixelOut, PixelSums, SAMPLE_BLOCK};
 use shared::params::RenderParams;

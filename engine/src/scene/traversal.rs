@@ -3,7 +3,7 @@
 //! traversal, Alg. 1 a second up to its last sample, delta and ratio tracking one up to their
 //! last collision), for the grid as built and for its bricks alone.
 
-use crate::bricks::PackedVolume;
+use crate::scene::bricks::PackedVolume;
 use rayon::prelude::*;
 use shared::geometry::{to_index_space, V3};
 use shared::params::RenderParams;
