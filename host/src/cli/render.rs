@@ -129,11 +129,11 @@ pub struct RenderArgs {
     #[arg(long, default_value = "jackknife", value_parser = engine::estimators::parse)]
     pub estimator: &'static engine::estimators::EstimatorSpec,
     /// Samples per optical depth estimate (N; two estimates per ray), 1 to 4096.
-    #[arg(long, allow_hyphen_values = true, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    #[arg(long, allow_hyphen_values = true, default_value_t = defaults::N, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub n: u32,
     /// CDF step F_delta of jackknife-adaptive, in (0, 10] (the paper's Fig. 8d: 0.6; the author's
     /// UI default is 0.3). Expected samples per estimate: F / F_delta.
-    #[arg(long, default_value_t = 0.6, allow_hyphen_values = true, value_parser = parse_f_delta)]
+    #[arg(long, default_value_t = defaults::F_DELTA, allow_hyphen_values = true, value_parser = parse_f_delta)]
     pub f_delta: f32,
     /// Ratio tracking with pbrt-v4's Russian roulette (q = 0.75 below T = 0.05) for `--estimator
     /// ratio` and `--t-hat ratio`; off by default, as in the paper and the author's code.
@@ -212,20 +212,20 @@ pub struct RenderArgs {
     /// Multiplier of the PNG preview's automatic exposure (radiance renders: the image's
     /// log-average luminance to middle grey, then a filmic curve; the EXR stays linear), a finite
     /// number > 0. With --fixed-exposure, the preview's gain itself.
-    #[arg(long, default_value_t = 1.0, allow_hyphen_values = true, value_parser = parse_positive)]
+    #[arg(long, default_value_t = defaults::EXPOSURE, allow_hyphen_values = true, value_parser = parse_positive)]
     pub exposure: f32,
     /// The preview's gain is --exposure alone, without automatic exposure (the same gain for
     /// every render, e.g. the frames of an animation).
     #[arg(long)]
     pub fixed_exposure: bool,
     /// Image width in pixels, 1 to 16384.
-    #[arg(long, allow_hyphen_values = true, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    #[arg(long, allow_hyphen_values = true, default_value_t = defaults::SIZE, value_parser = clap::value_parser!(u32).range(1..=16384))]
     pub width: u32,
     /// Image height in pixels, 1 to 16384.
-    #[arg(long, allow_hyphen_values = true, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    #[arg(long, allow_hyphen_values = true, default_value_t = defaults::SIZE, value_parser = clap::value_parser!(u32).range(1..=16384))]
     pub height: u32,
     /// Primary rays (transmittance estimates) per pixel, 1 to 2^20.
-    #[arg(long, allow_hyphen_values = true, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
+    #[arg(long, allow_hyphen_values = true, default_value_t = defaults::SPP, value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
     pub spp: u32,
     /// Seed, 0 to 2^32 - 1; the same seed gives the same image on every backend.
     #[arg(long, default_value_t = 0, allow_hyphen_values = true)]
