@@ -13,7 +13,7 @@ Pages and generators:
   docs/results/shadows.md        scripts/results/eval_tables.py docs/results/eval_msm_{cloud,explosion,constant}.json
   docs/results/restir.md         scripts/results/restir_tables.py (the two CPU tables)
   docs/results/performance.md    scripts/results/bench_tables.py (the default bench, its goals, the H200)
-  docs/results/peers.md          scripts/results/peers/equal_time_table.py docs/results/peers/equal_time_10s*.json
+  docs/results/peers.md          scripts/results/peers/equal_time_table.py docs/results/peers/equal_time_{10,60}s*.json
   docs/results/adaptive.md       scripts/results/adaptive_table.py (its f32 nearest rows appear in the
                                  page's first adaptive table without the lookup and format columns)
   docs/results/stratification.md scripts/results/stratification_table.py (the escape table)
@@ -119,6 +119,16 @@ checks = [
             "--budget",
             "60",
             "docs/results/peers/equal_time_60s_constant_peers.json",
+        ],
+        lambda r: r,
+    ),
+    (
+        "peers.md",
+        [
+            "scripts/results/peers/equal_time_table.py",
+            "--budget",
+            "60",
+            "docs/results/peers/equal_time_60s_cycles50_peers.json",
         ],
         lambda r: r,
     ),
