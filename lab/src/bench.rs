@@ -455,7 +455,7 @@ pub fn run(args: &BenchOptions) -> Result<BenchReport> {
     )?;
     let base = RenderParams {
         n: args.n,
-        f_delta: 0.6,
+        f_delta: engine::defaults::F_DELTA,
         pixel_jitter: 1,
         ..scene.params(args.width, args.height, args.spp, args.seed)
     };
