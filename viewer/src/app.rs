@@ -432,7 +432,7 @@ impl<'a> App<'a> {
         };
         println!(
             "view: lookup {}: loading the volume anew",
-            crate::save::lookup_name(s.options.estimation.lookup)
+            engine::scene::lookup_name(s.options.estimation.lookup)
         );
         self.reload = Some(s);
         event_loop.exit();

@@ -4,7 +4,7 @@
 use crate::session::{with_camera, Settings};
 use crate::SceneRules;
 use anyhow::Result;
-use engine::render_job::scene_record::{SceneRecord, SceneValue};
+use engine::render_job::scene_record::SceneRecord;
 use shared::kernels::render::PixelOut;
 use std::path::{Path, PathBuf};
 
@@ -15,55 +15,9 @@ use std::path::{Path, PathBuf};
 pub fn record(settings: &Settings, spp: u32, rules: &dyn SceneRules) -> SceneRecord {
     let o = with_camera(&settings.options, &settings.camera);
     let mut rec = o.scene_record.clone();
-    let list = |v: [f32; 3]| SceneValue::List(v.iter().map(|&x| number(x)).collect());
-    rec.insert("camera".into(), list(settings.camera.eye));
-    rec.insert("look-at".into(), list(settings.camera.target));
-    rec.insert("fov".into(), number(settings.camera.fov_deg));
-    match o.integrator {
-        Some(i) => rec.insert("integrator".into(), SceneValue::Text(i.unit().name.into())),
-        None => rec.remove("integrator"),
-    };
-    rec.insert(
-        "lookup".into(),
-        SceneValue::Text(lookup_name(o.estimation.lookup).into()),
-    );
-    rec.insert(
-        "estimator".into(),
-        SceneValue::Text(o.estimation.estimator.name.to_owned()),
-    );
-    rec.insert("n".into(), SceneValue::Integer(o.estimation.n.into()));
-    rec.insert("exposure".into(), number(o.exposure.gain));
-    rec.insert("width".into(), SceneValue::Integer(o.image.width.into()));
-    rec.insert("height".into(), SceneValue::Integer(o.image.height.into()));
-    rec.insert("spp".into(), SceneValue::Integer(spp.into()));
-    if rec.contains_key("env-rotate") || o.lighting.env_rotate != 0.0 {
-        rec.insert("env-rotate".into(), number(o.lighting.env_rotate));
-    }
-    if let Some(sun) = &o.lighting.sun {
-        let mut v: Vec<SceneValue> = sun.dir.iter().map(|&x| number(x)).collect();
-        if let Some(e) = sun.irradiance {
-            v.push(number(e));
-            v.push(number(sun.radius_deg));
-        }
-        rec.insert("sun".into(), SceneValue::List(v));
-    }
+    engine::render_job::saved_view::record_view(&mut rec, &o, spp);
     rec.retain(|key, _| rules.applies(key, &o));
     rec
-}
-
-/// The `--lookup` name of `l`.
-pub fn lookup_name(l: shared::volume::grid::Lookup) -> &'static str {
-    use shared::volume::grid::Lookup;
-    match l {
-        Lookup::Nearest => "nearest",
-        Lookup::Stochastic => "stochastic",
-        Lookup::Trilinear => "trilinear",
-    }
-}
-
-/// An f32 as the scene value that reads back as the same f32.
-fn number(x: f32) -> SceneValue {
-    SceneValue::Number(f64::from(x))
 }
 
 /// The first free `view-NNNN` stem in `dir` (no file of that stem with any extension the

@@ -6,6 +6,7 @@ pub mod lights;
 pub mod merge;
 pub mod options;
 pub mod preview;
+pub mod saved_view;
 pub mod scene_record;
 pub mod settings;
 pub mod shard;
