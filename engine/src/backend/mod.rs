@@ -6,10 +6,10 @@ pub mod job;
 pub mod schedule;
 pub mod wide;
 
-use crate::backend::job::{Estimate, Job};
 use anyhow::{Context, Result};
 use bytemuck::{Pod, Zeroable};
 use gpu::{Gpu, GpuError, KernelDef, MapBuffers, Step, Work};
+use job::{Estimate, Job};
 use shared::kernels::launch::Launch;
 use shared::kernels::probe::{self, DepthPair, MathValues, RngDraws, TransmittancePair};
 use shared::volume::grid::Brick;
@@ -31,7 +31,7 @@ pub enum BackendChoice {
 /// Whether a render asked for with `choice` runs on the CPU rather than on a Vulkan device that
 /// is (`software`) or is not a software implementation: `auto` skips a software device (lavapipe
 /// runs the kernels on the same cores as the CPU backend) where the cost model says the CPU
-/// finishes the job no later ([`crate::backend::job::Estimate`]: the device's pipeline builds take
+/// finishes the job no later ([`job::Estimate`]: the device's pipeline builds take
 /// seconds, and the wavefront integrators are slower there per sample; docs/results/speed.md,
 /// "`--backend auto` on a software device"); `gpu` always uses the device.
 pub fn prefers_cpu(choice: BackendChoice, software: bool, estimate: &Estimate) -> bool {

@@ -9,7 +9,6 @@ pub mod totals;
 pub use crate::backend::schedule::{RenderBackend, Schedule, LOOP_BUDGET};
 use crate::backend::Backend;
 use crate::lighting::SceneLights;
-use crate::render::totals::PixelTotals;
 use crate::scene::bricks::PackedVolume;
 use anyhow::{Context, Result};
 use rayon::prelude::*;
@@ -17,6 +16,7 @@ pub use shared::integrators::budget::loop_iterations_per_ray;
 use shared::kernels::render::{finish_pixel, PixelOut, PixelSums, SAMPLE_BLOCK};
 use shared::params::RenderParams;
 use shared::sampling::lights::PointLight;
+use totals::PixelTotals;
 
 /// Most samples per pixel per pass (see [`shared::kernels::render::RenderPass`] for why passes exist).
 pub const SPP_PER_PASS: u32 = 16;
@@ -234,7 +234,7 @@ pub fn finish_totals(totals: &[PixelTotals], spp: u32) -> Result<Vec<PixelOut>> 
 /// The sums of every pixel (row-major) after samples `samples` of `params`' render, all within
 /// one sample block, continuing from `start`, the sums of the block's samples before
 /// `samples.start` (`None` where `samples.start` starts the block): one frame of a progressive
-/// render ([`crate::render::progressive::Progressive`]), in the passes [`render_totals`] would run.
+/// render ([`progressive::Progressive`]), in the passes [`render_totals`] would run.
 pub fn render_frame(
     resident: &Resident,
     params: &RenderParams,

@@ -20,7 +20,7 @@ pub mod defaults {
     /// `--resolution`.
     pub const RESOLUTION: u32 = 256;
     /// `--brick-size`.
-    pub const BRICK_SIZE: u32 = crate::scene::bricks::DEFAULT_BRICK_SIZE;
+    pub const BRICK_SIZE: u32 = super::bricks::DEFAULT_BRICK_SIZE;
     /// `--width` and `--height` of `host render`.
     pub const SIZE: u32 = 512;
     /// `--spp` of `host render`.
@@ -68,7 +68,7 @@ pub struct SceneOptions {
     /// Vertical field of view in degrees.
     pub fov: f32,
     /// The volume's up axis (rotated to the renderer's +y).
-    pub up: crate::scene::camera::UpAxis,
+    pub up: camera::UpAxis,
 }
 
 impl SceneOptions {
@@ -92,7 +92,7 @@ impl Default for SceneOptions {
             camera: None,
             look_at: None,
             fov: defaults::FOV,
-            up: crate::scene::camera::UpAxis::Y,
+            up: camera::UpAxis::Y,
         }
     }
 }
@@ -181,9 +181,9 @@ pub fn check_volume_spec(spec: &str) -> Result<()> {
         return Ok(());
     }
     anyhow::ensure!(
-        crate::scene::procedural::NAMES.contains(&spec),
+        procedural::NAMES.contains(&spec),
         "{spec:?} is neither a file nor an embedded volume; embedded volumes: {}",
-        crate::scene::procedural::NAMES.join(", ")
+        procedural::NAMES.join(", ")
     );
     Ok(())
 }
@@ -222,7 +222,7 @@ pub fn load_volume(
         return Ok((loaded.volume, 1.0, Some(loaded.grid)));
     }
     let resolution = scene.embedded_resolution();
-    if let (Some(grid), true) = (&scene.grid, crate::scene::procedural::NAMES.contains(&spec)) {
+    if let (Some(grid), true) = (&scene.grid, procedural::NAMES.contains(&spec)) {
         bail!(
             "--grid {grid:?}: the embedded volume {spec:?} is one density field without grids; \
              --grid picks a grid of a .vdb or .nvdb file (drop it, or give --volume a file)"
@@ -235,15 +235,11 @@ pub fn load_volume(
             tile_voxels: 0,
         })?;
     }
-    match crate::scene::procedural::by_name(spec, resolution) {
-        Some(v) => Ok((
-            v,
-            crate::scene::procedural::default_density_scale(spec),
-            None,
-        )),
+    match procedural::by_name(spec, resolution) {
+        Some(v) => Ok((v, procedural::default_density_scale(spec), None)),
         None => bail!(
             "--volume {spec:?} is neither a file nor an embedded volume; embedded volumes: {}",
-            crate::scene::procedural::NAMES.join(", ")
+            procedural::NAMES.join(", ")
         ),
     }
 }
@@ -251,7 +247,7 @@ pub fn load_volume(
 /// A loaded and packed volume with the camera framing it.
 pub struct Scene {
     pub volume: Volume,
-    pub packed: crate::scene::bricks::PackedVolume,
+    pub packed: bricks::PackedVolume,
     pub density_scale: f32,
     pub camera: shared::camera::Camera,
     pub world_to_index: shared::geometry::Affine3x4,
@@ -259,7 +255,7 @@ pub struct Scene {
     pub grid: Option<String>,
     /// World bounds of the occupied voxels (after `--up`), [lo, hi].
     pub world_bounds: [[f64; 3]; 2],
-    pub up: crate::scene::camera::UpAxis,
+    pub up: camera::UpAxis,
 }
 
 impl Scene {
@@ -286,7 +282,7 @@ impl Scene {
 }
 
 /// Loads the volume of `--volume` (`check`: see [`load_volume`]), packs it (its pool in pages
-/// of 2^`page_log2` words: see [`Backend::page_log2`]) and sets up the camera for a `w` x `h`
+/// of 2^`page_log2` words: see [`crate::backend::Backend::page_log2`]) and sets up the camera for a `w` x `h`
 /// image.
 pub fn prepare_scene(
     args: &SceneOptions,
@@ -317,7 +313,7 @@ pub fn prepare_scene(
             volume.dims().iter().map(|&d| u64::from(d)).product::<u64>(),
             volume.storage()
         ));
-        let packed = crate::scene::bricks::pack_paged(
+        let packed = bricks::pack_paged(
             &volume,
             density_scale,
             args.brick_size,
@@ -354,11 +350,7 @@ pub fn prepare_scene(
 
 /// Warns (with a count) about nonzero densities that became 0 as scaled f16 values; refuses a
 /// volume all of whose nonzero densities did, which would render as empty.
-fn report_underflow(
-    vol: &dyn VolumeData,
-    u: &crate::scene::bricks::Underflow,
-    scale: f32,
-) -> Result<()> {
+fn report_underflow(vol: &dyn VolumeData, u: &bricks::Underflow, scale: f32) -> Result<()> {
     let Some(([x, y, z], density)) = u.first else {
         return Ok(());
     };
